@@ -1,0 +1,29 @@
+# The two commands of README.md. Both install what is missing first (scripts/setup.sh).
+CARGO ?= cargo
+# Quiet the loader's complaint in headless sessions.
+export XDG_RUNTIME_DIR ?= /tmp
+
+.PHONY: setup build demo test check-vulkan lint
+
+setup:
+	@bash scripts/setup.sh
+
+check-vulkan: setup
+	@bash scripts/check-vulkan.sh
+
+build: setup
+	$(CARGO) build --release
+
+# Renders the showcase to out/showcase.png (+ its depth AOV) and prints per-pass timings.
+demo: build check-vulkan
+	mkdir -p out
+	./target/release/hadou render assets/scenes/showcase.toml -o out/showcase.png --aov depth=out/showcase_depth.exr
+	./target/release/hadou profile assets/scenes/showcase.toml --size 512x512 --frames 30 --warmup 5
+
+# The whole test suite on lavapipe (or any Vulkan device), validation on in every GPU test.
+test: check-vulkan
+	$(CARGO) test --all-targets
+
+lint:
+	$(CARGO) fmt --all -- --check
+	$(CARGO) clippy --all-targets -- -D warnings

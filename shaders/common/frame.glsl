@@ -1,0 +1,32 @@
+// Structs shared with Rust. Keep in sync with src/passes/gpu_structs.rs (sizes asserted there).
+#ifndef HADOU_FRAME_GLSL
+#define HADOU_FRAME_GLSL
+
+#define MAX_LIGHTS 8
+
+struct Light {
+    vec4 direction;   // xyz: unit direction the light travels
+    vec4 radiance;    // rgb: colour × intensity
+};
+
+struct FrameUniforms {
+    mat4 view_proj;
+    vec4 camera_pos;  // xyz
+    vec4 ambient;     // rgb
+    vec4 background;  // rgb
+    uvec4 counts;     // x: lights, y: width, z: height, w: instances
+    Light lights[MAX_LIGHTS];
+};
+
+struct InstanceData {
+    mat4 model;
+    mat4 normal_matrix;  // M^-T in the upper 3x3
+    uvec4 ids;           // x: instance id (scene order), y: material id
+};
+
+struct MaterialData {
+    vec4 albedo;         // rgb
+    uvec4 kind;          // x: 0 = lambert
+};
+
+#endif

@@ -1,0 +1,32 @@
+#version 460
+// tonemap: exposure, ACES filmic (Narkowicz 2015 fit), sRGB encoding. CPU twin: src/effects/tonemap.rs.
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba16f) uniform readonly image2D hdr;
+layout(set = 0, binding = 1, rgba8) uniform writeonly image2D ldr;
+
+layout(push_constant) uniform Params {
+    float exposure;
+    uint width;
+    uint height;
+} params;
+
+vec3 aces(vec3 x) {
+    return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+}
+
+vec3 srgb_encode(vec3 c) {
+    vec3 lo = c * 12.92;
+    vec3 hi = 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055;
+    return mix(hi, lo, lessThanEqual(c, vec3(0.0031308)));
+}
+
+void main() {
+    uvec2 p = gl_GlobalInvocationID.xy;
+    if (p.x >= params.width || p.y >= params.height) return;
+    vec3 c = imageLoad(hdr, ivec2(p)).rgb * params.exposure;
+    // Never let a NaN or negative value reach the output.
+    c = max(c, vec3(0.0));
+    if (any(isnan(c))) c = vec3(0.0);
+    imageStore(ldr, ivec2(p), vec4(srgb_encode(aces(c)), 1.0));
+}

@@ -1,0 +1,74 @@
+//! AOVs: images a frame can hand back besides its colour, as f32.
+
+use crate::targets::Target;
+
+/// An arbitrary output variable, read back as f32.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Aov {
+    /// Distance along the pixel's view ray from the camera position to the first surface, in
+    /// world units; +inf where nothing is hit. One channel.
+    Depth,
+    /// Linear HDR colour before tonemapping (RGBA).
+    Hdr,
+    /// World normal of the first surface, turned toward the camera (xyz), w = 1 on a hit, 0 elsewhere.
+    Normal,
+}
+
+impl Aov {
+    pub const ALL: [Aov; 3] = [Aov::Depth, Aov::Hdr, Aov::Normal];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Aov::Depth => "depth",
+            Aov::Hdr => "hdr",
+            Aov::Normal => "normal",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Aov> {
+        Aov::ALL.into_iter().find(|a| a.name() == name)
+    }
+
+    pub fn target(self) -> Target {
+        match self {
+            Aov::Depth => Target::Distance,
+            Aov::Hdr => Target::Hdr,
+            Aov::Normal => Target::Normal,
+        }
+    }
+
+    pub fn channels(self) -> u32 {
+        match self {
+            Aov::Depth => 1,
+            Aov::Hdr | Aov::Normal => 4,
+        }
+    }
+}
+
+/// A read-back AOV: `channels` interleaved f32 per pixel, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AovImage {
+    pub width: u32,
+    pub height: u32,
+    pub channels: u32,
+    pub data: Vec<f32>,
+}
+
+impl AovImage {
+    /// Converts the target's texels (R32F or RGBA16F) to f32.
+    pub fn decode(aov: Aov, width: u32, height: u32, bytes: &[u8]) -> AovImage {
+        let data = match aov.target().format() {
+            crate::gpu::vk::Format::R16G16B16A16_SFLOAT => bytes
+                .chunks_exact(2)
+                .map(|b| half::f16::from_bits(u16::from_le_bytes([b[0], b[1]])).to_f32())
+                .collect(),
+            _ => bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect(),
+        };
+        AovImage { width, height, channels: aov.channels(), data }
+    }
+
+    /// The value of channel `c` at pixel (x, y).
+    pub fn at(&self, x: u32, y: u32, c: u32) -> f32 {
+        self.data[((y * self.width + x) * self.channels + c) as usize]
+    }
+}

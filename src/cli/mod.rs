@@ -1,0 +1,58 @@
+//! Command-line parsing and dispatch.
+
+mod profile;
+mod render;
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use clap::{Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(name = "hadou", version, about = "Game-effect runtime on Vulkan: render and profile scenes")]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render one frame of a scene to PNG, plus AOVs as OpenEXR.
+    Render(render::RenderArgs),
+    /// Time a scene's passes over many frames.
+    Profile(profile::ProfileArgs),
+    /// List the Vulkan devices and which one hadou would use.
+    Devices,
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render(args) => render::run(args),
+        Command::Profile(args) => profile::run(args),
+        Command::Devices => {
+            let runtime = hadou::Runtime::new(&hadou::RuntimeOptions::from_env())?;
+            let info = runtime.device_info();
+            println!("{} ({}), Vulkan {}, driver {}", info.name, info.kind, info.api_version, info.driver);
+            Ok(())
+        }
+    }
+}
+
+/// Parses `WxH`.
+fn parse_size(text: &str) -> anyhow::Result<(u32, u32)> {
+    let (w, h) = text.split_once(['x', 'X']).context("expected WIDTHxHEIGHT, e.g. 512x512")?;
+    let w: u32 = w.trim().parse().with_context(|| format!("width `{w}` is not a positive integer"))?;
+    let h: u32 = h.trim().parse().with_context(|| format!("height `{h}` is not a positive integer"))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        bail!("size {w}x{h}: each side must be in 1..=16384");
+    }
+    Ok((w, h))
+}
+
+/// Loads the scene and picks the size: `--size` or the scene's `[render] size`.
+fn load(scene: &PathBuf, size: Option<&str>) -> anyhow::Result<(hadou::scene::Scene, (u32, u32))> {
+    let size = size.map(parse_size).transpose().context("--size")?;
+    let scene = hadou::scene::load_scene(scene)?;
+    let size = size.unwrap_or((scene.render.width, scene.render.height));
+    Ok((scene, size))
+}

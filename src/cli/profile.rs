@@ -1,0 +1,84 @@
+//! `hadou profile SCENE [--size WxH] [--frames N] [--warmup K] [--json F] [--trace F]`
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use hadou::profile::{chrome_trace, ProfileReport};
+use hadou::{FrameRequest, Runtime, RuntimeOptions};
+
+#[derive(Args, Debug)]
+pub struct ProfileArgs {
+    /// Scene file.
+    scene: PathBuf,
+    /// Image size WIDTHxHEIGHT (default: the scene's [render] size).
+    #[arg(long)]
+    size: Option<String>,
+    /// Frames measured.
+    #[arg(long, default_value_t = 100)]
+    frames: usize,
+    /// Frames rendered first and not measured (shader JIT, caches).
+    #[arg(long, default_value_t = 5)]
+    warmup: usize,
+    /// Scene time advanced per frame, seconds.
+    #[arg(long, default_value_t = 1.0 / 60.0)]
+    dt: f64,
+    /// Write the summary as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write a Chrome trace (open in Perfetto).
+    #[arg(long)]
+    trace: Option<PathBuf>,
+}
+
+pub fn run(args: ProfileArgs) -> anyhow::Result<()> {
+    if args.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    if !args.dt.is_finite() {
+        bail!("--dt must be finite");
+    }
+    let (scene, (width, height)) = super::load(&args.scene, args.size.as_deref())?;
+    let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
+    runtime.load_scene(scene)?;
+    let mut request = FrameRequest::new(width, height);
+    request.color = false;
+    let total = args.warmup + args.frames;
+    let mut frames = Vec::with_capacity(args.frames);
+    let mut starts = Vec::with_capacity(args.frames);
+    let run_start = Instant::now();
+    let mut last_report = Instant::now();
+    for i in 0..total {
+        request.time = i as f64 * args.dt;
+        let start = run_start.elapsed().as_secs_f64() * 1e3;
+        let stats = runtime.render(&request)?.stats;
+        if i >= args.warmup {
+            frames.push(stats);
+            starts.push(start);
+        }
+        if last_report.elapsed().as_secs_f64() > 1.0 || i + 1 == total {
+            eprint!("\rframe {}/{total}", i + 1);
+            let _ = std::io::stderr().flush();
+            last_report = Instant::now();
+        }
+    }
+    eprintln!();
+    let report = ProfileReport::new(
+        args.scene.display().to_string(),
+        runtime.device_info().clone(),
+        (width, height),
+        args.warmup,
+        &frames,
+    );
+    if let Some(path) = &args.json {
+        let json = serde_json::to_string_pretty(&report).context("serializing the report")?;
+        hadou::output::write_atomically(path, json.as_bytes())?;
+    }
+    if let Some(path) = &args.trace {
+        hadou::output::write_atomically(path, chrome_trace(&frames, &starts).as_bytes())?;
+    }
+    print!("{}", report.table());
+    Ok(())
+}

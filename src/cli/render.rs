@@ -1,0 +1,74 @@
+//! `hadou render SCENE -o out.png [--size WxH] [--time T] [--aov NAME=FILE.exr …]`
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use hadou::{Aov, FrameRequest, Runtime, RuntimeOptions};
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene file (TOML, see docs/scene-format.md).
+    scene: PathBuf,
+    /// Output PNG (sRGB).
+    #[arg(short, long, default_value = "out.png")]
+    output: PathBuf,
+    /// Image size WIDTHxHEIGHT (default: the scene's [render] size).
+    #[arg(long)]
+    size: Option<String>,
+    /// Scene time in seconds.
+    #[arg(long, default_value_t = 0.0)]
+    time: f64,
+    /// AOV to write as single- or multi-channel f32 OpenEXR: NAME=FILE.exr (depth, hdr, normal).
+    #[arg(long = "aov", value_name = "NAME=FILE.exr")]
+    aovs: Vec<String>,
+}
+
+fn parse_aov(text: &str) -> anyhow::Result<(Aov, PathBuf)> {
+    let (name, file) = text.split_once('=').context("expected NAME=FILE.exr")?;
+    let Some(aov) = Aov::from_name(name) else {
+        let names: Vec<_> = Aov::ALL.iter().map(|a| a.name()).collect();
+        bail!("unknown AOV `{name}` (expected one of: {})", names.join(", "));
+    };
+    if file.is_empty() {
+        bail!("AOV `{name}` needs a file name after `=`");
+    }
+    Ok((aov, PathBuf::from(file)))
+}
+
+pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    // Everything that can be checked is checked before the GPU starts or any file is written.
+    if !args.time.is_finite() {
+        bail!("--time must be a finite number of seconds, got {}", args.time);
+    }
+    let aovs = args
+        .aovs
+        .iter()
+        .map(|a| parse_aov(a).with_context(|| format!("--aov {a}")))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (scene, (width, height)) = super::load(&args.scene, args.size.as_deref())?;
+    let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
+    runtime.load_scene(scene)?;
+    let request = FrameRequest {
+        width,
+        height,
+        time: args.time,
+        color: true,
+        aovs: aovs.iter().map(|(a, _)| *a).collect(),
+    };
+    let frame = runtime.render(&request)?;
+    let color = frame.color.as_deref().context("the frame returned no colour")?;
+    hadou::output::write_png(&args.output, width, height, color)?;
+    for (aov, path) in &aovs {
+        let image = frame.aov(*aov).context("the frame returned no AOV")?;
+        hadou::output::write_exr(path, aov.name(), image)?;
+    }
+    let passes: Vec<String> =
+        frame.stats.passes.iter().map(|p| format!("{} {:.3} ms", p.name, p.gpu_ms)).collect();
+    println!("wrote {} ({width}x{height}); gpu: {}", args.output.display(), passes.join(", "));
+    let counts = runtime.validation_counts();
+    if counts.errors > 0 {
+        bail!("validation reported {} errors and {} warnings", counts.errors, counts.warnings);
+    }
+    Ok(())
+}

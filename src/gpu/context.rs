@@ -1,0 +1,414 @@
+//! The Vulkan context: instance, validation messenger, device choice, one queue.
+
+use std::ffi::{c_char, CStr, CString};
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::error::{GpuError, GpuResult, VkResultExt};
+use super::validation::{messenger_callback, ValidationCounts, ValidationLog};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// How a context is created.
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    /// Turn on the Khronos validation layer with synchronization validation.
+    pub validation: bool,
+    /// Pick the first device whose name contains this (case-insensitive).
+    pub device_filter: Option<String>,
+}
+
+impl ContextOptions {
+    /// Options from the environment: `HADOU_VALIDATION=1`, `HADOU_DEVICE=<substring>`.
+    pub fn from_env() -> Self {
+        let validation = std::env::var("HADOU_VALIDATION").is_ok_and(|v| v == "1" || v == "true");
+        let device_filter = std::env::var("HADOU_DEVICE").ok().filter(|s| !s.is_empty());
+        ContextOptions { validation, device_filter }
+    }
+}
+
+/// What was chosen, for reports.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DeviceInfo {
+    pub name: String,
+    pub kind: String,
+    pub api_version: String,
+    pub driver: String,
+    pub vendor_id: u32,
+    pub device_id: u32,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period_ns: f32,
+}
+
+pub struct GpuContext {
+    pub entry: ash::Entry,
+    pub instance: ash::Instance,
+    pub physical_device: vk::PhysicalDevice,
+    pub device: ash::Device,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub info: DeviceInfo,
+    pub limits: vk::PhysicalDeviceLimits,
+    pub timestamp_valid_bits: u32,
+    /// Debug-utils entry points (naming, labels, messenger); present when the extension is.
+    pub debug_instance: Option<ash::ext::debug_utils::Instance>,
+    pub debug_device: Option<ash::ext::debug_utils::Device>,
+    messenger: vk::DebugUtilsMessengerEXT,
+    log: Arc<ValidationLog>,
+    pub validation: bool,
+}
+
+struct Candidate {
+    physical: vk::PhysicalDevice,
+    name: String,
+    kind: vk::PhysicalDeviceType,
+    queue_family: u32,
+    timestamp_valid_bits: u32,
+}
+
+impl GpuContext {
+    pub fn new(options: &ContextOptions) -> GpuResult<Self> {
+        // SAFETY: loading libvulkan runs its initializers; nothing else is shared yet.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::NoLoader(e.to_string()))?;
+        let log = Arc::new(ValidationLog::default());
+        let (instance, debug_instance, messenger) = create_instance(&entry, options, &log)?;
+        let context = (|| {
+            let candidate = choose_device(&instance, options.device_filter.as_deref())?;
+            let device = create_device(&instance, &candidate)?;
+            Ok((candidate, device))
+        })();
+        let (candidate, device) = match context {
+            Ok(v) => v,
+            Err(e) => {
+                // SAFETY: nothing was created from the instance yet.
+                unsafe {
+                    if let Some(d) = &debug_instance {
+                        d.destroy_debug_utils_messenger(messenger, None);
+                    }
+                    instance.destroy_instance(None);
+                }
+                return Err(e);
+            }
+        };
+        // SAFETY: valid handles from above.
+        let props = unsafe { instance.get_physical_device_properties(candidate.physical) };
+        let queue = unsafe { device.get_device_queue(candidate.queue_family, 0) };
+        let debug_device =
+            debug_instance.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
+        let info = device_info(&instance, candidate.physical, &props);
+        log::info!(
+            "device: {} ({}), Vulkan {}, driver {}",
+            info.name,
+            info.kind,
+            info.api_version,
+            info.driver
+        );
+        Ok(GpuContext {
+            entry,
+            instance,
+            physical_device: candidate.physical,
+            device,
+            queue,
+            queue_family: candidate.queue_family,
+            info,
+            limits: props.limits,
+            timestamp_valid_bits: candidate.timestamp_valid_bits,
+            debug_instance,
+            debug_device,
+            messenger,
+            log,
+            validation: options.validation,
+        })
+    }
+
+    pub fn validation_counts(&self) -> ValidationCounts {
+        self.log.counts()
+    }
+
+    pub fn validation_messages(&self) -> Vec<String> {
+        self.log.messages()
+    }
+
+    /// The message log itself; it outlives the context, so tests can read what destroying the
+    /// device reported (leaked objects).
+    pub fn validation_log(&self) -> Arc<ValidationLog> {
+        self.log.clone()
+    }
+
+    /// Names a Vulkan object for validation messages and capture tools.
+    pub fn name_object<H: vk::Handle>(&self, handle: H, name: &str) {
+        let Some(debug) = &self.debug_device else { return };
+        let Ok(name) = CString::new(name) else { return };
+        let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
+        // SAFETY: the handle belongs to this device. Naming is advisory: a failure is only logged.
+        if let Err(e) = unsafe { debug.set_debug_utils_object_name(&info) } {
+            log::debug!("naming {name:?} failed: {e:?}");
+        }
+    }
+
+    pub fn begin_label(&self, cmd: vk::CommandBuffer, name: &str) {
+        let Some(debug) = &self.debug_device else { return };
+        let Ok(name) = CString::new(name) else { return };
+        let label = vk::DebugUtilsLabelEXT::default().label_name(&name);
+        // SAFETY: cmd is recording.
+        unsafe { debug.cmd_begin_debug_utils_label(cmd, &label) };
+    }
+
+    pub fn end_label(&self, cmd: vk::CommandBuffer) {
+        if let Some(debug) = &self.debug_device {
+            // SAFETY: paired with begin_label on the same recording command buffer.
+            unsafe { debug.cmd_end_debug_utils_label(cmd) };
+        }
+    }
+
+    pub fn wait_idle(&self) -> GpuResult<()> {
+        // SAFETY: the device is valid for the context's lifetime.
+        unsafe { self.device.device_wait_idle() }.vk("vkDeviceWaitIdle")
+    }
+}
+
+impl Drop for GpuContext {
+    fn drop(&mut self) {
+        // SAFETY: owners of device objects destroy them before the context (Runtime's field order).
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_device(None);
+            if let Some(d) = &self.debug_instance {
+                d.destroy_debug_utils_messenger(self.messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+fn has_instance_extension(entry: &ash::Entry, name: &CStr) -> bool {
+    // SAFETY: plain query.
+    unsafe { entry.enumerate_instance_extension_properties(None) }
+        .map(|exts| exts.iter().any(|e| e.extension_name_as_c_str() == Ok(name)))
+        .unwrap_or(false)
+}
+
+fn has_layer(entry: &ash::Entry, name: &CStr) -> bool {
+    // SAFETY: plain query.
+    unsafe { entry.enumerate_instance_layer_properties() }
+        .map(|layers| layers.iter().any(|l| l.layer_name_as_c_str() == Ok(name)))
+        .unwrap_or(false)
+}
+
+type InstanceParts = (ash::Instance, Option<ash::ext::debug_utils::Instance>, vk::DebugUtilsMessengerEXT);
+
+fn create_instance(
+    entry: &ash::Entry,
+    options: &ContextOptions,
+    log: &Arc<ValidationLog>,
+) -> GpuResult<InstanceParts> {
+    // SAFETY: plain query.
+    let version = unsafe { entry.try_enumerate_instance_version() }.vk("vkEnumerateInstanceVersion")?;
+    let version = version.unwrap_or(vk::API_VERSION_1_0);
+    if version < vk::API_VERSION_1_3 {
+        return Err(GpuError::NoSuitableDevice {
+            filter: String::new(),
+            devices: vec![(
+                "Vulkan loader".into(),
+                format!("instance version {} < 1.3", version_string(version)),
+            )],
+        });
+    }
+    let debug_utils = has_instance_extension(entry, ash::ext::debug_utils::NAME);
+    if options.validation && !has_layer(entry, VALIDATION_LAYER) {
+        return Err(GpuError::ValidationLayerMissing);
+    }
+    let app_info = vk::ApplicationInfo::default()
+        .application_name(c"hadou")
+        .engine_name(c"hadou")
+        .api_version(vk::API_VERSION_1_3);
+    let layers: Vec<*const c_char> =
+        if options.validation { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
+    let extensions: Vec<*const c_char> =
+        if debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+    let mut messenger_info = messenger_create_info(log);
+    let mut info = vk::InstanceCreateInfo::default()
+        .application_info(&app_info)
+        .enabled_layer_names(&layers)
+        .enabled_extension_names(&extensions);
+    if options.validation {
+        info = info.push_next(&mut features);
+    }
+    if debug_utils {
+        // Also catches messages from instance creation itself.
+        info = info.push_next(&mut messenger_info);
+    }
+    // SAFETY: every pointer in `info` outlives the call.
+    let instance = unsafe { entry.create_instance(&info, None) }.map_err(|e| match e {
+        vk::Result::ERROR_INCOMPATIBLE_DRIVER => GpuError::NoDriver,
+        vk::Result::ERROR_LAYER_NOT_PRESENT => GpuError::ValidationLayerMissing,
+        result => GpuError::Vk { call: "vkCreateInstance", result },
+    })?;
+    if !debug_utils {
+        return Ok((instance, None, vk::DebugUtilsMessengerEXT::null()));
+    }
+    let debug = ash::ext::debug_utils::Instance::new(entry, &instance);
+    // SAFETY: the log outlives the messenger (the context destroys the messenger first).
+    match unsafe { debug.create_debug_utils_messenger(&messenger_create_info(log), None) } {
+        Ok(messenger) => Ok((instance, Some(debug), messenger)),
+        Err(result) => {
+            unsafe { instance.destroy_instance(None) };
+            Err(GpuError::Vk { call: "vkCreateDebugUtilsMessengerEXT", result })
+        }
+    }
+}
+
+fn messenger_create_info(log: &Arc<ValidationLog>) -> vk::DebugUtilsMessengerCreateInfoEXT<'static> {
+    vk::DebugUtilsMessengerCreateInfoEXT::default()
+        .message_severity(
+            vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+        )
+        .message_type(
+            vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+        .pfn_user_callback(Some(messenger_callback))
+        .user_data(Arc::as_ptr(log) as *mut std::ffi::c_void)
+}
+
+fn version_string(v: u32) -> String {
+    format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v))
+}
+
+fn kind_name(kind: vk::PhysicalDeviceType) -> &'static str {
+    match kind {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+        vk::PhysicalDeviceType::CPU => "CPU",
+        _ => "other",
+    }
+}
+
+/// Lower is preferred: discrete > integrated > virtual > CPU > other.
+fn kind_rank(kind: vk::PhysicalDeviceType) -> u32 {
+    match kind {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+fn choose_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Candidate> {
+    // SAFETY: plain query.
+    let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    let mut refused = Vec::new();
+    let mut best: Option<Candidate> = None;
+    for physical in physicals {
+        let props = unsafe { instance.get_physical_device_properties(physical) };
+        let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let label = format!("{name} ({})", kind_name(props.device_type));
+        if let Some(f) = filter {
+            if !name.to_lowercase().contains(&f.to_lowercase()) {
+                refused.push((label, format!("name does not contain HADOU_DEVICE={f:?}")));
+                continue;
+            }
+        }
+        match check_device(instance, physical, &props) {
+            Ok((queue_family, timestamp_valid_bits)) => {
+                let c =
+                    Candidate { physical, name, kind: props.device_type, queue_family, timestamp_valid_bits };
+                if best.as_ref().is_none_or(|b| kind_rank(c.kind) < kind_rank(b.kind)) {
+                    best = Some(c);
+                }
+            }
+            Err(why) => refused.push((label, why)),
+        }
+    }
+    best.ok_or_else(|| GpuError::NoSuitableDevice {
+        filter: filter.map(|f| format!(" matching HADOU_DEVICE={f:?}")).unwrap_or_default(),
+        devices: refused,
+    })
+}
+
+/// Checks API version, features and a graphics+compute queue with timestamps.
+fn check_device(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    props: &vk::PhysicalDeviceProperties,
+) -> Result<(u32, u32), String> {
+    if props.api_version < vk::API_VERSION_1_3 {
+        return Err(format!("supports Vulkan {}, hadou needs 1.3", version_string(props.api_version)));
+    }
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13);
+    // SAFETY: plain query into local structs.
+    unsafe { instance.get_physical_device_features2(physical, &mut f2) };
+    for (ok, feature) in [
+        (f13.dynamic_rendering, "dynamicRendering"),
+        (f13.synchronization2, "synchronization2"),
+        (f13.maintenance4, "maintenance4"),
+    ] {
+        if ok == vk::FALSE {
+            return Err(format!("lacks feature {feature}"));
+        }
+    }
+    if props.limits.timestamp_compute_and_graphics == vk::FALSE {
+        return Err("no timestamps on graphics and compute queues".into());
+    }
+    let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+    let needed = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
+    families
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.queue_flags.contains(needed) && f.timestamp_valid_bits > 0)
+        .map(|(i, f)| (i as u32, f.timestamp_valid_bits))
+        .ok_or_else(|| "no queue family with graphics, compute and timestamps".into())
+}
+
+fn create_device(instance: &ash::Instance, c: &Candidate) -> GpuResult<ash::Device> {
+    let priorities = [1.0f32];
+    let queues = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(c.queue_family)
+        .queue_priorities(&priorities)];
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
+        .dynamic_rendering(true)
+        .synchronization2(true)
+        .maintenance4(true);
+    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13);
+    let info = vk::DeviceCreateInfo::default().queue_create_infos(&queues).push_next(&mut f2);
+    // SAFETY: the features were checked in check_device.
+    unsafe { instance.create_device(c.physical, &info, None) }.map_err(|result| match result {
+        vk::Result::ERROR_FEATURE_NOT_PRESENT => {
+            GpuError::MissingFeature { device: c.name.clone(), feature: "Vulkan 1.3 core features" }
+        }
+        result => GpuError::Vk { call: "vkCreateDevice", result },
+    })
+}
+
+fn device_info(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    props: &vk::PhysicalDeviceProperties,
+) -> DeviceInfo {
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+    // SAFETY: plain query into local structs.
+    unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+    let driver_name =
+        driver.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let driver_info =
+        driver.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    DeviceInfo {
+        name: props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+        kind: kind_name(props.device_type).into(),
+        api_version: version_string(props.api_version),
+        driver: format!("{driver_name} {driver_info}").trim().to_string(),
+        vendor_id: props.vendor_id,
+        device_id: props.device_id,
+        timestamp_period_ns: props.limits.timestamp_period,
+    }
+}

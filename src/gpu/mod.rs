@@ -1,0 +1,17 @@
+//! The only code that calls ash: context, memory, pipelines, shaders, barriers, timestamps, recording.
+
+pub mod barriers;
+pub mod commands;
+pub mod context;
+pub mod error;
+pub mod memory;
+pub mod pipeline;
+pub mod recorder;
+pub mod shader;
+pub mod timestamps;
+pub mod validation;
+
+pub use ash::vk;
+pub use context::{ContextOptions, DeviceInfo, GpuContext};
+pub use error::{GpuError, GpuResult};
+pub use validation::ValidationCounts;

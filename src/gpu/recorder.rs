@@ -1,0 +1,135 @@
+//! Command recording for passes: the few commands hadou's passes use, so pass code states what
+//! it does and src/gpu stays the only code that calls ash.
+
+use ash::vk;
+
+use super::context::GpuContext;
+use super::memory::{Buffer, Image};
+use super::pipeline::Pipeline;
+
+pub struct Recorder<'a> {
+    pub ctx: &'a GpuContext,
+    pub cmd: vk::CommandBuffer,
+}
+
+/// A colour attachment of a dynamic-rendering pass, cleared to `clear` at the start.
+pub struct ColorTarget<'a> {
+    pub image: &'a Image,
+    pub clear: vk::ClearColorValue,
+}
+
+impl Recorder<'_> {
+    fn device(&self) -> &ash::Device {
+        &self.ctx.device
+    }
+
+    pub fn bind_pipeline(&self, pipeline: &Pipeline, set: vk::DescriptorSet) {
+        // SAFETY: recording; the pipeline and set are live until the frame's fence.
+        unsafe {
+            self.device().cmd_bind_pipeline(self.cmd, pipeline.bind_point, pipeline.raw);
+            self.device().cmd_bind_descriptor_sets(
+                self.cmd,
+                pipeline.bind_point,
+                pipeline.layout,
+                0,
+                &[set],
+                &[],
+            );
+        }
+    }
+
+    pub fn push_constants(&self, pipeline: &Pipeline, stages: vk::ShaderStageFlags, bytes: &[u8]) {
+        unsafe { self.device().cmd_push_constants(self.cmd, pipeline.layout, stages, 0, bytes) };
+    }
+
+    /// Dispatches enough `group`-sized workgroups to cover width × height.
+    pub fn dispatch_2d(&self, width: u32, height: u32, group: (u32, u32)) {
+        unsafe { self.device().cmd_dispatch(self.cmd, width.div_ceil(group.0), height.div_ceil(group.1), 1) };
+    }
+
+    /// Begins dynamic rendering over the full extent, clearing every attachment; sets viewport and scissor.
+    pub fn begin_rendering(
+        &self,
+        extent: vk::Extent2D,
+        colors: &[ColorTarget],
+        depth: &Image,
+        depth_clear: f32,
+    ) {
+        let color_infos: Vec<_> = colors
+            .iter()
+            .map(|c| {
+                vk::RenderingAttachmentInfo::default()
+                    .image_view(c.image.view)
+                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .clear_value(vk::ClearValue { color: c.clear })
+            })
+            .collect();
+        let depth_info = vk::RenderingAttachmentInfo::default()
+            .image_view(depth.view)
+            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue { depth: depth_clear, stencil: 0 },
+            });
+        let area = vk::Rect2D { offset: vk::Offset2D::default(), extent };
+        let info = vk::RenderingInfo::default()
+            .render_area(area)
+            .layer_count(1)
+            .color_attachments(&color_infos)
+            .depth_attachment(&depth_info);
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: extent.width as f32,
+            height: extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        unsafe {
+            self.device().cmd_begin_rendering(self.cmd, &info);
+            self.device().cmd_set_viewport(self.cmd, 0, &[viewport]);
+            self.device().cmd_set_scissor(self.cmd, 0, &[area]);
+        }
+    }
+
+    pub fn end_rendering(&self) {
+        unsafe { self.device().cmd_end_rendering(self.cmd) };
+    }
+
+    /// One instanced indexed draw of a mesh's buffers.
+    pub fn draw_mesh(
+        &self,
+        vertices: &Buffer,
+        indices: &Buffer,
+        index_count: u32,
+        first_instance: u32,
+        instances: u32,
+    ) {
+        unsafe {
+            self.device().cmd_bind_vertex_buffers(self.cmd, 0, &[vertices.raw], &[0]);
+            self.device().cmd_bind_index_buffer(self.cmd, indices.raw, 0, vk::IndexType::UINT32);
+            self.device().cmd_draw_indexed(self.cmd, index_count, instances, 0, 0, first_instance);
+        }
+    }
+
+    /// Copies a whole colour image (in TRANSFER_SRC layout) into a buffer, tightly packed.
+    pub fn copy_image_to_buffer(&self, image: &Image, buffer: &Buffer) {
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(
+                vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1),
+            )
+            .image_extent(vk::Extent3D { width: image.extent.width, height: image.extent.height, depth: 1 });
+        unsafe {
+            self.device().cmd_copy_image_to_buffer(
+                self.cmd,
+                image.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                buffer.raw,
+                &[region],
+            )
+        };
+    }
+}

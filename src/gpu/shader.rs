@@ -1,0 +1,107 @@
+//! GLSL → SPIR-V with shaderc at start-up. Sources are embedded in the binary (so an installed
+//! `hadou` needs no shader files); `HADOU_SHADER_DIR` points at a source tree to use instead,
+//! which is how hot reload will read edited shaders. Compiled words are cached by source text.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use super::error::{GpuError, GpuResult};
+
+/// Every shader file hadou ships, by its path under `shaders/`.
+pub const EMBEDDED: &[(&str, &str)] = &[
+    ("common/frame.glsl", include_str!("../../shaders/common/frame.glsl")),
+    ("raster.vert", include_str!("../../shaders/raster.vert")),
+    ("raster.frag", include_str!("../../shaders/raster.frag")),
+    ("tonemap.comp", include_str!("../../shaders/tonemap.comp")),
+];
+
+pub struct ShaderCompiler {
+    compiler: shaderc::Compiler,
+    source_dir: Option<PathBuf>,
+    cache: HashMap<(String, String), Vec<u32>>,
+}
+
+impl ShaderCompiler {
+    pub fn new() -> GpuResult<Self> {
+        let compiler = shaderc::Compiler::new().map_err(|e| GpuError::Shader {
+            name: "shaderc".into(),
+            message: format!("cannot create the compiler: {e}"),
+        })?;
+        let source_dir = std::env::var_os("HADOU_SHADER_DIR").map(PathBuf::from);
+        Ok(ShaderCompiler { compiler, source_dir, cache: HashMap::new() })
+    }
+
+    /// The source of `name` (e.g. "raster.vert"): from HADOU_SHADER_DIR when set, else embedded.
+    pub fn source(&self, name: &str) -> GpuResult<String> {
+        if let Some(dir) = &self.source_dir {
+            let path = dir.join(name);
+            return std::fs::read_to_string(&path).map_err(|e| GpuError::Shader {
+                name: name.into(),
+                message: format!("{}: {e}", path.display()),
+            });
+        }
+        EMBEDDED
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, text)| text.to_string())
+            .ok_or_else(|| GpuError::Shader { name: name.into(), message: "no such shader".into() })
+    }
+
+    /// Compiles a shader by name, with `#define`s, to SPIR-V words for Vulkan 1.3.
+    pub fn compile(&mut self, name: &str, defines: &[(&str, &str)]) -> GpuResult<Vec<u32>> {
+        let source = self.source(name)?;
+        let key_defines: String = defines.iter().map(|(k, v)| format!("{k}={v};")).collect();
+        let key = (format!("{name}|{key_defines}"), source.clone());
+        if let Some(words) = self.cache.get(&key) {
+            return Ok(words.clone());
+        }
+        let kind = shader_kind(name)?;
+        let mut options = shaderc::CompileOptions::new().map_err(|e| GpuError::Shader {
+            name: name.into(),
+            message: format!("cannot create compile options: {e}"),
+        })?;
+        options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_3 as u32);
+        options.set_target_spirv(shaderc::SpirvVersion::V1_6);
+        options.set_optimization_level(shaderc::OptimizationLevel::Performance);
+        options.set_generate_debug_info();
+        for (k, v) in defines {
+            options.add_macro_definition(k, Some(v));
+        }
+        let dir = self.source_dir.clone();
+        options.set_include_callback(move |requested, _, _, _| include(dir.as_ref(), requested));
+        let artifact = self
+            .compiler
+            .compile_into_spirv(&source, kind, name, "main", Some(&options))
+            .map_err(|e| GpuError::Shader { name: name.into(), message: e.to_string() })?;
+        if artifact.get_num_warnings() > 0 {
+            log::warn!("shader {name}: {}", artifact.get_warning_messages());
+        }
+        let words = artifact.as_binary().to_vec();
+        self.cache.insert(key, words.clone());
+        Ok(words)
+    }
+}
+
+fn shader_kind(name: &str) -> GpuResult<shaderc::ShaderKind> {
+    match name.rsplit('.').next() {
+        Some("vert") => Ok(shaderc::ShaderKind::Vertex),
+        Some("frag") => Ok(shaderc::ShaderKind::Fragment),
+        Some("comp") => Ok(shaderc::ShaderKind::Compute),
+        _ => Err(GpuError::Shader {
+            name: name.into(),
+            message: "unknown stage (expected .vert, .frag or .comp)".into(),
+        }),
+    }
+}
+
+fn include(dir: Option<&PathBuf>, requested: &str) -> Result<shaderc::ResolvedInclude, String> {
+    let content = match dir {
+        Some(dir) => std::fs::read_to_string(dir.join(requested)).map_err(|e| format!("{requested}: {e}"))?,
+        None => EMBEDDED
+            .iter()
+            .find(|(n, _)| *n == requested)
+            .map(|(_, t)| t.to_string())
+            .ok_or_else(|| format!("no shader include named {requested}"))?,
+    };
+    Ok(shaderc::ResolvedInclude { resolved_name: requested.to_string(), content })
+}

@@ -1,0 +1,81 @@
+//! GPU timestamps: a begin/end pair per pass, read back after the frame's fence.
+
+use ash::vk;
+
+use super::context::GpuContext;
+use super::error::{GpuResult, VkResultExt};
+
+pub struct TimestampPool {
+    pool: vk::QueryPool,
+    capacity: u32,
+    used: u32,
+    period_ns: f64,
+    valid_mask: u64,
+}
+
+impl TimestampPool {
+    pub fn new(ctx: &GpuContext, capacity: u32) -> GpuResult<Self> {
+        let info =
+            vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(capacity);
+        // SAFETY: valid device; destroyed in destroy().
+        let pool = unsafe { ctx.device.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
+        ctx.name_object(pool, "pass timestamps");
+        let bits = ctx.timestamp_valid_bits;
+        let valid_mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
+        Ok(TimestampPool {
+            pool,
+            capacity,
+            used: 0,
+            period_ns: ctx.info.timestamp_period_ns as f64,
+            valid_mask,
+        })
+    }
+
+    pub fn capacity(&self) -> u32 {
+        self.capacity
+    }
+
+    /// Resets every query; recorded at the start of a frame.
+    pub fn reset(&mut self, ctx: &GpuContext, cmd: vk::CommandBuffer) {
+        // SAFETY: cmd is recording, outside a render pass.
+        unsafe { ctx.device.cmd_reset_query_pool(cmd, self.pool, 0, self.capacity) };
+        self.used = 0;
+    }
+
+    /// Writes a timestamp once all earlier commands finished; returns its index, or None when full.
+    pub fn write(&mut self, ctx: &GpuContext, cmd: vk::CommandBuffer) -> Option<u32> {
+        if self.used >= self.capacity {
+            return None;
+        }
+        let index = self.used;
+        // SAFETY: the query was reset this frame.
+        unsafe {
+            ctx.device.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, index)
+        };
+        self.used += 1;
+        Some(index)
+    }
+
+    /// Reads the written timestamps as nanoseconds (after the frame's fence).
+    pub fn read_ns(&self, ctx: &GpuContext) -> GpuResult<Vec<f64>> {
+        if self.used == 0 {
+            return Ok(Vec::new());
+        }
+        let mut ticks = vec![0u64; self.used as usize];
+        // SAFETY: all written queries completed (the fence signalled); WAIT makes that explicit.
+        unsafe {
+            ctx.device.get_query_pool_results(
+                self.pool,
+                0,
+                &mut ticks,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
+        }
+        .vk("vkGetQueryPoolResults")?;
+        Ok(ticks.iter().map(|t| (t & self.valid_mask) as f64 * self.period_ns).collect())
+    }
+
+    pub fn destroy(&self, ctx: &GpuContext) {
+        unsafe { ctx.device.destroy_query_pool(self.pool, None) };
+    }
+}

@@ -1,0 +1,35 @@
+//! hadou (波動): a game-effect runtime on Vulkan. A scene is rasterized into depth and a small
+//! G-buffer; compute passes (energy wave, translucency, metaballs) run on top of it.
+//!
+//! The headless [`Runtime`] is the easy path: create it, load a [`scene::Scene`], render frames,
+//! read back colour and AOVs. See `README.md` for the CLI and `docs/` for the scene format.
+
+pub mod aov;
+pub mod effects;
+pub mod frame;
+pub mod gpu;
+pub mod output;
+pub mod passes;
+pub mod profile;
+pub mod runtime;
+pub mod scene;
+pub mod scene_gpu;
+pub mod targets;
+
+pub use aov::{Aov, AovImage};
+pub use frame::{FrameStats, PassTiming};
+pub use gpu::{DeviceInfo, GpuError, ValidationCounts};
+pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};
+
+/// Everything the library can fail with.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Scene(#[from] scene::SceneError),
+    #[error(transparent)]
+    Output(#[from] output::OutputError),
+    #[error("invalid request: {0}")]
+    InvalidRequest(String),
+}

@@ -1,0 +1,108 @@
+//! Structs shared with GLSL. Keep in sync with shaders/common/frame.glsl; the size and offset
+//! assertions below fail the build when the two drift apart.
+
+use bytemuck::{Pod, Zeroable};
+use glam::{DMat3, DMat4, DVec3};
+
+use crate::scene::Scene;
+
+pub const MAX_LIGHTS: usize = 8;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuLight {
+    pub direction: [f32; 4],
+    pub radiance: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FrameUniforms {
+    pub view_proj: [[f32; 4]; 4],
+    pub camera_pos: [f32; 4],
+    pub ambient: [f32; 4],
+    pub background: [f32; 4],
+    /// x: lights, y: width, z: height, w: instances.
+    pub counts: [u32; 4],
+    pub lights: [GpuLight; MAX_LIGHTS],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct InstanceData {
+    pub model: [[f32; 4]; 4],
+    pub normal_matrix: [[f32; 4]; 4],
+    /// x: instance id (scene order), y: material id.
+    pub ids: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct MaterialData {
+    pub albedo: [f32; 4],
+    pub kind: [u32; 4],
+}
+
+const _: () = {
+    assert!(std::mem::size_of::<GpuLight>() == 32);
+    assert!(std::mem::size_of::<FrameUniforms>() == 128 + 32 * MAX_LIGHTS);
+    assert!(std::mem::offset_of!(FrameUniforms, camera_pos) == 64);
+    assert!(std::mem::offset_of!(FrameUniforms, counts) == 112);
+    assert!(std::mem::offset_of!(FrameUniforms, lights) == 128);
+    assert!(std::mem::size_of::<InstanceData>() == 144);
+    assert!(std::mem::offset_of!(InstanceData, ids) == 128);
+    assert!(std::mem::size_of::<MaterialData>() == 32);
+};
+
+pub fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
+    m.to_cols_array_2d().map(|c| c.map(|v| v as f32))
+}
+
+fn vec4_f32(v: DVec3, w: f32) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w]
+}
+
+fn mat3_as_mat4(m: DMat3) -> [[f32; 4]; 4] {
+    mat4_f32(DMat4::from_mat3(m))
+}
+
+impl FrameUniforms {
+    pub fn new(scene: &Scene, width: u32, height: u32) -> Self {
+        let mut lights = [GpuLight::default(); MAX_LIGHTS];
+        for (slot, light) in lights.iter_mut().zip(&scene.lights) {
+            slot.direction = vec4_f32(light.direction, 0.0);
+            slot.radiance = vec4_f32(light.color * light.intensity, 0.0);
+        }
+        FrameUniforms {
+            view_proj: mat4_f32(scene.camera.view_projection(width, height)),
+            camera_pos: vec4_f32(scene.camera.position, 1.0),
+            ambient: vec4_f32(scene.render.ambient, 0.0),
+            background: vec4_f32(scene.render.background, 1.0),
+            counts: [scene.lights.len().min(MAX_LIGHTS) as u32, width, height, scene.instances.len() as u32],
+            lights,
+        }
+    }
+}
+
+/// Per-instance records, grouped by mesh so each mesh is one instanced draw. Returns the records
+/// and, per mesh, the (first, count) range of its instances.
+pub fn instance_records(scene: &Scene) -> (Vec<InstanceData>, Vec<(u32, u32)>) {
+    let mut records = Vec::with_capacity(scene.instances.len());
+    let mut ranges = Vec::with_capacity(scene.meshes.len());
+    for mesh in 0..scene.meshes.len() {
+        let first = records.len() as u32;
+        for (id, inst) in scene.instances.iter().enumerate().filter(|(_, i)| i.mesh == mesh) {
+            records.push(InstanceData {
+                model: mat4_f32(inst.transform.matrix),
+                normal_matrix: mat3_as_mat4(inst.transform.normal_matrix()),
+                ids: [id as u32, inst.material as u32, 0, 0],
+            });
+        }
+        ranges.push((first, records.len() as u32 - first));
+    }
+    (records, ranges)
+}
+
+pub fn material_records(scene: &Scene) -> Vec<MaterialData> {
+    scene.materials.iter().map(|m| MaterialData { albedo: vec4_f32(m.albedo, 1.0), kind: [0; 4] }).collect()
+}

@@ -1,0 +1,42 @@
+//! One file per pass. A pass declares the images it touches and how; the runner in frame.rs
+//! places the barriers, the debug label and the timestamps around its commands.
+
+pub mod gpu_structs;
+pub mod raster;
+pub mod tonemap;
+
+use crate::gpu::barriers::ImageAccess;
+use crate::gpu::pipeline::DescriptorPool;
+use crate::gpu::recorder::Recorder;
+use crate::gpu::{GpuContext, GpuResult};
+use crate::scene::Scene;
+use crate::scene_gpu::SceneGpu;
+use crate::targets::{Target, Targets};
+
+/// What every pass sees while recording.
+pub struct PassInputs<'a> {
+    pub rec: &'a Recorder<'a>,
+    pub targets: &'a Targets,
+    pub scene_gpu: &'a SceneGpu,
+    pub scene: &'a Scene,
+    /// Scene time in seconds.
+    pub time: f64,
+}
+
+pub trait Pass {
+    /// The pass's one name: file, shader, debug label, timestamp scope, test.
+    fn name(&self) -> &'static str;
+    /// The images this pass reads or writes, and how.
+    fn uses(&self) -> Vec<(Target, ImageAccess)>;
+    /// Points the pass's descriptors at the scene's buffers and the frame's images
+    /// (after either was created anew; the pool was reset before).
+    fn bind(
+        &mut self,
+        ctx: &GpuContext,
+        pool: &DescriptorPool,
+        scene_gpu: &SceneGpu,
+        targets: &Targets,
+    ) -> GpuResult<()>;
+    fn record(&self, inputs: &PassInputs);
+    fn destroy(&self, ctx: &GpuContext);
+}

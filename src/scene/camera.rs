@@ -1,0 +1,125 @@
+//! The camera contract: a symmetric perspective frustum, vertical field of view in degrees,
+//! aspect = width / height, image row 0 at the top, and the ray of pixel (x, y) through the
+//! pixel centre (x + 0.5, y + 0.5). Depth is reverse-Z (near → 1, far → 0).
+
+use glam::{DMat4, DVec3, DVec4};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: DVec3,
+    pub look_at: DVec3,
+    pub up: DVec3,
+    /// Vertical field of view in degrees, in (0, 180).
+    pub fov_y_deg: f64,
+    pub near: f64,
+    pub far: f64,
+}
+
+/// Right-handed orthonormal camera frame: `forward` looks at the target, `up` is the image's up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraBasis {
+    pub right: DVec3,
+    pub up: DVec3,
+    pub forward: DVec3,
+}
+
+impl Camera {
+    pub const DEFAULT_FAR: f64 = 1000.0;
+
+    pub fn basis(&self) -> CameraBasis {
+        let forward = (self.look_at - self.position).normalize();
+        let right = forward.cross(self.up).normalize();
+        let up = right.cross(forward);
+        CameraBasis { right, up, forward }
+    }
+
+    /// World-space unit ray through the centre of pixel (x, y) of a width × height image.
+    pub fn pixel_ray(&self, x: u32, y: u32, width: u32, height: u32) -> (DVec3, DVec3) {
+        self.ray_through(x as f64 + 0.5, y as f64 + 0.5, width, height)
+    }
+
+    /// World-space unit ray through the image point (px, py), in pixels from the top-left corner.
+    pub fn ray_through(&self, px: f64, py: f64, width: u32, height: u32) -> (DVec3, DVec3) {
+        let b = self.basis();
+        let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
+        let aspect = width as f64 / height as f64;
+        let ndc_x = 2.0 * px / width as f64 - 1.0;
+        let ndc_y = 1.0 - 2.0 * py / height as f64;
+        let dir = b.forward + b.right * (ndc_x * tan_half * aspect) + b.up * (ndc_y * tan_half);
+        (self.position, dir.normalize())
+    }
+
+    /// World → view (right-handed, looking down −Z).
+    pub fn view_matrix(&self) -> DMat4 {
+        let b = self.basis();
+        DMat4::look_at_rh(self.position, self.position + b.forward, b.up)
+    }
+
+    /// View → clip for Vulkan: reverse-Z (near → 1, far → 0) and y flipped so row 0 is the top.
+    pub fn projection_matrix(&self, aspect: f64) -> DMat4 {
+        let f = 1.0 / (self.fov_y_deg.to_radians() * 0.5).tan();
+        let (n, fa) = (self.near, self.far);
+        DMat4::from_cols(
+            DVec4::new(f / aspect, 0.0, 0.0, 0.0),
+            DVec4::new(0.0, -f, 0.0, 0.0),
+            DVec4::new(0.0, 0.0, n / (fa - n), -1.0),
+            DVec4::new(0.0, 0.0, n * fa / (fa - n), 0.0),
+        )
+    }
+
+    pub fn view_projection(&self, width: u32, height: u32) -> DMat4 {
+        self.projection_matrix(width as f64 / height as f64) * self.view_matrix()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> Camera {
+        Camera {
+            position: DVec3::new(1.0, 2.0, 5.0),
+            look_at: DVec3::new(0.0, 0.5, 0.0),
+            up: DVec3::Y,
+            fov_y_deg: 50.0,
+            near: 0.1,
+            far: 100.0,
+        }
+    }
+
+    /// The raster projection and the CPU pixel ray must describe the same frustum: a point on
+    /// the ray of pixel (x, y) projects to that pixel's centre, at reverse-Z depth.
+    #[test]
+    fn projection_matches_pixel_rays() {
+        let c = cam();
+        let (w, h) = (64u32, 48u32);
+        let vp = c.view_projection(w, h);
+        for &(x, y) in &[(0, 0), (63, 47), (10, 30), (32, 24)] {
+            let (o, d) = c.pixel_ray(x, y, w, h);
+            for dist in [0.1, 1.0, 7.0, 100.0] {
+                let clip = vp * (o + d * dist).extend(1.0);
+                let ndc = clip.truncate() / clip.w;
+                let px = (ndc.x + 1.0) * 0.5 * w as f64;
+                let py = (ndc.y + 1.0) * 0.5 * h as f64;
+                assert!((px - (x as f64 + 0.5)).abs() < 1e-9, "x {px}");
+                assert!((py - (y as f64 + 0.5)).abs() < 1e-9, "y {py}");
+                // Reverse-Z: the view-space depth (not the ray distance) maps near → 1, far → 0.
+                let z_view = (d * dist).dot(c.basis().forward);
+                let expect = c.near * (c.far - z_view) / (z_view * (c.far - c.near));
+                assert!((ndc.z - expect).abs() < 1e-12);
+            }
+        }
+        let near_clip = vp * (c.position + c.basis().forward * c.near).extend(1.0);
+        assert!((near_clip.z / near_clip.w - 1.0).abs() < 1e-12);
+        let far_clip = vp * (c.position + c.basis().forward * c.far).extend(1.0);
+        assert!((far_clip.z / far_clip.w).abs() < 1e-12);
+    }
+
+    #[test]
+    fn row_zero_is_top() {
+        let c = cam();
+        let (_, top) = c.pixel_ray(32, 0, 64, 48);
+        let (_, bottom) = c.pixel_ray(32, 47, 64, 48);
+        assert!(top.dot(c.basis().up) > 0.0 && bottom.dot(c.basis().up) < 0.0);
+    }
+}

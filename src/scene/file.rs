@@ -1,0 +1,302 @@
+//! Reading a scene file: TOML (schema in file_schema.rs, documented in docs/scene-format.md) →
+//! validated `Scene`. Every refusal is a `SceneError` at the line:col of the offending value.
+
+use std::path::Path;
+
+use glam::{DMat4, DVec3};
+use toml::Spanned;
+
+use super::camera::Camera;
+use super::error::SceneError;
+use super::file_check::{
+    show, show_vec, show_vec_approx, Ctx, Owner, UniqueNames, ANY, FOV, NON_NEGATIVE, POSITIVE, UNIT,
+};
+use super::file_mesh::meshes;
+use super::file_schema::{CameraDef, InstanceDef, LightDef, MaterialDef, OpDef, RenderDef, SceneDef, Tables};
+use super::model::{DirectionalLight, Instance, Material, MaterialKind, RenderSettings, Scene, SceneMesh};
+use super::transform::{Transform, TransformOp};
+
+/// The most directional lights a scene may have (the raster pass's uniform array).
+pub const MAX_LIGHTS: usize = 8;
+/// The largest image side, lavapipe's and most GPUs' 2D image limit.
+pub const MAX_IMAGE_SIZE: u32 = 16384;
+/// Name and albedo of the material instances get when they name none.
+pub const DEFAULT_MATERIAL: &str = "default";
+pub const DEFAULT_ALBEDO: f64 = 0.7;
+
+/// Reads and validates the scene file at `path`.
+pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    let bytes = std::fs::read(path).map_err(|e| {
+        SceneError::whole_file(path, format!("cannot read scene file: {e} (expected a readable file)"))
+    })?;
+    let text = String::from_utf8(bytes).map_err(|e| not_utf8(path, &e))?;
+    parse_scene(&text, path)
+}
+
+/// Validates scene `text`; `path` names it in errors and anchors relative OBJ paths.
+pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    let ctx = Ctx { text, path };
+    let def: SceneDef = toml::from_str(text).map_err(|e| ctx.toml(&e))?;
+    let render = render(ctx, def.render.as_ref())?;
+    let camera = camera(ctx, def.camera.as_ref())?;
+    let lights = lights(ctx, &def.light)?;
+    let meshes = meshes(ctx, &def.mesh)?;
+    let mut materials = materials(ctx, &def.material)?;
+    let instances = instances(ctx, &def.instance, &meshes, &mut materials)?;
+    warn_unused(path, &meshes, &materials, &instances);
+    Ok(Scene { source: path.to_path_buf(), render, camera, lights, meshes, materials, instances })
+}
+
+fn not_utf8(path: &Path, e: &std::string::FromUtf8Error) -> SceneError {
+    let bytes = e.as_bytes();
+    let valid = e.utf8_error().valid_up_to();
+    // The prefix before the bad byte is valid UTF-8 by definition; it gives the line:col.
+    let prefix = std::str::from_utf8(&bytes[..valid]).unwrap_or_default();
+    let byte = bytes.get(valid).copied().unwrap_or_default();
+    let message = format!("invalid UTF-8 (byte 0x{byte:02x}); expected a UTF-8 text file");
+    SceneError::at_offset(path, prefix, valid, message)
+}
+
+fn render(ctx: Ctx, def: Option<&Spanned<RenderDef>>) -> Result<RenderSettings, SceneError> {
+    let mut r = RenderSettings::default();
+    let Some(def) = def else { return Ok(r) };
+    let o = Owner::new(ctx, "[render]", def.span());
+    let d = def.get_ref();
+    if let Some(size) = &d.size {
+        for (dim, side) in size.0.iter().zip([&mut r.width, &mut r.height]) {
+            let n = dim.get_ref().0;
+            *side = match u32::try_from(n) {
+                Ok(n) if (1..=MAX_IMAGE_SIZE).contains(&n) => n,
+                _ => return Err(o.fail(dim.span(), "size", &format!("integers in 1..={MAX_IMAGE_SIZE}"), n)),
+            };
+        }
+    }
+    r.exposure = o.num("exposure", d.exposure.as_ref(), r.exposure, POSITIVE)?;
+    r.background = o.vec3("background", d.background.as_ref(), r.background, NON_NEGATIVE)?;
+    r.ambient = o.vec3("ambient", d.ambient.as_ref(), r.ambient, NON_NEGATIVE)?;
+    Ok(r)
+}
+
+fn camera(ctx: Ctx, def: Option<&Spanned<CameraDef>>) -> Result<Camera, SceneError> {
+    let def = def.ok_or_else(|| {
+        ctx.err(0..0, "missing required table [camera] (expected at least `position` and `look_at`)")
+    })?;
+    let o = Owner::new(ctx, "[camera]", def.span());
+    let c = def.get_ref();
+    let vec3 = "an array of 3 numbers";
+    let position = o.check_vec3("position", o.required("position", c.position.as_ref(), vec3)?, ANY)?;
+    let look_at_def = o.required("look_at", c.look_at.as_ref(), vec3)?;
+    let look_at = o.check_vec3("look_at", look_at_def, ANY)?;
+    let up = o.vec3("up", c.up.as_ref(), DVec3::Y, ANY)?;
+    let fov_y_deg = o.num("fov_y_deg", c.fov_y_deg.as_ref(), 45.0, FOV)?;
+    let near = o.num("near", c.near.as_ref(), 0.1, POSITIVE)?;
+    let far = o.num("far", c.far.as_ref(), Camera::DEFAULT_FAR, ANY)?;
+    if far <= near {
+        let span = c.far.as_ref().or(c.near.as_ref()).map_or(o.span.clone(), Spanned::span);
+        let default = if c.far.is_none() { " (the default)" } else { "" };
+        return Err(o.fail(
+            span,
+            "far",
+            &format!("a number > near ({})", show(near)),
+            format!("{}{default}", show(far)),
+        ));
+    }
+    // try_normalize also refuses a difference that overflows to infinity.
+    let Some(forward) = (look_at - position).try_normalize() else {
+        let expected = "a point different from `position`";
+        return Err(o.fail(look_at_def.span(), "look_at", expected, show_vec(look_at)));
+    };
+    check_up(&o, c, up, forward)?;
+    Ok(Camera { position, look_at, up, fov_y_deg, near, far })
+}
+
+/// `up` must leave a well-defined right vector: non-zero and not (nearly) along the view.
+fn check_up(o: &Owner, c: &CameraDef, up: DVec3, forward: DVec3) -> Result<(), SceneError> {
+    let sin_angle = up.try_normalize().map_or(0.0, |u| u.cross(forward).length());
+    if sin_angle > 1e-6 {
+        return Ok(());
+    }
+    // With the default `up`, the fix is to write one: point at `look_at`.
+    let span = c.up.as_ref().or(c.look_at.as_ref()).map_or(o.span.clone(), Spanned::span);
+    let expected =
+        format!("a non-zero vector not parallel to the view direction {}", show_vec_approx(forward));
+    let default = if c.up.is_none() { " (the default)" } else { "" };
+    Err(o.fail(span, "up", &expected, format!("{}{default}", show_vec(up))))
+}
+
+fn lights(ctx: Ctx, defs: &Tables<LightDef>) -> Result<Vec<DirectionalLight>, SceneError> {
+    if let Some(extra) = defs.0.get(MAX_LIGHTS) {
+        let message =
+            format!("too many [[light]] tables (expected at most {MAX_LIGHTS}, found {})", defs.0.len());
+        return Err(ctx.err(extra.span(), message));
+    }
+    let light_at = |(i, def): (usize, &Spanned<LightDef>)| {
+        light(Owner::new(ctx, format!("light {}", i + 1), def.span()), def.get_ref())
+    };
+    defs.0.iter().enumerate().map(light_at).collect()
+}
+
+fn light(o: Owner, def: &LightDef) -> Result<DirectionalLight, SceneError> {
+    o.kind(def.kind.as_ref(), &["directional"])?;
+    let direction_def = o.required("direction", def.direction.as_ref(), "an array of 3 numbers")?;
+    let direction = o.check_vec3("direction", direction_def, ANY)?;
+    let Some(direction) = direction.try_normalize() else {
+        return Err(o.fail(direction_def.span(), "direction", "a non-zero vector", show_vec(direction)));
+    };
+    let color = o.vec3("color", def.color.as_ref(), DVec3::ONE, NON_NEGATIVE)?;
+    let intensity = o.num("intensity", def.intensity.as_ref(), 1.0, NON_NEGATIVE)?;
+    Ok(DirectionalLight { direction, color, intensity })
+}
+
+fn materials(ctx: Ctx, defs: &Tables<MaterialDef>) -> Result<Vec<Material>, SceneError> {
+    let mut names = UniqueNames::new("material");
+    let mut out = Vec::with_capacity(defs.0.len());
+    for def in &defs.0 {
+        let name = Owner::new(ctx, "[[material]]", def.span()).name(def.get_ref().name.as_ref())?;
+        names.insert(ctx, name)?;
+        let o = Owner::new(ctx, format!("material \"{}\"", name.get_ref()), def.span());
+        out.push(material(&o, name.get_ref(), def.get_ref())?);
+    }
+    Ok(out)
+}
+
+fn material(o: &Owner, name: &str, def: &MaterialDef) -> Result<Material, SceneError> {
+    o.kind(def.kind.as_ref(), &["lambert"])?;
+    let albedo = o.vec3("albedo", def.albedo.as_ref(), DVec3::splat(DEFAULT_ALBEDO), UNIT)?;
+    Ok(Material { name: name.to_owned(), kind: MaterialKind::Lambert, albedo })
+}
+
+/// Resolves names to indices. An instance without `material` gets the scene's "default" material,
+/// added (grey, albedo 0.7) only when the file does not declare one.
+fn instances(
+    ctx: Ctx,
+    defs: &Tables<InstanceDef>,
+    meshes: &[SceneMesh],
+    materials: &mut Vec<Material>,
+) -> Result<Vec<Instance>, SceneError> {
+    let mesh_names: Vec<&str> = meshes.iter().map(|m| m.name.as_str()).collect();
+    let mut out = Vec::with_capacity(defs.0.len());
+    for (i, def) in defs.0.iter().enumerate() {
+        let d = def.get_ref();
+        let label = match &d.name {
+            Some(name) => format!("instance \"{}\"", name.get_ref()),
+            None => format!("instance {}", i + 1),
+        };
+        let o = Owner::new(ctx, label, def.span());
+        let mesh = o.required("mesh", d.mesh.as_ref(), "the name of a [[mesh]]")?;
+        let mesh = lookup(&o, "mesh", mesh, &mesh_names)?;
+        let material = match &d.material {
+            Some(m) => material_index(&o, m, materials)?,
+            None => default_material(materials),
+        };
+        let (ops, transform) = transform(&o, d.transform.as_ref())?;
+        out.push(Instance {
+            name: d.name.as_ref().map(|n| n.get_ref().clone()),
+            mesh,
+            material,
+            ops,
+            transform,
+        });
+    }
+    Ok(out)
+}
+
+fn material_index(
+    o: &Owner,
+    name: &Spanned<String>,
+    materials: &mut Vec<Material>,
+) -> Result<usize, SceneError> {
+    if name.get_ref() == DEFAULT_MATERIAL {
+        return Ok(default_material(materials));
+    }
+    let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+    lookup(o, "material", name, &names)
+}
+
+fn default_material(materials: &mut Vec<Material>) -> usize {
+    if let Some(i) = materials.iter().position(|m| m.name == DEFAULT_MATERIAL) {
+        return i;
+    }
+    let albedo = DVec3::splat(DEFAULT_ALBEDO);
+    materials.push(Material { name: DEFAULT_MATERIAL.into(), kind: MaterialKind::Lambert, albedo });
+    materials.len() - 1
+}
+
+/// The index of `name` in `names`, or an error listing the declared names.
+fn lookup(o: &Owner, what: &str, name: &Spanned<String>, names: &[&str]) -> Result<usize, SceneError> {
+    if let Some(i) = names.iter().position(|n| n == name.get_ref()) {
+        return Ok(i);
+    }
+    let declared = if names.is_empty() {
+        format!("no [[{what}]] is declared")
+    } else {
+        let quoted: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+        format!("declared: {}", quoted.join(", "))
+    };
+    let message = format!("{} `{what}`: no {what} named \"{}\" ({declared})", o.label, name.get_ref());
+    Err(o.ctx.err(name.span(), message))
+}
+
+type OpList = Spanned<Tables<OpDef>>;
+
+/// Checks each step where it is written, then the composition at the `transform` key.
+fn transform(o: &Owner, list: Option<&OpList>) -> Result<(Vec<TransformOp>, Transform), SceneError> {
+    let Some(list) = list else {
+        return Ok((Vec::new(), Transform::IDENTITY));
+    };
+    let mut ops = Vec::with_capacity(list.get_ref().0.len());
+    for (i, step) in list.get_ref().0.iter().enumerate() {
+        let (name, op) = op(o, step)?;
+        Transform::from_ops(std::slice::from_ref(&op))
+            .map_err(|e| o.ctx.err(step.span(), format!("{} transform[{i}] ({name}): {e}", o.label)))?;
+        ops.push(op);
+    }
+    let transform = Transform::from_ops(&ops).map_err(|e| {
+        let key = o.ctx.key_start(&list.span());
+        o.ctx.err(
+            key..list.span().end,
+            format!("{} `transform`: the composed transform is refused: {e}", o.label),
+        )
+    })?;
+    Ok((ops, transform))
+}
+
+/// One `{ translate = … }`-style step: exactly one key.
+fn op(o: &Owner, step: &Spanned<OpDef>) -> Result<(&'static str, TransformOp), SceneError> {
+    let d = step.get_ref();
+    let mut found = Vec::new();
+    if let Some(t) = &d.translate {
+        found.push(("translate", TransformOp::Translate(t.vec3())));
+    }
+    if let Some(r) = &d.rotate {
+        found.push(("rotate", TransformOp::Rotate { angle_deg: r.angle_deg.0, axis: r.axis.vec3() }));
+    }
+    if let Some(s) = &d.scale {
+        found.push(("scale", TransformOp::Scale(s.vec3())));
+    }
+    if let Some(m) = &d.matrix {
+        let columns = m.0.map(|column| column.values());
+        found.push(("matrix", TransformOp::Matrix(DMat4::from_cols_array_2d(&columns))));
+    }
+    if found.len() == 1 {
+        return Ok(found.remove(0));
+    }
+    let keys: Vec<String> = found.iter().map(|(k, _)| format!("`{k}`")).collect();
+    let found = if keys.is_empty() { "none".to_owned() } else { keys.join(" and ") };
+    let expected = "a table with exactly one of `translate`, `rotate`, `scale`, `matrix`";
+    Err(o.ctx.err(step.span(), format!("{} transform step: expected {expected}, found {found}", o.label)))
+}
+
+/// Declared but unused meshes and materials are legal (a scene being edited) but worth a note.
+fn warn_unused(path: &Path, meshes: &[SceneMesh], materials: &[Material], instances: &[Instance]) {
+    for (i, m) in meshes.iter().enumerate() {
+        if !instances.iter().any(|inst| inst.mesh == i) {
+            log::warn!("{}: mesh \"{}\" is declared but no instance uses it", path.display(), m.name);
+        }
+    }
+    for (i, m) in materials.iter().enumerate() {
+        if !instances.iter().any(|inst| inst.material == i) {
+            log::warn!("{}: material \"{}\" is declared but no instance uses it", path.display(), m.name);
+        }
+    }
+}

@@ -1,0 +1,131 @@
+//! The frame's images (depth, HDR colour, G-buffer, sRGB output), sized to the frame's extent.
+//! Each remembers its last use so the pass runner can place the barriers.
+
+use crate::gpu::barriers::ImageAccess;
+use crate::gpu::memory::{Image, Memory};
+use crate::gpu::{vk, GpuContext, GpuResult};
+
+/// Every image a frame may hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Target {
+    /// D32 reverse-Z depth of the raster.
+    Depth,
+    /// Linear HDR colour, RGBA16F.
+    Hdr,
+    /// World normal facing the camera (xyz), w = 1 where a surface was hit; RGBA16F.
+    Normal,
+    /// (instance id + 1, material id); 0 where nothing was hit; RG32UI.
+    Ids,
+    /// Distance along the view ray from the camera to the first surface, +inf where none; R32F.
+    /// Compute passes that add surfaces update this one (D32 is no storage image on lavapipe).
+    Distance,
+    /// Tonemapped sRGB colour, RGBA8.
+    Ldr,
+}
+
+impl Target {
+    pub const ALL: [Target; 6] =
+        [Target::Depth, Target::Hdr, Target::Normal, Target::Ids, Target::Distance, Target::Ldr];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Depth => "depth",
+            Target::Hdr => "hdr",
+            Target::Normal => "normal",
+            Target::Ids => "ids",
+            Target::Distance => "distance",
+            Target::Ldr => "ldr",
+        }
+    }
+
+    pub fn format(self) -> vk::Format {
+        match self {
+            Target::Depth => vk::Format::D32_SFLOAT,
+            Target::Hdr | Target::Normal => vk::Format::R16G16B16A16_SFLOAT,
+            Target::Ids => vk::Format::R32G32_UINT,
+            Target::Distance => vk::Format::R32_SFLOAT,
+            Target::Ldr => vk::Format::R8G8B8A8_UNORM,
+        }
+    }
+
+    /// Bytes per texel, for read-back buffers.
+    pub fn texel_bytes(self) -> u64 {
+        match self {
+            Target::Depth | Target::Distance | Target::Ldr => 4,
+            Target::Hdr | Target::Normal | Target::Ids => 8,
+        }
+    }
+
+    fn usage(self) -> vk::ImageUsageFlags {
+        let base = vk::ImageUsageFlags::TRANSFER_SRC;
+        match self {
+            Target::Depth => {
+                base | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED
+            }
+            Target::Ldr => base | vk::ImageUsageFlags::STORAGE,
+            _ => base | vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
+        }
+    }
+}
+
+struct Tracked {
+    image: Image,
+    last: ImageAccess,
+}
+
+pub struct Targets {
+    pub extent: vk::Extent2D,
+    images: Vec<(Target, Tracked)>,
+}
+
+impl Targets {
+    pub fn new(ctx: &GpuContext, memory: &Memory, extent: vk::Extent2D) -> GpuResult<Self> {
+        let mut targets = Targets { extent, images: Vec::new() };
+        for target in Target::ALL {
+            match memory.create_image(ctx, target.name(), extent, target.format(), target.usage()) {
+                Ok(image) => targets.images.push((target, Tracked { image, last: ImageAccess::UNDEFINED })),
+                Err(e) => {
+                    targets.destroy(ctx, memory);
+                    return Err(e);
+                }
+            }
+        }
+        Ok(targets)
+    }
+
+    pub fn image(&self, target: Target) -> &Image {
+        &self.tracked(target).image
+    }
+
+    fn tracked(&self, target: Target) -> &Tracked {
+        // Every Target is created in new(); a missing one is a programming error caught by tests.
+        &self.images.iter().find(|(t, _)| *t == target).expect("every target is created").1
+    }
+
+    /// The barrier taking `target` to `next`, recording `next` as its last use.
+    pub fn transition(
+        &mut self,
+        target: Target,
+        next: ImageAccess,
+    ) -> Option<vk::ImageMemoryBarrier2<'static>> {
+        let tracked = &mut self.images.iter_mut().find(|(t, _)| *t == target)?.1;
+        let barrier =
+            crate::gpu::barriers::image_barrier(tracked.image.raw, tracked.image.format, tracked.last, next);
+        tracked.last = next;
+        barrier
+    }
+
+    /// Forgets the contents (every frame clears or overwrites them): the next transition starts
+    /// from UNDEFINED but still waits for the last use, so a new frame never races the previous one.
+    pub fn discard_all(&mut self) {
+        for (_, t) in &mut self.images {
+            t.last.layout = vk::ImageLayout::UNDEFINED;
+        }
+    }
+
+    pub fn destroy(self, ctx: &GpuContext, memory: &Memory) {
+        for (_, t) in self.images {
+            memory.destroy_image(ctx, t.image);
+        }
+    }
+}
