@@ -171,9 +171,9 @@ fn tonemap_matches_cpu_twin() {
     let hdr = frame.aov(Aov::Hdr).unwrap();
     let color = frame.color.as_ref().unwrap();
     for (i, px) in color.chunks_exact(4).enumerate() {
-        for c in 0..3 {
+        for (c, &gpu) in px.iter().take(3).enumerate() {
             let cpu = tonemap_channel(hdr.data[i * 4 + c] as f64, exposure);
-            assert!((px[c] as f64 - cpu).abs() <= 1.0, "pixel {i} channel {c}: gpu {} cpu {cpu}", px[c]);
+            assert!((gpu as f64 - cpu).abs() <= 1.0, "pixel {i} channel {c}: gpu {gpu} cpu {cpu}");
         }
         assert_eq!(px[3], 255);
     }
@@ -195,8 +195,8 @@ fn empty_scene_renders_background_and_infinite_depth() {
     assert!(frame.aov(Aov::Normal).unwrap().data.iter().all(|&n| n == 0.0));
     let want = [bg.x, bg.y, bg.z].map(|c| tonemap_channel(c as f32 as f64, exposure));
     for px in frame.color.as_ref().unwrap().chunks_exact(4) {
-        for c in 0..3 {
-            assert!((px[c] as f64 - want[c]).abs() <= 1.0);
+        for (got, want) in px.iter().zip(want) {
+            assert!((*got as f64 - want).abs() <= 1.0);
         }
     }
     common::assert_clean(&rt);

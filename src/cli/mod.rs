@@ -3,7 +3,7 @@
 mod profile;
 mod render;
 
-use std::path::PathBuf;
+use std::path::Path;
 
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand};
@@ -50,7 +50,7 @@ fn parse_size(text: &str) -> anyhow::Result<(u32, u32)> {
 }
 
 /// Loads the scene and picks the size: `--size` or the scene's `[render] size`.
-fn load(scene: &PathBuf, size: Option<&str>) -> anyhow::Result<(hadou::scene::Scene, (u32, u32))> {
+fn load(scene: &Path, size: Option<&str>) -> anyhow::Result<(hadou::scene::Scene, (u32, u32))> {
     let size = size.map(parse_size).transpose().context("--size")?;
     let scene = hadou::scene::load_scene(scene)?;
     let size = size.unwrap_or((scene.render.width, scene.render.height));

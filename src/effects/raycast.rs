@@ -4,12 +4,14 @@
 //! Each mesh gets a BVH (binned SAH, built once) over f64 copies of its f32 positions. Triangles
 //! are tested with the watertight ray/triangle test of Woop, Benthin & Wald (JCGT 2013) in f64.
 //! Where the paper falls back to higher precision for an edge function that rounds to zero, this
-//! version recomputes any edge function within rounding of zero with an FMA difference of products
-//! (exact sign), and breaks exact zeros by simulation of simplicity: the ray is treated as if
-//! shifted by (ε, ε²) in the projected plane. The tie-break depends only on the edge's projected
-//! end points, so the two triangles sharing an edge always disagree about it and the fan around a
-//! vertex agrees on one triangle: a line through an edge or a vertex of a closed mesh crosses it
-//! an even number of times, entering and leaving in turn.
+//! version recomputes any edge function within rounding of zero with an FMA difference of products,
+//! so every sign is exact for the (rounded, but per-vertex deterministic) projected corners, and
+//! breaks exact zeros by simulation of simplicity: the ray is treated as if shifted by (ε, ε²) in
+//! the projected plane. The tie-break depends only on the edge's projected end points, so the two
+//! triangles sharing an edge never both claim it, and the whole classification is that of one real,
+//! infinitesimally shifted ray: a line through an edge or a vertex of a closed mesh crosses it an
+//! even number of times, entering and leaving in turn (see `crossings_in` for equal-t ordering).
+//! Without the tie-break the tests below fail (edge and vertex hits count twice).
 
 use glam::DVec3;
 
@@ -141,6 +143,24 @@ impl MeshBvh {
         out
     }
 
+    /// The fraction of the segment p → q inside the solid (winding number > 0 along the whole
+    /// line, so cavities and overlapping closed parts come out right): the quantity the thickness
+    /// LUT stores. 0 for p = q or a non-finite segment.
+    pub fn inside_fraction(&self, p: DVec3, q: DVec3) -> f64 {
+        // With dir = q − p the segment is t ∈ [0, 1].
+        let mut winding = 0i64;
+        let mut from = f64::NEG_INFINITY;
+        let mut inside = 0.0;
+        for x in self.crossings(p, q - p) {
+            if winding > 0 {
+                inside += (x.t.min(1.0) - from.max(0.0)).max(0.0);
+            }
+            winding += if x.entering { 1 } else { -1 };
+            from = x.t;
+        }
+        inside.clamp(0.0, 1.0)
+    }
+
     /// Unit normal of triangle `t`'s counter-clockwise winding (zero for a degenerate one).
     pub fn triangle_normal(&self, t: usize) -> DVec3 {
         let [a, b, c] = self.corners(t);
@@ -155,7 +175,8 @@ impl MeshBvh {
     /// `visit(triangle, t, entering)` returns the new t_hi (a nearest-hit search shrinks it).
     fn traverse(&self, ray: &Ray, t_min: f64, t_max: f64, mut visit: impl FnMut(usize, f64, bool) -> f64) {
         let mut t_hi = t_max;
-        if self.nodes.is_empty() || !(t_min <= t_hi) {
+        let ordered = t_min <= t_hi; // false for NaN bounds too
+        if self.nodes.is_empty() || !ordered {
             return;
         }
         let mut stack: Vec<u32> = Vec::with_capacity(64);
@@ -297,7 +318,7 @@ fn split(prims: &[Prim], order: &mut [u32]) -> Option<usize> {
             (lo.min(prims[t as usize].centroid), hi.max(prims[t as usize].centroid))
         });
     let extent = cmax - cmin;
-    if !(extent.max_element() > 0.0) {
+    if extent.max_element() <= 0.0 {
         // All centroids coincide: no plane separates them.
         return None;
     }
@@ -826,6 +847,24 @@ mod tests {
         // at least the inscribed ball's.
         let solid = (c[1].t - c[0].t) + (c[3].t - c[2].t);
         assert!(solid > 1.0 - 1e-12 && solid < 1.0 + 0.02, "{solid}");
+    }
+
+    #[test]
+    fn inside_fraction_of_segments() {
+        let bvh = MeshBvh::new(&cube(2.0).unwrap()).unwrap();
+        let f = |p: [f64; 3], q: [f64; 3]| bvh.inside_fraction(DVec3::from(p), DVec3::from(q));
+        assert!((f([-2.0, 0.0, 0.0], [2.0, 0.0, 0.0]) - 0.5).abs() < 1e-15);
+        assert!((f([0.0, 0.0, 0.0], [4.0, 0.0, 0.0]) - 0.25).abs() < 1e-15);
+        assert_eq!(f([-0.5, 0.2, 0.1], [0.5, 0.3, 0.0]), 1.0);
+        assert_eq!(f([2.0, 0.0, 0.0], [3.0, 0.0, 0.0]), 0.0);
+        assert_eq!(f([0.0; 3], [0.0; 3]), 0.0);
+        // Through the cavity: the cube's 2 minus the cavity's chord (≤ its diameter 1).
+        let bvh = MeshBvh::new(&cavity_cube(2.0, 0.5, 32, 16).unwrap()).unwrap();
+        let frac = bvh.inside_fraction(DVec3::new(-0.3, -2.0, 0.1), DVec3::new(0.2, 2.0, -0.1));
+        let len = DVec3::new(0.5, 4.0, -0.2).length();
+        assert!(frac * len > 1.0 - 1e-12 && frac * len < 2.0, "{frac}");
+        let solid = bvh.inside_fraction(DVec3::new(-2.0, 0.0, 0.0), DVec3::new(2.0, 0.0, 0.0)) * 4.0;
+        assert!((solid - 1.0).abs() < 0.01, "{solid}");
     }
 
     #[test]

@@ -56,6 +56,9 @@ impl ValidationLog {
 }
 
 /// The messenger callback; `user_data` points at the context's `ValidationLog`.
+///
+/// # Safety
+/// Called by the Vulkan loader only, with `user_data` set to a live `ValidationLog`.
 pub unsafe extern "system" fn messenger_callback(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
     _types: vk::DebugUtilsMessageTypeFlagsEXT,

@@ -18,7 +18,7 @@ pub struct Mesh {
     pub indices: Vec<u32>,
 }
 
-/// What a scene asks for; `build_mesh` turns it into a `Mesh`.
+/// What a scene asks for; `MeshSpec::build` turns it into a `Mesh`.
 #[derive(Clone, Debug, PartialEq)]
 pub enum MeshSpec {
     /// Square in the xz-plane centred at the origin, normal +y.
@@ -161,7 +161,9 @@ impl Mesh {
         }
         for (i, n) in self.normals.iter().enumerate() {
             let len = DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64).length();
-            if !((len - 1.0).abs() <= NORMAL_LENGTH_TOLERANCE) {
+            // Written so a NaN length fails too.
+            let unit = (len - 1.0).abs() <= NORMAL_LENGTH_TOLERANCE;
+            if !unit {
                 return Err(format!("normal {i} {n:?} has length {len} (expected unit length)"));
             }
         }
@@ -238,8 +240,9 @@ impl Mesh {
 pub fn is_degenerate(a: DVec3, b: DVec3, c: DVec3) -> bool {
     let twice_area = (b - a).cross(c - a).length();
     let longest2 = (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
-    // Written as "not above" so NaN and all-zero triangles count as degenerate.
-    !(twice_area > DEGENERATE_RELATIVE_AREA * longest2)
+    // Written as "not well shaped" so NaN and all-zero triangles count as degenerate.
+    let well_shaped = twice_area > DEGENERATE_RELATIVE_AREA * longest2;
+    !well_shaped
 }
 
 #[derive(Clone, Copy, Debug, Default)]

@@ -113,7 +113,8 @@ impl Parser<'_> {
             "vn" => {
                 let n = self.numbers(&at, 3, 3, "vn takes x y z", "normal coordinate")?;
                 let n = DVec3::new(n[0], n[1], n[2]);
-                if !(n.length() > 0.0) {
+                // Components are finite f32 values, so the length is finite.
+                if n.length() == 0.0 {
                     return Err(self.err(
                         line,
                         args[0].column,
@@ -457,6 +458,58 @@ mod tests {
         assert_eq!(m.triangle_count(), 2);
         assert_eq!(m.degenerate_triangles(), vec![1]);
         m.validate_basic().unwrap();
+    }
+
+    /// Random lines of OBJ-ish tokens: every outcome is a mesh that passes `validate_basic` or an
+    /// error, never a panic.
+    #[test]
+    fn random_input_never_panics() {
+        let words = [
+            "v",
+            "vn",
+            "vt",
+            "f",
+            "o",
+            "1",
+            "-1",
+            "0",
+            "2",
+            "0.5",
+            "2/3",
+            "1//1",
+            "1/1/1",
+            "/",
+            "//",
+            "nan",
+            "1e39",
+            "abc",
+            "#",
+            "\t",
+            "ü",
+            "3/-1/2",
+            "99999999999999999999",
+            "-9223372036854775808",
+            "-3",
+        ];
+        let mut state = 0x1234_5678_9abc_def0u64;
+        let mut next = move |n: usize| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % n as u64) as usize
+        };
+        for _ in 0..3000 {
+            let mut text = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n");
+            for _ in 0..next(6) {
+                let len = 1 + next(6);
+                let line: Vec<&str> = (0..len).map(|_| words[next(words.len())]).collect();
+                text.push_str(&line.join(" "));
+                text.push('\n');
+            }
+            if let Ok(m) = parse_obj(&text, Path::new("fuzz.obj")) {
+                m.validate_basic().unwrap();
+            }
+        }
     }
 
     #[test]

@@ -159,8 +159,10 @@ pub struct BottleProfile {
 ///   w·(L−b)/a with a = 0.4R, b = 0.2H, L = √(a²+b²)), open at the top where the flat rim
 ///   annulus (r from 0.6R−w to 0.6R at y = H/2) joins the two walls;
 /// - liquid: the inner surface offset inward by the gap g = 0.02·w, filled from its bottom
-///   y₀+w+g up to the level y₀+w+g + fill·((H/2−g) − (y₀+w+g)), i.e. `fill` is the fraction of
-///   the cavity's height (fill = 1 stops g below the rim).
+///   y₀+w+g up to the level y₀+w+g + max(g, fill·((H/2−g) − (y₀+w+g))), i.e. `fill` is the
+///   fraction of the cavity's height (fill = 1 stops g below the rim; any fill > 0 is at least g
+///   deep). A wall corner closer than g/4 below the level is dropped from the liquid outline so
+///   no band is thinner than f32 can hold (the liquid then stays ≥ 0.75·g from the glass).
 pub fn bottle_profile(radius: f64, height: f64, wall: f64, fill: f64) -> Result<BottleProfile, MeshError> {
     let (r, h, w, fill) = check_bottle(radius, height, wall, fill)?;
     let y0 = -h / 2.0;
@@ -177,7 +179,9 @@ pub fn bottle_profile(radius: f64, height: f64, wall: f64, fill: f64) -> Result<
     let liquid = (fill > 0.0).then(|| {
         let side = offset_left(&inner, gap);
         let bottom = side[0][1];
-        cut_at_level(&side, bottom + fill * (h / 2.0 - gap - bottom))
+        // At least one gap deep, so a tiny fill still has distinct f32 top and bottom.
+        let depth = (fill * (h / 2.0 - gap - bottom)).max(gap);
+        cut_at_level(&side, bottom + depth, gap / 4.0)
     });
     Ok(BottleProfile { outer, inner, liquid })
 }
@@ -261,8 +265,10 @@ fn offset_left(poly: &[[f64; 2]], d: f64) -> Vec<[f64; 2]> {
     out
 }
 
-/// The part of an upward polyline below `level`, closed back to the axis along the level.
-fn cut_at_level(poly: &[[f64; 2]], level: f64) -> Vec<[f64; 2]> {
+/// The part of an upward polyline below `level`, closed back to the axis along the level. A
+/// corner closer than `min_spacing` to the cut point is dropped (the band between them would
+/// collapse in f32).
+fn cut_at_level(poly: &[[f64; 2]], level: f64, min_spacing: f64) -> Vec<[f64; 2]> {
     let mut out = vec![poly[0]];
     for s in poly.windows(2) {
         let (p, q) = (s[0], s[1]);
@@ -271,7 +277,11 @@ fn cut_at_level(poly: &[[f64; 2]], level: f64) -> Vec<[f64; 2]> {
             continue;
         }
         let t = (level - p[1]) / (q[1] - p[1]);
-        out.push([p[0] + t * (q[0] - p[0]), level]);
+        let cut = [p[0] + t * (q[0] - p[0]), level];
+        if out.len() > 1 && (DVec2::from(cut) - DVec2::from(p)).length() < min_spacing {
+            out.pop();
+        }
+        out.push(cut);
         break;
     }
     out.push([0.0, level]);
@@ -629,6 +639,25 @@ mod tests {
             }
         }
         assert!(bottle_parts(r, h, w, 0.0, seg).unwrap().1.is_none());
+    }
+
+    /// Fills that put the level on, just above and just below each wall corner, and tiny ones.
+    #[test]
+    fn bottle_liquid_is_closed_for_awkward_levels() {
+        let (r, h, w) = (0.5, 1.6, 0.05);
+        let p = bottle_profile(r, h, w, 1.0).unwrap();
+        let side = offset_left(&p.inner, 0.02 * w);
+        let (bottom, top) = (side[0][1], h / 2.0 - 0.02 * w);
+        let mut fills = vec![1e-12, 1e-6, 1e-3, 1.0];
+        for corner in &side[1..] {
+            let f = (corner[1] - bottom) / (top - bottom);
+            fills.extend([f, f * (1.0 + 1e-12), f * (1.0 - 1e-12), f + 1e-7, f - 1e-7]);
+        }
+        for fill in fills.into_iter().filter(|&f| f > 0.0 && f <= 1.0) {
+            let (glass, liquid) = bottle_parts(r, h, w, fill, 12).unwrap();
+            check_solid(&glass);
+            check_solid(&liquid.unwrap());
+        }
     }
 
     #[test]

@@ -71,7 +71,7 @@ impl TransformOp {
             TransformOp::Rotate { angle_deg, axis } => {
                 check_finite(&[angle_deg, axis.x, axis.y, axis.z])?;
                 let len = axis.length();
-                if !(len > 0.0) || !len.is_finite() {
+                if len.is_nan() || len <= 0.0 || !len.is_finite() {
                     return Err(TransformError::ZeroAxis);
                 }
                 let q = DQuat::from_axis_angle(axis / len, angle_deg.to_radians());
