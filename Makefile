@@ -22,7 +22,7 @@ demo: build check-vulkan
 
 # The whole test suite on lavapipe (or any Vulkan device), validation on in every GPU test.
 test: check-vulkan
-	$(CARGO) test --all-targets
+	$(CARGO) test
 
 lint:
 	$(CARGO) fmt --all -- --check

@@ -12,16 +12,20 @@ pub enum Aov {
     Hdr,
     /// World normal of the first surface, turned toward the camera (xyz), w = 1 on a hit, 0 elsewhere.
     Normal,
+    /// Σ over the scene's waves of the raw line integral H along the view ray, clipped by the
+    /// depth (no colour, no intensity). One channel. Only for scenes with waves.
+    Energy,
 }
 
 impl Aov {
-    pub const ALL: [Aov; 3] = [Aov::Depth, Aov::Hdr, Aov::Normal];
+    pub const ALL: [Aov; 4] = [Aov::Depth, Aov::Hdr, Aov::Normal, Aov::Energy];
 
     pub fn name(self) -> &'static str {
         match self {
             Aov::Depth => "depth",
             Aov::Hdr => "hdr",
             Aov::Normal => "normal",
+            Aov::Energy => "energy",
         }
     }
 
@@ -34,12 +38,13 @@ impl Aov {
             Aov::Depth => Target::Distance,
             Aov::Hdr => Target::Hdr,
             Aov::Normal => Target::Normal,
+            Aov::Energy => Target::Energy,
         }
     }
 
     pub fn channels(self) -> u32 {
         match self {
-            Aov::Depth => 1,
+            Aov::Depth | Aov::Energy => 1,
             Aov::Hdr | Aov::Normal => 4,
         }
     }

@@ -12,6 +12,7 @@ use crate::gpu::recorder::Recorder;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::timestamps::TimestampPool;
 use crate::gpu::{vk, GpuContext, GpuResult};
+use crate::passes::energy_wave::EnergyWavePass;
 use crate::passes::raster::RasterPass;
 use crate::passes::tonemap::TonemapPass;
 use crate::passes::{Pass, PassInputs};
@@ -23,35 +24,56 @@ use crate::targets::{Target, Targets};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PassKind {
     Raster,
+    EnergyWave,
     Tonemap,
 }
 
 /// Only the passes this scene needs.
-pub fn plan(_scene: &Scene) -> Vec<PassKind> {
+pub fn plan(scene: &Scene) -> Vec<PassKind> {
     // The raster always runs: it clears the G-buffer every later pass reads, even with no instances.
-    vec![PassKind::Raster, PassKind::Tonemap]
+    let mut kinds = vec![PassKind::Raster];
+    if !scene.waves.is_empty() {
+        kinds.push(PassKind::EnergyWave);
+    }
+    kinds.push(PassKind::Tonemap);
+    kinds
+}
+
+fn boxed<P: Pass + 'static>(pass: GpuResult<P>) -> GpuResult<Box<dyn Pass>> {
+    pass.map(|p| Box::new(p) as Box<dyn Pass>)
 }
 
 pub fn build_passes(
     ctx: &GpuContext,
+    memory: &Memory,
     compiler: &mut ShaderCompiler,
+    scene: &Scene,
     kinds: &[PassKind],
 ) -> GpuResult<Vec<Box<dyn Pass>>> {
     let mut passes: Vec<Box<dyn Pass>> = Vec::new();
     for kind in kinds {
-        let pass: GpuResult<Box<dyn Pass>> = match kind {
-            PassKind::Raster => RasterPass::new(ctx, compiler).map(|p| Box::new(p) as Box<dyn Pass>),
-            PassKind::Tonemap => TonemapPass::new(ctx, compiler).map(|p| Box::new(p) as Box<dyn Pass>),
+        let pass = match kind {
+            PassKind::Raster => boxed(RasterPass::new(ctx, compiler)),
+            PassKind::EnergyWave => boxed(EnergyWavePass::new(ctx, memory, compiler, scene)),
+            PassKind::Tonemap => boxed(TonemapPass::new(ctx, compiler)),
         };
         match pass {
             Ok(p) => passes.push(p),
             Err(e) => {
-                passes.iter().for_each(|p| p.destroy(ctx));
+                passes.iter_mut().for_each(|p| p.destroy(ctx, memory));
                 return Err(e);
             }
         }
     }
     Ok(passes)
+}
+
+/// The images the passes touch: only these are created.
+pub fn targets_used(passes: &[Box<dyn Pass>]) -> Vec<Target> {
+    let mut used: Vec<Target> = passes.iter().flat_map(|p| p.uses()).map(|(t, _)| t).collect();
+    used.sort();
+    used.dedup();
+    used
 }
 
 /// GPU time of one pass in one frame.
@@ -106,7 +128,7 @@ impl FrameRunner {
         &mut self,
         ctx: &GpuContext,
         memory: &Memory,
-        passes: &[Box<dyn Pass>],
+        passes: &mut [Box<dyn Pass>],
         targets: &mut Targets,
         scene_gpu: &SceneGpu,
         scene: &Scene,
@@ -114,6 +136,9 @@ impl FrameRunner {
         readback: &[Target],
     ) -> GpuResult<(FrameStats, Vec<Readback>)> {
         let frame_start = Instant::now();
+        for pass in passes.iter_mut() {
+            pass.prepare(scene, time, targets.extent)?;
+        }
         let mut buffers = Vec::new();
         for &target in readback {
             let e = targets.extent;

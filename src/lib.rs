@@ -1,8 +1,4 @@
-//! hadou (波動): a game-effect runtime on Vulkan. A scene is rasterized into depth and a small
-//! G-buffer; compute passes (energy wave, translucency, metaballs) run on top of it.
-//!
-//! The headless [`Runtime`] is the easy path: create it, load a [`scene::Scene`], render frames,
-//! read back colour and AOVs. See `README.md` for the CLI and `docs/` for the scene format.
+#![doc = include_str!("../README.md")]
 
 pub mod aov;
 pub mod effects;

@@ -3,7 +3,7 @@
 use std::mem::ManuallyDrop;
 
 use crate::aov::{Aov, AovImage};
-use crate::frame::{build_passes, plan, FrameRunner, FrameStats, Readback};
+use crate::frame::{build_passes, plan, targets_used, FrameRunner, FrameStats, Readback};
 use crate::gpu::memory::Memory;
 use crate::gpu::pipeline::DescriptorPool;
 use crate::gpu::shader::ShaderCompiler;
@@ -74,15 +74,16 @@ struct Loaded {
 
 /// The headless runtime. Owns its Vulkan device; frames are rendered one at a time.
 ///
-/// ```no_run
+/// ```
 /// use hadou::{Runtime, RuntimeOptions, FrameRequest, Aov};
-/// let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
+/// let mut runtime = Runtime::new(&RuntimeOptions { validation: true, device: None })?;
 /// runtime.load_scene(hadou::scene::load_scene("assets/scenes/showcase.toml".as_ref())?)?;
 /// let mut request = FrameRequest::new(512, 512);
 /// request.aovs.push(Aov::Depth);
 /// let frame = runtime.render(&request)?;
 /// let depth = frame.aov(Aov::Depth).unwrap();
-/// println!("centre depth {}", depth.data[(256 * 512 + 256) as usize]);
+/// println!("centre depth {}", depth.data[256 * 512 + 256]);
+/// assert_eq!(runtime.validation_counts().errors, 0);
 /// # Ok::<(), hadou::Error>(())
 /// ```
 pub struct Runtime {
@@ -150,6 +151,23 @@ impl Runtime {
         self.loaded.as_ref().map(|l| &l.scene)
     }
 
+    /// The loaded scene's GPU buffers: one vertex/index buffer pair per mesh, and the draws.
+    pub fn scene_gpu(&self) -> Option<&SceneGpu> {
+        self.loaded.as_ref().map(|l| &l.gpu)
+    }
+
+    /// Evaluates the energy-wave shader code for explicit rays (not pixels): H for every
+    /// (ray, wave), ray-major. Tests use it to feed the GPU exact hard rays.
+    pub fn energy_probe(
+        &mut self,
+        waves: &[crate::effects::energy_wave_f32::GpuWave],
+        rays: &[crate::passes::energy_probe::ProbeRay],
+        method: crate::passes::energy_probe::ProbeMethod,
+    ) -> Result<Vec<f32>, Error> {
+        let run = crate::passes::energy_probe::run_probe;
+        Ok(run(&self.ctx, &self.memory, &mut self.compiler, waves, rays, method)?)
+    }
+
     /// The passes the loaded scene runs, in order.
     pub fn pass_names(&self) -> Vec<&'static str> {
         self.loaded.as_ref().map(|l| l.passes.iter().map(|p| p.name()).collect()).unwrap_or_default()
@@ -159,7 +177,7 @@ impl Runtime {
     pub fn load_scene(&mut self, scene: Scene) -> Result<(), Error> {
         self.unload();
         let gpu = SceneGpu::new(&self.ctx, &self.memory, &scene)?;
-        let passes = match build_passes(&self.ctx, &mut self.compiler, &plan(&scene)) {
+        let passes = match build_passes(&self.ctx, &self.memory, &mut self.compiler, &scene, &plan(&scene)) {
             Ok(p) => p,
             Err(e) => {
                 gpu.destroy(&self.ctx, &self.memory);
@@ -177,7 +195,8 @@ impl Runtime {
     fn unload(&mut self) {
         if let Some(old) = self.loaded.take() {
             let _ = self.ctx.wait_idle();
-            old.passes.iter().for_each(|p| p.destroy(&self.ctx));
+            let mut passes = old.passes;
+            passes.iter_mut().for_each(|p| p.destroy(&self.ctx, &self.memory));
             old.gpu.destroy(&self.ctx, &self.memory);
         }
     }
@@ -192,7 +211,8 @@ impl Runtime {
             self.ctx.wait_idle()?;
             old.destroy(&self.ctx, &self.memory);
         }
-        let targets = Targets::new(&self.ctx, &self.memory, extent)?;
+        let wanted = self.loaded.as_ref().map(|l| targets_used(&l.passes)).unwrap_or_default();
+        let targets = Targets::new(&self.ctx, &self.memory, extent, &wanted)?;
         self.pool.reset(&self.ctx)?;
         if let Some(loaded) = &mut self.loaded {
             for pass in &mut loaded.passes {
@@ -224,6 +244,13 @@ impl Runtime {
         };
         loaded.gpu.update_uniforms(&loaded.scene, request.width, request.height)?;
         let mut wanted: Vec<Target> = request.aovs.iter().map(|a| a.target()).collect();
+        if let Some(missing) = wanted.iter().find(|t| !targets.contains(**t)) {
+            return Err(Error::InvalidRequest(format!(
+                "AOV {} is not produced by this scene's passes ({}): e.g. `energy` needs a [[wave]]",
+                missing.name(),
+                loaded.passes.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")
+            )));
+        }
         if request.color {
             wanted.push(Target::Ldr);
         }
@@ -232,7 +259,7 @@ impl Runtime {
         let (stats, readbacks) = self.runner.run(
             &self.ctx,
             &self.memory,
-            &loaded.passes,
+            &mut loaded.passes,
             targets,
             &loaded.gpu,
             &loaded.scene,

@@ -21,12 +21,11 @@ pub enum Target {
     Distance,
     /// Tonemapped sRGB colour, RGBA8.
     Ldr,
+    /// Σ over waves of the line integral H along each view ray; R32F. Only with waves.
+    Energy,
 }
 
 impl Target {
-    pub const ALL: [Target; 6] =
-        [Target::Depth, Target::Hdr, Target::Normal, Target::Ids, Target::Distance, Target::Ldr];
-
     pub fn name(self) -> &'static str {
         match self {
             Target::Depth => "depth",
@@ -35,6 +34,7 @@ impl Target {
             Target::Ids => "ids",
             Target::Distance => "distance",
             Target::Ldr => "ldr",
+            Target::Energy => "energy",
         }
     }
 
@@ -43,7 +43,7 @@ impl Target {
             Target::Depth => vk::Format::D32_SFLOAT,
             Target::Hdr | Target::Normal => vk::Format::R16G16B16A16_SFLOAT,
             Target::Ids => vk::Format::R32G32_UINT,
-            Target::Distance => vk::Format::R32_SFLOAT,
+            Target::Distance | Target::Energy => vk::Format::R32_SFLOAT,
             Target::Ldr => vk::Format::R8G8B8A8_UNORM,
         }
     }
@@ -51,7 +51,7 @@ impl Target {
     /// Bytes per texel, for read-back buffers.
     pub fn texel_bytes(self) -> u64 {
         match self {
-            Target::Depth | Target::Distance | Target::Ldr => 4,
+            Target::Depth | Target::Distance | Target::Ldr | Target::Energy => 4,
             Target::Hdr | Target::Normal | Target::Ids => 8,
         }
     }
@@ -62,7 +62,7 @@ impl Target {
             Target::Depth => {
                 base | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED
             }
-            Target::Ldr => base | vk::ImageUsageFlags::STORAGE,
+            Target::Ldr | Target::Energy => base | vk::ImageUsageFlags::STORAGE,
             _ => base | vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
         }
     }
@@ -79,9 +79,15 @@ pub struct Targets {
 }
 
 impl Targets {
-    pub fn new(ctx: &GpuContext, memory: &Memory, extent: vk::Extent2D) -> GpuResult<Self> {
+    /// Creates the images in `wanted` (those the frame's passes use).
+    pub fn new(
+        ctx: &GpuContext,
+        memory: &Memory,
+        extent: vk::Extent2D,
+        wanted: &[Target],
+    ) -> GpuResult<Self> {
         let mut targets = Targets { extent, images: Vec::new() };
-        for target in Target::ALL {
+        for &target in wanted {
             match memory.create_image(ctx, target.name(), extent, target.format(), target.usage()) {
                 Ok(image) => targets.images.push((target, Tracked { image, last: ImageAccess::UNDEFINED })),
                 Err(e) => {
@@ -93,13 +99,17 @@ impl Targets {
         Ok(targets)
     }
 
-    pub fn image(&self, target: Target) -> &Image {
-        &self.tracked(target).image
+    pub fn contains(&self, target: Target) -> bool {
+        self.images.iter().any(|(t, _)| *t == target)
     }
 
-    fn tracked(&self, target: Target) -> &Tracked {
-        // Every Target is created in new(); a missing one is a programming error caught by tests.
-        &self.images.iter().find(|(t, _)| *t == target).expect("every target is created").1
+    /// The image of a target a pass declared in `uses()` (so it was created).
+    pub fn image(&self, target: Target) -> &Image {
+        let found = self.images.iter().find(|(t, _)| *t == target);
+        &found
+            .unwrap_or_else(|| panic!("target {} was not created: a pass did not declare it", target.name()))
+            .1
+            .image
     }
 
     /// The barrier taking `target` to `next`, recording `next` as its last use.

@@ -217,3 +217,18 @@ fn resize_and_reload_stay_clean() {
     assert!(rt.render(&FrameRequest::new(0, 10)).is_err());
     common::assert_clean(&rt);
 }
+
+/// Instancing: one vertex/index buffer pair per mesh, one instanced draw per used mesh.
+#[test]
+fn instances_share_one_mesh_copy() {
+    let mut rt = common::runtime();
+    let scene = common::load("assets/scenes/instances.toml");
+    let n = scene.instances.len() as u32;
+    assert!(n >= 50);
+    rt.load_scene(scene).unwrap();
+    let gpu = rt.scene_gpu().unwrap();
+    assert_eq!(gpu.meshes.len(), 1);
+    assert_eq!(gpu.draws, vec![hadou::scene_gpu::Draw { mesh: 0, first_instance: 0, instance_count: n }]);
+    rt.render(&FrameRequest::new(16, 16)).unwrap();
+    common::assert_clean(&rt);
+}

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use hadou::scene::{load_scene, parse_scene, Scene, SceneError};
+use hadou::scene::{load_scene, parse_scene, Scene, SceneError, WaveMethod};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -61,6 +61,78 @@ const BAD: &[(&str, usize, usize, &str)] = &[
     ("image_size_too_large.toml", 2, 14, "`size`: expected integers in 1..=16384, found 16385"),
     ("too_many_lights.toml", 21, 1, "too many [[light]] tables (expected at most 8, found 9)"),
     ("not_utf8.toml", 2, 25, "invalid UTF-8 (byte 0xe9); expected a UTF-8 text file"),
+    (
+        "translucent_open_mesh.toml",
+        17,
+        12,
+        "instance 1 `material`: translucent material \"jade\" needs a closed, consistently oriented mesh, \
+         but mesh \"sheet\" is not: edge between vertices 0",
+    ),
+    (
+        "translucent_sigma_zero.toml",
+        8,
+        9,
+        "material \"jade\" `sigma`: expected an array of 3 numbers, each > 0",
+    ),
+    (
+        "translucent_negative_attenuation_distance.toml",
+        9,
+        24,
+        "material \"wax\" `attenuation_distance`: expected a number > 0, found -0.5",
+    ),
+    ("translucent_both_sigma_and_attenuation.toml", 9, 1, "`attenuation_color` given together with `sigma`"),
+    ("translucent_voxel_res_zero.toml", 9, 13, "`voxel_res`: expected an integer in 4..=128, found 0"),
+    ("translucent_voxel_res_too_large.toml", 9, 13, "`voxel_res`: expected an integer in 4..=128, found 129"),
+    (
+        "translucent_unknown_thickness_mode.toml",
+        9,
+        13,
+        "`thickness`: expected one of \"lut\", \"tsm\", found \"shadowmap\"",
+    ),
+    ("wave_nan.toml", 13, 14, "expected a finite number, found nan"),
+    ("wave_negative_core.toml", 11, 8, "wave \"beam\" `core`: expected a number >= 0, found -0.5"),
+    ("wave_zero_direction.toml", 8, 13, "wave 1 `direction`: expected a non-zero vector, found [0, 0, 0]"),
+    ("wave_length_zero.toml", 11, 10, "wave \"beam\" `length`: expected a number > 0, found 0"),
+    ("wave_keyframes_unsorted.toml", 20, 8, "wave 1 keyframe 3 `time`: expected a time > 2 (the previous"),
+    (
+        "wave_unknown_method.toml",
+        10,
+        10,
+        "`method`: expected one of \"analytic\", \"raymarch\", found \"raytrace\"",
+    ),
+    ("wave_steps_zero.toml", 11, 9, "wave 1 `steps`: expected an integer in 1..=65536, found 0"),
+    ("wave_steps_with_analytic.toml", 10, 1, "`steps` is a field of method = \"raymarch\" only"),
+    (
+        "wave_opposite_directions.toml",
+        22,
+        13,
+        "keyframe 3 `direction`: expected a direction not opposite to keyframe 1's",
+    ),
+    ("wave_unknown_key.toml", 10, 1, "unknown field `speed`"),
+    ("wave_keyframe_unknown_key.toml", 13, 1, "unknown field `color`"),
+    ("wave_zero_strength.toml", 9, 5, "wave 1 `a`: expected a + b > 0"),
+    ("wave_negative_color.toml", 10, 9, "wave 1 `color`: expected an array of 3 numbers, each >= 0"),
+    (
+        "metaballs_radius_zero.toml",
+        10,
+        34,
+        "metaballs \"slime\" ball 2 `radius`: expected a number > 0, found 0",
+    ),
+    ("metaballs_nan_centre.toml", 9, 18, "expected a finite number, found nan"),
+    (
+        "metaballs_threshold_zero.toml",
+        8,
+        13,
+        "metaballs \"slime\" `threshold`: expected a number > 0, found 0",
+    ),
+    (
+        "metaballs_unknown_kernel.toml",
+        7,
+        10,
+        "metaballs 1 `kernel`: expected one of \"wyvill6\", \"murakami4\", found \"gauss\"",
+    ),
+    ("metaballs_no_balls.toml", 9, 9, "metaballs \"empty\" `balls`: expected at least one ball"),
+    ("metaballs_unknown_key.toml", 8, 1, "unknown field `radii`"),
 ];
 
 /// The OBJ rows also carry the OBJ file's own position, checked here so the table stays short.
@@ -135,7 +207,8 @@ fn load(name: &str) -> Scene {
 #[test]
 fn every_asset_scene_loads() {
     let files = scene_files();
-    for name in ["showcase.toml", "single_cube.toml", "instances.toml", "empty.toml"] {
+    let names = ["showcase.toml", "single_cube.toml", "instances.toml", "empty.toml", "energy_wave.toml"];
+    for name in names.into_iter().chain(["energy_wave_open.toml"]) {
         assert!(files.iter().any(|f| f.ends_with(name)), "assets/scenes/{name} is missing");
     }
     for path in files {
@@ -157,6 +230,111 @@ fn asset_scenes_have_the_promised_content() {
     assert_eq!((grid.meshes.len(), grid.instances.len()), (1, 50));
     let empty = load("empty.toml");
     assert!(empty.instances.is_empty() && empty.meshes.is_empty());
+    assert!(!showcase.waves.is_empty());
+}
+
+/// energy_wave.toml is seed 004's set-up: `--time 0/1/2/3` gives m_z of figures 15-18.
+#[test]
+fn energy_wave_scenes_follow_the_seed() {
+    let hidden = load("energy_wave.toml");
+    let open = load("energy_wave_open.toml");
+    assert_eq!((hidden.instances.len(), open.instances.len()), (2, 0));
+    let centres: Vec<DVec3> =
+        hidden.instances.iter().map(|i| i.transform.transform_point(DVec3::ZERO)).collect();
+    assert_eq!(centres, [DVec3::ZERO, DVec3::new(10.0, 0.0, 250.0)]);
+    assert_eq!(hidden.waves, open.waves);
+    assert_eq!((hidden.camera, hidden.render), (open.camera, open.render));
+    let wave = &hidden.waves[0];
+    assert_eq!((wave.direction, wave.a, wave.b), (DVec3::X, 60.0, 30.0));
+    for (time, m_z) in [(0.0, 280.0), (1.0, 70.0), (2.0, 10.0), (3.0, -140.0)] {
+        assert_eq!(wave.at(time).origin, DVec3::new(0.0, 0.0, m_z), "time {time}");
+    }
+    let c = hidden.camera;
+    assert!(c.far >= 1500.0 && c.near == 0.5 && c.position.z > 280.0 && c.look_at.z < c.position.z);
+    assert_eq!((hidden.render.width, hidden.render.height), (512, 512));
+}
+
+const WAVE: &str = "[[wave]]\norigin = [1, 2, 3]\ndirection = [0, 0, -2]\n";
+
+#[test]
+fn wave_defaults_follow_the_documentation() {
+    let s = parse(&format!("{WAVE}a = 5\n")).unwrap();
+    let w = &s.waves[0];
+    assert_eq!(
+        (w.name.as_deref(), w.origin, w.velocity, w.direction),
+        (None, DVec3::new(1.0, 2.0, 3.0), DVec3::ZERO, DVec3::NEG_Z)
+    );
+    assert_eq!(
+        (w.a, w.b, w.core, w.length, w.color, w.intensity),
+        (5.0, 0.0, 0.0, f64::INFINITY, DVec3::ONE, 1.0)
+    );
+    assert_eq!((w.method, w.keyframes.len()), (WaveMethod::Analytic, 0));
+    let s = parse(&format!("{WAVE}b = 1\nmethod = \"raymarch\"\n")).unwrap();
+    assert_eq!(s.waves[0].method, WaveMethod::Raymarch { steps: 64, jitter: false });
+    let s = parse(&format!("{WAVE}b = 1\nmethod = \"raymarch\"\nsteps = 65536\njitter = true\n")).unwrap();
+    assert_eq!(s.waves[0].method, WaveMethod::Raymarch { steps: 65536, jitter: true });
+}
+
+#[test]
+fn wave_keyframes_are_read_in_order_with_unit_directions() {
+    let keys = "[[wave.keyframe]]\ntime = -1\ndirection = [0, 3, 0]\nlength = 2\n\
+                [[wave.keyframe]]\ntime = 0.5\norigin = [0, 0, 9]\na = 0\nb = 2\ncore = 0.1\nintensity = 3\n";
+    let s = parse(&format!("{WAVE}a = 1\nvelocity = [0, 1, 0]\n{keys}")).unwrap();
+    let w = &s.waves[0];
+    assert_eq!(w.keyframes.len(), 2);
+    assert_eq!(
+        (w.keyframes[0].time, w.keyframes[0].direction, w.keyframes[0].length),
+        (-1.0, Some(DVec3::Y), Some(2.0))
+    );
+    let k = &w.keyframes[1];
+    assert_eq!(
+        (k.origin, k.a, k.b, k.core, k.intensity),
+        (Some(DVec3::new(0.0, 0.0, 9.0)), Some(0.0), Some(2.0), Some(0.1), Some(3.0))
+    );
+    let at = w.at(2.0);
+    assert_eq!((at.origin, at.direction, at.length, at.b), (DVec3::new(0.0, 2.0, 9.0), DVec3::Y, 2.0, 2.0));
+}
+
+/// a + b > 0 is asked of the values in effect: keyframes can give the strength the table lacks,
+/// and a wave whose every `a` and `b` is 0 is refused where the first of them is written.
+#[test]
+fn wave_strength_counts_keyframes() {
+    assert!(parse(&format!("{WAVE}[[wave.keyframe]]\ntime = 1\nb = 0.5\n")).is_ok());
+    let err = parse(&format!("{WAVE}[[wave.keyframe]]\ntime = 1\na = 0\n")).unwrap_err();
+    assert_eq!((err.line, err.column), (9, 5), "{err}");
+    assert!(err.message.contains("found a = 0 and b = 0 at every keyframe"), "{err}");
+    let err = parse(WAVE).unwrap_err();
+    assert_eq!((err.line, err.column), (4, 1), "{err}");
+    assert!(err.message.contains("wave 1: missing `a` and `b`"), "{err}");
+}
+
+#[test]
+fn wave_fields_in_the_wrong_place_are_refused() {
+    // `jitter` with the default method, at the key.
+    let err = parse(&format!("{WAVE}a = 1\njitter = true\n")).unwrap_err();
+    assert_eq!((err.line, err.column), (8, 1), "{err}");
+    assert!(err.message.contains("`jitter` is a field of method = \"raymarch\" only"), "{err}");
+    // A keyframe without a time, at its header.
+    let err = parse(&format!("{WAVE}a = 1\n[[wave.keyframe]]\na = 2\n")).unwrap_err();
+    assert_eq!((err.line, err.column), (8, 1), "{err}");
+    assert!(err.message.contains("wave 1 keyframe 1: missing `time`"), "{err}");
+    // A zero keyframe direction and a non-positive keyframe length, at the value.
+    let err =
+        parse(&format!("{WAVE}a = 1\n[[wave.keyframe]]\ntime = 0\ndirection = [0, 0, 0]\n")).unwrap_err();
+    assert_eq!(
+        (err.line, err.column, err.message.contains("`direction`: expected a non-zero vector")),
+        (10, 13, true),
+        "{err}"
+    );
+    let err = parse(&format!("{WAVE}a = 1\n[[wave.keyframe]]\ntime = 0\nlength = -1\n")).unwrap_err();
+    assert_eq!(
+        (err.line, err.column, err.message.contains("`length`: expected a number > 0")),
+        (10, 10, true),
+        "{err}"
+    );
+    // steps above the limit.
+    let err = parse(&format!("{WAVE}a = 1\nmethod = \"raymarch\"\nsteps = 65537\n")).unwrap_err();
+    assert_eq!((err.line, err.column), (9, 9), "{err}");
 }
 
 const CAMERA: &str = "[camera]\nposition = [0, 2, 8]\nlook_at = [0, 0, 0]\n";
@@ -242,4 +420,27 @@ fn mangled_showcase_never_panics() {
             check(&mangled.iter().collect::<String>());
         }
     }
+}
+
+/// The `[[wave]]` examples of docs/scene-format.md parse, and the keyframe example gives the
+/// values the text after it states.
+#[test]
+fn documented_wave_examples_parse() {
+    let doc = std::fs::read_to_string(root().join("docs/scene-format.md")).unwrap();
+    let blocks: Vec<&str> = doc
+        .split("```toml\n")
+        .skip(1)
+        .filter_map(|b| b.split("```").next())
+        .filter(|b| b.starts_with("[[wave]]"))
+        .collect();
+    assert!(blocks.len() >= 3, "found {} [[wave]] examples", blocks.len());
+    for block in &blocks {
+        parse(block).unwrap_or_else(|e| panic!("{e}\n{block}"));
+    }
+    let figures = blocks.iter().find(|b| b.contains("time = 3")).expect("the keyframe example");
+    let wave = &parse(figures).unwrap().waves[0];
+    let half = wave.at(0.5);
+    assert_eq!((half.origin, half.b, half.a), (DVec3::new(0.0, 0.0, 175.0), 35.0, 60.0));
+    let late = wave.at(3.5);
+    assert_eq!((late.origin, late.b), (DVec3::new(0.0, 0.0, -140.0), 50.0));
 }

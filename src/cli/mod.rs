@@ -1,5 +1,6 @@
 //! Command-line parsing and dispatch.
 
+mod bake;
 mod profile;
 mod render;
 
@@ -23,12 +24,15 @@ enum Command {
     Profile(profile::ProfileArgs),
     /// List the Vulkan devices and which one hadou would use.
     Devices,
+    /// Bake thickness LUTs (translucency, seed 003) for an OBJ or a scene's translucent meshes.
+    Bake(bake::BakeArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render::run(args),
         Command::Profile(args) => profile::run(args),
+        Command::Bake(args) => bake::run(args),
         Command::Devices => {
             let runtime = hadou::Runtime::new(&hadou::RuntimeOptions::from_env())?;
             let info = runtime.device_info();

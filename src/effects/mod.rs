@@ -1,4 +1,12 @@
 //! The math of each effect on the CPU in f64: the references GPU passes are checked against.
 
+pub mod bake_cache;
+pub mod energy_wave;
+pub mod energy_wave_f32;
+pub mod metaballs;
+pub mod metaballs_f32;
 pub mod raycast;
+pub mod thickness;
+pub mod thickness_lut;
 pub mod tonemap;
+pub mod voxelize;

@@ -93,18 +93,33 @@ pub fn create_compute_pipeline(
     // SAFETY: module and layout are valid.
     let result = unsafe { ctx.device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
     unsafe { ctx.device.destroy_shader_module(module, None) };
-    let raw = match result {
-        Ok(p) => p[0],
+    let layouts = (set_layout, layout);
+    finish(ctx, name, result, layouts, vk::PipelineBindPoint::COMPUTE, "vkCreateComputePipelines")
+}
+
+/// Wraps a created pipeline with its layouts, or frees the layouts when creation failed.
+fn finish(
+    ctx: &GpuContext,
+    name: &str,
+    result: Result<Vec<vk::Pipeline>, (Vec<vk::Pipeline>, vk::Result)>,
+    (set_layout, layout): (vk::DescriptorSetLayout, vk::PipelineLayout),
+    bind_point: vk::PipelineBindPoint,
+    call: &'static str,
+) -> GpuResult<Pipeline> {
+    match result {
+        Ok(p) => {
+            ctx.name_object(p[0], name);
+            Ok(Pipeline { name: name.into(), raw: p[0], layout, set_layout, bind_point })
+        }
         Err((_, e)) => {
+            // SAFETY: nothing uses the layouts of a pipeline that was not created.
             unsafe {
                 ctx.device.destroy_pipeline_layout(layout, None);
                 ctx.device.destroy_descriptor_set_layout(set_layout, None);
             }
-            return Err(e).vk("vkCreateComputePipelines");
+            Err(e).vk(call)
         }
-    };
-    ctx.name_object(raw, name);
-    Ok(Pipeline { name: name.into(), raw, layout, set_layout, bind_point: vk::PipelineBindPoint::COMPUTE })
+    }
 }
 
 /// What a dynamic-rendering graphics pipeline needs beyond its shaders.
@@ -192,24 +207,8 @@ pub fn create_graphics_pipeline(ctx: &GpuContext, desc: &GraphicsDesc) -> GpuRes
         ctx.device.destroy_shader_module(vs, None);
         ctx.device.destroy_shader_module(fs, None);
     }
-    let raw = match result {
-        Ok(p) => p[0],
-        Err((_, e)) => {
-            unsafe {
-                ctx.device.destroy_pipeline_layout(layout, None);
-                ctx.device.destroy_descriptor_set_layout(set_layout, None);
-            }
-            return Err(e).vk("vkCreateGraphicsPipelines");
-        }
-    };
-    ctx.name_object(raw, desc.name);
-    Ok(Pipeline {
-        name: desc.name.into(),
-        raw,
-        layout,
-        set_layout,
-        bind_point: vk::PipelineBindPoint::GRAPHICS,
-    })
+    let layouts = (set_layout, layout);
+    finish(ctx, desc.name, result, layouts, vk::PipelineBindPoint::GRAPHICS, "vkCreateGraphicsPipelines")
 }
 
 /// A descriptor pool sized for every pass of a frame; reset as a whole when targets change.

@@ -1,11 +1,14 @@
 //! One file per pass. A pass declares the images it touches and how; the runner in frame.rs
 //! places the barriers, the debug label and the timestamps around its commands.
 
+pub mod energy_probe;
+pub mod energy_wave;
 pub mod gpu_structs;
 pub mod raster;
 pub mod tonemap;
 
 use crate::gpu::barriers::ImageAccess;
+use crate::gpu::memory::Memory;
 use crate::gpu::pipeline::DescriptorPool;
 use crate::gpu::recorder::Recorder;
 use crate::gpu::{GpuContext, GpuResult};
@@ -26,6 +29,11 @@ pub struct PassInputs<'a> {
 pub trait Pass {
     /// The pass's one name: file, shader, debug label, timestamp scope, test.
     fn name(&self) -> &'static str;
+    /// Per-frame host work before recording (e.g. writing this frame's parameters). The previous
+    /// frame has finished, so buffers the pass owns are free to write.
+    fn prepare(&mut self, _scene: &Scene, _time: f64, _extent: crate::gpu::vk::Extent2D) -> GpuResult<()> {
+        Ok(())
+    }
     /// The images this pass reads or writes, and how.
     fn uses(&self) -> Vec<(Target, ImageAccess)>;
     /// Points the pass's descriptors at the scene's buffers and the frame's images
@@ -38,5 +46,5 @@ pub trait Pass {
         targets: &Targets,
     ) -> GpuResult<()>;
     fn record(&self, inputs: &PassInputs);
-    fn destroy(&self, ctx: &GpuContext);
+    fn destroy(&mut self, ctx: &GpuContext, memory: &Memory);
 }

@@ -3,6 +3,7 @@
 
 use super::{Pass, PassInputs};
 use crate::gpu::barriers::ImageAccess;
+use crate::gpu::memory::Memory;
 use crate::gpu::pipeline::{
     binding, create_graphics_pipeline, write_set, Bound, DescriptorPool, GraphicsDesc, Pipeline,
 };
@@ -136,7 +137,7 @@ impl Pass for RasterPass {
         rec.end_rendering();
     }
 
-    fn destroy(&self, ctx: &GpuContext) {
+    fn destroy(&mut self, ctx: &GpuContext, _: &Memory) {
         self.pipeline.destroy(ctx);
     }
 }

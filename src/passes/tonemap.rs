@@ -3,6 +3,7 @@
 
 use super::{Pass, PassInputs};
 use crate::gpu::barriers::ImageAccess;
+use crate::gpu::memory::Memory;
 use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
@@ -75,7 +76,7 @@ impl Pass for TonemapPass {
         inputs.rec.dispatch_2d(extent.width, extent.height, (8, 8));
     }
 
-    fn destroy(&self, ctx: &GpuContext) {
+    fn destroy(&mut self, ctx: &GpuContext, _: &Memory) {
         self.pipeline.destroy(ctx);
     }
 }

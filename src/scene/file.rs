@@ -12,8 +12,12 @@ use super::file_check::{
     show, show_vec, show_vec_approx, Ctx, Owner, UniqueNames, ANY, FOV, NON_NEGATIVE, POSITIVE, UNIT,
 };
 use super::file_mesh::meshes;
+use super::file_metaballs::metaballs;
 use super::file_schema::{CameraDef, InstanceDef, LightDef, MaterialDef, OpDef, RenderDef, SceneDef, Tables};
-use super::model::{DirectionalLight, Instance, Material, MaterialKind, RenderSettings, Scene, SceneMesh};
+use super::file_wave::waves;
+use super::model::{
+    DirectionalLight, Instance, Material, MaterialKind, MetaballGroup, RenderSettings, Scene, SceneMesh,
+};
 use super::transform::{Transform, TransformOp};
 
 /// The most directional lights a scene may have (the raster pass's uniform array).
@@ -43,8 +47,20 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
     let meshes = meshes(ctx, &def.mesh)?;
     let mut materials = materials(ctx, &def.material)?;
     let instances = instances(ctx, &def.instance, &meshes, &mut materials)?;
-    warn_unused(path, &meshes, &materials, &instances);
-    Ok(Scene { source: path.to_path_buf(), render, camera, lights, meshes, materials, instances })
+    let waves = waves(ctx, &def.wave)?;
+    let metaballs = metaballs(ctx, &def.metaballs, &mut materials)?;
+    warn_unused(path, &meshes, &materials, &instances, &metaballs);
+    Ok(Scene {
+        source: path.to_path_buf(),
+        render,
+        camera,
+        lights,
+        meshes,
+        materials,
+        instances,
+        waves,
+        metaballs,
+    })
 }
 
 fn not_utf8(path: &Path, e: &std::string::FromUtf8Error) -> SceneError {
@@ -161,9 +177,9 @@ fn materials(ctx: Ctx, defs: &Tables<MaterialDef>) -> Result<Vec<Material>, Scen
 }
 
 fn material(o: &Owner, name: &str, def: &MaterialDef) -> Result<Material, SceneError> {
-    o.kind(def.kind.as_ref(), &["lambert"])?;
+    let kind = super::file_material::material_kind(o, def)?;
     let albedo = o.vec3("albedo", def.albedo.as_ref(), DVec3::splat(DEFAULT_ALBEDO), UNIT)?;
-    Ok(Material { name: name.to_owned(), kind: MaterialKind::Lambert, albedo })
+    Ok(Material { name: name.to_owned(), kind, albedo })
 }
 
 /// Resolves names to indices. An instance without `material` gets the scene's "default" material,
@@ -189,6 +205,8 @@ fn instances(
             Some(m) => material_index(&o, m, materials)?,
             None => default_material(materials),
         };
+        let material_span = d.material.as_ref().map_or(o.span.clone(), Spanned::span);
+        super::file_material::check_instance_mesh(&o, material_span, &materials[material], &meshes[mesh])?;
         let (ops, transform) = transform(&o, d.transform.as_ref())?;
         out.push(Instance {
             name: d.name.as_ref().map(|n| n.get_ref().clone()),
@@ -201,7 +219,7 @@ fn instances(
     Ok(out)
 }
 
-fn material_index(
+pub(super) fn material_index(
     o: &Owner,
     name: &Spanned<String>,
     materials: &mut Vec<Material>,
@@ -213,7 +231,7 @@ fn material_index(
     lookup(o, "material", name, &names)
 }
 
-fn default_material(materials: &mut Vec<Material>) -> usize {
+pub(super) fn default_material(materials: &mut Vec<Material>) -> usize {
     if let Some(i) = materials.iter().position(|m| m.name == DEFAULT_MATERIAL) {
         return i;
     }
@@ -240,7 +258,10 @@ fn lookup(o: &Owner, what: &str, name: &Spanned<String>, names: &[&str]) -> Resu
 type OpList = Spanned<Tables<OpDef>>;
 
 /// Checks each step where it is written, then the composition at the `transform` key.
-fn transform(o: &Owner, list: Option<&OpList>) -> Result<(Vec<TransformOp>, Transform), SceneError> {
+pub(super) fn transform(
+    o: &Owner,
+    list: Option<&OpList>,
+) -> Result<(Vec<TransformOp>, Transform), SceneError> {
     let Some(list) = list else {
         return Ok((Vec::new(), Transform::IDENTITY));
     };
@@ -288,14 +309,20 @@ fn op(o: &Owner, step: &Spanned<OpDef>) -> Result<(&'static str, TransformOp), S
 }
 
 /// Declared but unused meshes and materials are legal (a scene being edited) but worth a note.
-fn warn_unused(path: &Path, meshes: &[SceneMesh], materials: &[Material], instances: &[Instance]) {
+fn warn_unused(
+    path: &Path,
+    meshes: &[SceneMesh],
+    materials: &[Material],
+    instances: &[Instance],
+    metaballs: &[MetaballGroup],
+) {
     for (i, m) in meshes.iter().enumerate() {
         if !instances.iter().any(|inst| inst.mesh == i) {
             log::warn!("{}: mesh \"{}\" is declared but no instance uses it", path.display(), m.name);
         }
     }
     for (i, m) in materials.iter().enumerate() {
-        if !instances.iter().any(|inst| inst.material == i) {
+        if !instances.iter().any(|inst| inst.material == i) && !metaballs.iter().any(|g| g.material == i) {
             log::warn!("{}: material \"{}\" is declared but no instance uses it", path.display(), m.name);
         }
     }

@@ -25,6 +25,10 @@ pub(super) struct SceneDef {
     pub material: Tables<MaterialDef>,
     #[serde(default)]
     pub instance: Tables<InstanceDef>,
+    #[serde(default)]
+    pub wave: Tables<WaveDef>,
+    #[serde(default)]
+    pub metaballs: Tables<super::file_metaballs::MetaballsDef>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -85,6 +89,12 @@ pub(super) struct MaterialDef {
     pub name: Option<Spanned<String>>,
     pub kind: Option<Spanned<String>>,
     pub albedo: Option<Spanned<Array<Num, 3>>>,
+    // kind = "translucent" only (checked in file_material.rs):
+    pub sigma: Option<Spanned<Array<Num, 3>>>,
+    pub attenuation_color: Option<Spanned<Array<Num, 3>>>,
+    pub attenuation_distance: Option<Spanned<Num>>,
+    pub voxel_res: Option<Spanned<Int>>,
+    pub thickness: Option<Spanned<String>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -94,6 +104,41 @@ pub(super) struct InstanceDef {
     pub mesh: Option<Spanned<String>>,
     pub material: Option<Spanned<String>>,
     pub transform: Option<Spanned<Tables<OpDef>>>,
+}
+
+/// An energy wave; ranges, the method's fields and the keyframe rules are checked in file_wave.rs.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a [[wave]] table")]
+pub(super) struct WaveDef {
+    pub name: Option<Spanned<String>>,
+    pub origin: Option<Spanned<Array<Num, 3>>>,
+    pub velocity: Option<Spanned<Array<Num, 3>>>,
+    pub direction: Option<Spanned<Array<Num, 3>>>,
+    pub a: Option<Spanned<Num>>,
+    pub b: Option<Spanned<Num>>,
+    pub core: Option<Spanned<Num>>,
+    pub length: Option<Spanned<Num>>,
+    pub color: Option<Spanned<Array<Num, 3>>>,
+    pub intensity: Option<Spanned<Num>>,
+    pub method: Option<Spanned<String>>,
+    pub steps: Option<Spanned<Int>>,
+    pub jitter: Option<Spanned<bool>>,
+    #[serde(default)]
+    pub keyframe: Tables<KeyframeDef>,
+}
+
+/// One `[[wave.keyframe]]`: a time and any subset of the animatable fields.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a [[wave.keyframe]] table")]
+pub(super) struct KeyframeDef {
+    pub time: Option<Spanned<Num>>,
+    pub origin: Option<Spanned<Array<Num, 3>>>,
+    pub direction: Option<Spanned<Array<Num, 3>>>,
+    pub a: Option<Spanned<Num>>,
+    pub b: Option<Spanned<Num>>,
+    pub core: Option<Spanned<Num>>,
+    pub length: Option<Spanned<Num>>,
+    pub intensity: Option<Spanned<Num>>,
 }
 
 /// One transform step: an inline table with exactly one key (checked in file.rs, so the error
@@ -155,6 +200,12 @@ impl TableList for OpDef {
 }
 impl TableList for InstanceDef {
     const LIST: &'static str = "an array of tables, each written [[instance]]";
+}
+impl TableList for WaveDef {
+    const LIST: &'static str = "an array of tables, each written [[wave]]";
+}
+impl TableList for KeyframeDef {
+    const LIST: &'static str = "an array of tables, each written [[wave.keyframe]]";
 }
 
 impl Plural for Num {

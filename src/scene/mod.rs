@@ -1,18 +1,24 @@
 //! What the user describes: the scene file (TOML, see docs/scene-format.md) and the validated
-//! `Scene` it becomes — camera, lights, meshes, materials and instanced transforms.
+//! `Scene` it becomes — camera, lights, meshes, materials, instanced transforms and energy waves.
 
 pub mod camera;
 pub mod error;
 pub mod file;
 mod file_check;
+mod file_material;
 mod file_mesh;
+mod file_metaballs;
 mod file_schema;
+mod file_wave;
 pub mod mesh;
+pub mod metaball_track;
 pub mod model;
 pub mod obj;
 pub mod procedural;
 pub mod transform;
+pub mod wave_track;
 
 pub use error::SceneError;
 pub use file::{load_scene, parse_scene};
 pub use model::*;
+pub use wave_track::WaveState;

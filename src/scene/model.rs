@@ -19,6 +19,10 @@ pub struct Scene {
     pub meshes: Vec<SceneMesh>,
     pub materials: Vec<Material>,
     pub instances: Vec<Instance>,
+    /// Energy waves; the energy-wave pass runs only when there is at least one.
+    pub waves: Vec<Wave>,
+    /// Metaball groups (`[[metaballs]]`); the metaballs pass runs only when there is at least one.
+    pub metaballs: Vec<MetaballGroup>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,9 +60,35 @@ pub struct Material {
     pub albedo: DVec3,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MaterialKind {
     Lambert,
+    /// Seed 003: light crossing the object is attenuated by exp(−σ·d) per RGB channel, d the
+    /// material thickness along the light's path (cavities excluded with `ThicknessMode::Lut`).
+    Translucent {
+        /// Extinction σ per world unit, each channel > 0.
+        sigma: DVec3,
+        /// Voxel resolution of the mesh's thickness LUT bake (4..=128).
+        voxel_res: u32,
+        thickness: ThicknessMode,
+    },
+}
+
+/// `voxel_res` of a translucent material when the file gives none: 48³ keeps the LUT of a typical
+/// object at a few MB (see effects::thickness_lut) and its bake at seconds.
+pub const DEFAULT_VOXEL_RES: u32 = 48;
+/// `voxel_res` range: below 4 little but a box survives voxelization; above 128 the table of even a
+/// simple shape outgrows a 16384² texture.
+pub const MIN_VOXEL_RES: u32 = 4;
+pub const MAX_VOXEL_RES: u32 = 128;
+
+/// Where a translucent material's thickness comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ThicknessMode {
+    /// The baked thickness LUT (effects::thickness_lut): cavities excluded.
+    Lut,
+    /// Translucent shadow maps: distance from the light's entry point, cavities counted.
+    Tsm,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -82,4 +112,100 @@ impl Default for RenderSettings {
             ambient: DVec3::splat(0.08),
         }
     }
+}
+
+/// How the energy-wave pass integrates a wave along each view ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WaveMethod {
+    /// The closed-form line integral (asinh/log1p), exact up to f32 rounding.
+    Analytic,
+    /// The baseline: `steps` samples of the density along [0, L] (midpoint rule; with `jitter`,
+    /// one per-pixel random offset shared by all samples of the ray).
+    Raymarch { steps: u32, jitter: bool },
+}
+
+/// An energy wave (seed 004): E(P) = a·k(|P − M|) + b·k(dist(P, segment M → M + ℓD)),
+/// k(r) = 1/√(r² + ε²). Values here are those at time 0, before keyframes and velocity.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Wave {
+    pub name: Option<String>,
+    /// M at time 0.
+    pub origin: DVec3,
+    /// M moves by velocity × time (added to the keyframed origin).
+    pub velocity: DVec3,
+    /// D, unit length.
+    pub direction: DVec3,
+    /// Sphere strength a ≥ 0.
+    pub a: f64,
+    /// Line strength b ≥ 0.
+    pub b: f64,
+    /// Soft core radius ε ≥ 0.
+    pub core: f64,
+    /// Beam length ℓ > 0; `f64::INFINITY` when not given.
+    pub length: f64,
+    /// Linear RGB emission colour.
+    pub color: DVec3,
+    /// Emission added to HDR = color × intensity × H.
+    pub intensity: f64,
+    pub method: WaveMethod,
+    /// Sorted by time, strictly increasing.
+    pub keyframes: Vec<WaveKeyframe>,
+}
+
+/// Values a wave takes at `time`; each field given here is a piecewise-linear track through the
+/// keyframes that set it (held constant before the first and after the last of them).
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct WaveKeyframe {
+    pub time: f64,
+    pub origin: Option<DVec3>,
+    /// Interpolated by normalized lerp (consecutive directions are never opposite).
+    pub direction: Option<DVec3>,
+    pub a: Option<f64>,
+    pub b: Option<f64>,
+    pub core: Option<f64>,
+    pub length: Option<f64>,
+    pub intensity: Option<f64>,
+}
+
+/// A metaball group (seed 000; `[[metaballs]]`, docs/scene-format.md): the surface
+/// Σ qᵢ f(‖x − cᵢ‖²/Rᵢ²) = T in the group's object space, placed by `transform`. Values here
+/// are those at time 0; `MetaballGroup::at(T)` (metaball_track.rs) gives the group at time T.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MetaballGroup {
+    pub name: Option<String>,
+    /// T > 0.
+    pub threshold: f64,
+    pub kernel: crate::effects::metaballs::Kernel,
+    /// Index into `Scene::materials` (shading of the surface).
+    pub material: usize,
+    pub ops: Vec<TransformOp>,
+    pub transform: Transform,
+    /// The `balls` listed in the file, then the generated ones; never empty.
+    pub balls: Vec<AnimatedBall>,
+    /// Sorted by time, strictly increasing.
+    pub keyframes: Vec<MetaballKeyframe>,
+}
+
+/// One ball of a group: its values at time 0 and its rates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AnimatedBall {
+    /// Object-space centre at time 0 (unless keyframes set the centres).
+    pub centre: DVec3,
+    /// Support radius R > 0.
+    pub radius: f64,
+    /// Density coefficient q at time 0 (any sign).
+    pub q: f64,
+    /// The centre moves by velocity × T (added to the keyframed centre).
+    pub velocity: DVec3,
+    /// q changes by q_rate × T (added to the keyframed q).
+    pub q_rate: f64,
+}
+
+/// A `[[metaballs.keyframe]]`: at `time`, every ball's centre and/or q (one entry per ball, in
+/// the order of `MetaballGroup::balls`).
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct MetaballKeyframe {
+    pub time: f64,
+    pub centres: Option<Vec<DVec3>>,
+    pub q: Option<Vec<f64>>,
 }

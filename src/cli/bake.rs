@@ -1,0 +1,183 @@
+//! `hadou bake MESH.obj|SCENE.toml [--res N] [--out FILE] [--threads N] [--max-texture-dim N]
+//! [--force]`: bakes thickness LUTs (seed 003) through the on-disk cache, with a progress line on
+//! stderr and one summary line per table on stdout.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use std::sync::Mutex;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use hadou::effects::bake_cache::{self, BakeCache, CacheOutcome};
+use hadou::effects::thickness_lut::{self, BakeOptions, BakeStats, ThicknessLut, DEFAULT_MAX_TEXTURE_DIM, LUT_FORMAT};
+use hadou::scene::mesh::Mesh;
+use hadou::scene::{MaterialKind, ThicknessMode};
+
+#[derive(Args, Debug)]
+pub struct BakeArgs {
+    /// A Wavefront OBJ (one closed mesh), or a scene file: every mesh drawn with a translucent
+    /// material whose `thickness` is "lut".
+    input: PathBuf,
+    /// Voxel resolution (default: each material's `voxel_res`; 48 for an OBJ).
+    #[arg(long)]
+    res: Option<u32>,
+    /// Also write the table to FILE (the cache's file format); needs exactly one table.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// The largest 2D texture side the table may use.
+    #[arg(long, default_value_t = DEFAULT_MAX_TEXTURE_DIM)]
+    max_texture_dim: u32,
+    /// Bake even when the cache holds the table (and replace it).
+    #[arg(long)]
+    force: bool,
+}
+
+/// One table to bake: a label, the mesh, the resolution.
+struct Job {
+    label: String,
+    mesh: Mesh,
+    res: u32,
+}
+
+fn jobs(args: &BakeArgs) -> anyhow::Result<Vec<Job>> {
+    let is_obj = args.input.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    if is_obj {
+        let mesh = hadou::scene::obj::load_obj(&args.input)?;
+        let res = args.res.unwrap_or(hadou::scene::DEFAULT_VOXEL_RES);
+        return Ok(vec![Job { label: args.input.display().to_string(), mesh, res }]);
+    }
+    let scene = hadou::scene::load_scene(&args.input)?;
+    let mut out: Vec<(usize, u32)> = Vec::new();
+    for inst in &scene.instances {
+        if let MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Lut, .. } =
+            scene.materials[inst.material].kind
+        {
+            let key = (inst.mesh, args.res.unwrap_or(voxel_res));
+            if !out.contains(&key) {
+                out.push(key);
+            }
+        }
+    }
+    if out.is_empty() {
+        bail!(
+            "{}: no instance uses a translucent material with thickness = \"lut\": nothing to bake",
+            args.input.display()
+        );
+    }
+    Ok(out
+        .into_iter()
+        .map(|(m, res)| Job { label: format!("mesh \"{}\"", scene.meshes[m].name), mesh: scene.meshes[m].mesh.clone(), res })
+        .collect())
+}
+
+/// A progress line on stderr, redrawn at most every 100 ms.
+struct Progress {
+    label: String,
+    last: Mutex<Option<Instant>>,
+}
+
+impl Progress {
+    fn show(&self, done: usize, total: usize) {
+        let Ok(mut last) = self.last.lock() else { return };
+        let due = last.is_none_or(|t| t.elapsed().as_millis() >= 100);
+        if !due && done < total {
+            return;
+        }
+        *last = Some(Instant::now());
+        let percent = if total == 0 { 100.0 } else { done as f64 * 100.0 / total as f64 };
+        let mut err = std::io::stderr().lock();
+        let _ = write!(err, "\r{}: {percent:5.1}% of {total} pairs", self.label);
+        let _ = err.flush();
+    }
+
+    fn finish(&self) {
+        let _ = writeln!(std::io::stderr());
+    }
+}
+
+pub fn run(args: BakeArgs) -> anyhow::Result<()> {
+    if let Some(res) = args.res {
+        if res == 0 || res > hadou::effects::voxelize::MAX_VOXEL_RES {
+            bail!("--res {res}: expected 1..={}", hadou::effects::voxelize::MAX_VOXEL_RES);
+        }
+    }
+    let jobs = jobs(&args)?;
+    if args.out.is_some() && jobs.len() != 1 {
+        bail!("--out needs exactly one table, but {} has {}", args.input.display(), jobs.len());
+    }
+    let options = BakeOptions { threads: args.threads, max_texture_dim: args.max_texture_dim, exact_only: false };
+    let cache = BakeCache::from_env();
+    if cache.is_none() {
+        log::warn!("no cache folder (set HADOU_CACHE_DIR, XDG_CACHE_HOME or HOME): baking without a cache");
+    }
+    for job in &jobs {
+        let progress =
+            Progress { label: format!("baking {} at {}³", job.label, job.res), last: Mutex::new(None) };
+        let show = |done: usize, total: usize| progress.show(done, total);
+        let start = Instant::now();
+        let (lut, stats, how) = match (&cache, args.force) {
+            (Some(cache), false) => {
+                let got = cache
+                    .get_or_bake(&job.mesh, job.res, &options, &show)
+                    .with_context(|| format!("{} at resolution {}", job.label, job.res))?;
+                let how = match &got.outcome {
+                    CacheOutcome::Hit(p) => format!("cache hit {}", p.display()),
+                    CacheOutcome::Miss(p) => format!("baked, cached in {}", p.display()),
+                    CacheOutcome::Rebuilt { path, reason } => {
+                        format!("rebuilt {} ({reason})", path.display())
+                    }
+                };
+                (got.lut, got.stats, how)
+            }
+            _ => {
+                let (lut, stats) = thickness_lut::bake(&job.mesh, job.res, &options, &show)
+                    .with_context(|| format!("{} at resolution {}", job.label, job.res))?;
+                let how = match &cache {
+                    Some(cache) => match cache.store(&job.mesh, &lut, &options) {
+                        Ok(p) => format!("baked (--force), cached in {}", p.display()),
+                        Err(e) => format!("baked (--force); cache not written: {e}"),
+                    },
+                    None => "baked, no cache".to_string(),
+                };
+                (lut, Some(stats), how)
+            }
+        };
+        if stats.is_some() {
+            progress.finish();
+        }
+        print_summary(job, &lut, stats.as_ref(), start.elapsed().as_secs_f64(), &how);
+        if let Some(out) = &args.out {
+            write_out(out, &job.mesh, &lut, &options)?;
+            println!("  written to {}", out.display());
+        }
+    }
+    Ok(())
+}
+
+fn print_summary(job: &Job, lut: &ThicknessLut, stats: Option<&BakeStats>, seconds: f64, how: &str) {
+    let exact = stats.map_or(String::new(), |s| {
+        format!(", {} threads, {} of {} pairs by the full-line exact path", s.threads, s.exact_pairs, s.pairs)
+    });
+    println!(
+        "{} res {}: {} surface voxels, LUT {} bytes ({}×{} {LUT_FORMAT}), {seconds:.2} s{exact}; {how}",
+        job.label,
+        job.res,
+        lut.surface_count(),
+        lut.bytes(),
+        lut.width,
+        lut.height,
+    );
+}
+
+fn write_out(out: &Path, mesh: &Mesh, lut: &ThicknessLut, options: &BakeOptions) -> anyhow::Result<()> {
+    let bytes = bake_cache::encode(lut, bake_cache::mesh_hash(mesh), options.max_texture_dim);
+    let tmp = out.with_extension("hlut.tmp");
+    std::fs::write(&tmp, bytes)
+        .and_then(|()| std::fs::rename(&tmp, out))
+        .with_context(|| format!("cannot write {}", out.display()))
+}

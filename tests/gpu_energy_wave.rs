@@ -1,0 +1,302 @@
+//! The energy-wave pass on the GPU vs the f64 reference: per-pixel energy AOV on the seed's scene
+//! (with and without occluders), depth clipping by an opaque plane, hard rays through the probe
+//! kernel, the ray-marched baseline, and the frame plan. Lavapipe with validation on.
+
+mod common;
+
+use glam::DVec3;
+use hadou::effects::energy_wave::{line_integral, raymarch, WaveParams};
+use hadou::passes::energy_wave::wave_params;
+use hadou::scene::Scene;
+use hadou::{Aov, FrameRequest};
+
+/// Relative errors of the energy AOV against the f64 closed form, integrating each pixel ray up to
+/// the GPU's own depth (so this measures the integration, not the raster; depth has its own test).
+fn energy_errors(scene: &Scene, w: u32, h: u32, time: f64) -> Vec<f64> {
+    let mut rt = common::runtime();
+    rt.load_scene(scene.clone()).unwrap();
+    assert!(rt.pass_names().contains(&"energy_wave"));
+    let mut req = FrameRequest::new(w, h);
+    req.time = time;
+    req.aovs = vec![Aov::Energy, Aov::Depth];
+    let frame = rt.render(&req).unwrap();
+    common::assert_clean(&rt);
+    let energy = &frame.aov(Aov::Energy).unwrap().data;
+    let depth = &frame.aov(Aov::Depth).unwrap().data;
+    let waves: Vec<WaveParams> = scene.waves.iter().map(|wv| wave_params(&wv.at(time))).collect();
+    let cam = &scene.camera;
+    let mut errors = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let gpu = energy[i];
+            assert!(gpu.is_finite() && gpu >= 0.0, "pixel ({x}, {y}): {gpu}");
+            let (o, u) = cam.pixel_ray(x, y, w, h);
+            let l = (depth[i] as f64).min(cam.far);
+            let reference: f64 = waves.iter().map(|p| line_integral(p, o, u, l)).sum();
+            errors.push(if reference > 0.0 { (gpu as f64 - reference).abs() / reference } else { gpu as f64 });
+        }
+    }
+    errors
+}
+
+fn max_and_p99(mut errors: Vec<f64>) -> (f64, f64) {
+    errors.sort_by(|a, b| a.total_cmp(b));
+    let p99 = errors[((errors.len() as f64 * 0.99).ceil() as usize).clamp(1, errors.len()) - 1];
+    (errors[errors.len() - 1], p99)
+}
+
+/// The issue's bounds: max 1e-4, p99 1e-5. The pixel ray is built in f32 (≈ 3e-7 relative
+/// direction error); H depends on the ray's distance h from M only logarithmically
+/// (H ≈ 2a·ln(2L/h)), so the relative error of H stays ≈ δh/h / ln(2L/h) ≲ 1e-5 even for the
+/// pixel passing closest to M; the closed form itself is accurate to a few f32 ulps.
+#[test]
+fn energy_aov_matches_f64_with_occluders() {
+    let scene = common::load("assets/scenes/energy_wave.toml");
+    for time in [0.0, 1.0, 2.0, 3.0] {
+        let (max, p99) = max_and_p99(energy_errors(&scene, 96, 96, time));
+        println!("energy_wave.toml t={time}: max rel {max:.2e}, p99 {p99:.2e}");
+        assert!(max <= 1e-4 && p99 <= 1e-5, "t={time}: max {max:.3e}, p99 {p99:.3e}");
+    }
+}
+
+#[test]
+fn energy_aov_matches_f64_without_occluders() {
+    let scene = common::load("assets/scenes/energy_wave_open.toml");
+    let (max, p99) = max_and_p99(energy_errors(&scene, 96, 96, 1.0));
+    println!("energy_wave_open.toml: max rel {max:.2e}, p99 {p99:.2e}");
+    assert!(max <= 1e-4 && p99 <= 1e-5, "max {max:.3e}, p99 {p99:.3e}");
+}
+
+fn plane_scene(wave: &str) -> Scene {
+    common::parse(&format!(
+        r#"
+        [camera]
+        position = [0, 0, 10]
+        look_at = [0, 0, 0]
+        fov_y_deg = 60
+        far = 200
+        [[mesh]]
+        name = "wall"
+        kind = "plane"
+        size = 40
+        [[instance]]
+        mesh = "wall"
+        transform = [{{ rotate = {{ angle_deg = 80, axis = [1, 0.2, 0] }} }}, {{ translate = [0, 0, -1] }}]
+        {wave}
+        "#
+    ))
+}
+
+/// Depth clipping: with an opaque plane in the way, H equals the f64 integral up to the plane's
+/// distance, found here by an f64 ray–plane intersection (independent of the raster).
+#[test]
+fn opaque_plane_clips_the_integral() {
+    let scene = plane_scene(
+        r#"
+        [[wave]]
+        origin = [0.5, 0.2, -1]
+        direction = [1, 0.3, 0.2]
+        a = 2
+        b = 1
+        core = 0.01
+        length = 30
+        "#,
+    );
+    let (w, h) = (64, 64);
+    let mut rt = common::runtime();
+    rt.load_scene(scene.clone()).unwrap();
+    let mut req = FrameRequest::new(w, h);
+    req.aovs = vec![Aov::Energy];
+    let frame = rt.render(&req).unwrap();
+    common::assert_clean(&rt);
+    let energy = &frame.aov(Aov::Energy).unwrap().data;
+    let inst = &scene.instances[0].transform;
+    let p0 = inst.transform_point(DVec3::ZERO);
+    let n = inst.transform_normal(DVec3::Y);
+    let params = wave_params(&scene.waves[0].at(0.0));
+    let cam = &scene.camera;
+    let (mut clipped, mut worst) = (0, 0f64);
+    for y in 0..h {
+        for x in 0..w {
+            let (o, u) = cam.pixel_ray(x, y, w, h);
+            let denom = u.dot(n);
+            let t_plane = (p0 - o).dot(n) / denom;
+            // Only pixels well inside the plane's 40×40 extent and off its silhouette.
+            let hit = o + u * t_plane;
+            let local = inst.inverse.transform_point3(hit);
+            if !(t_plane > 0.0 && local.x.abs() < 15.0 && local.z.abs() < 15.0) {
+                continue;
+            }
+            clipped += 1;
+            let reference = line_integral(&params, o, u, t_plane);
+            let unclipped = line_integral(&params, o, u, cam.far);
+            assert!(unclipped > reference * 1.001, "the plane must clip something at ({x}, {y})");
+            let rel = (energy[(y * w + x) as usize] as f64 - reference).abs() / reference;
+            worst = worst.max(rel);
+        }
+    }
+    println!("{clipped} clipped pixels, worst rel {worst:.2e}");
+    assert!(clipped > 1000);
+    // Depth comes from the raster (≤ 1e-5 relative, see gpu_raster) and dH/dL·L/H ≤ 1 here.
+    assert!(worst <= 1e-4, "worst {worst:.3e}");
+}
+
+/// A surface at distance 0 (the camera on the occluder) gives H = 0; the camera far away and
+/// inside the beam stay finite.
+#[test]
+fn extreme_cameras_stay_finite() {
+    for (camera, look) in [([0.0, 0.0, 1e5], [0.0, 0.0, 0.0]), ([-50.0, 0.0, 0.0], [10.0, 0.0, 0.0]), ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])] {
+        let scene = common::parse(&format!(
+            r#"
+            [camera]
+            position = {camera:?}
+            look_at = {look:?}
+            fov_y_deg = 30
+            far = 1e6
+            [[wave]]
+            origin = [0, 0, 0]
+            direction = [1, 0, 0]
+            a = 60
+            b = 30
+            "#
+        ));
+        let mut rt = common::runtime();
+        rt.load_scene(scene).unwrap();
+        let mut req = FrameRequest::new(33, 33);
+        req.aovs = vec![Aov::Energy, Aov::Hdr];
+        let frame = rt.render(&req).unwrap();
+        common::assert_clean(&rt);
+        for aov in [Aov::Energy, Aov::Hdr] {
+            let data = &frame.aov(aov).unwrap().data;
+            assert!(data.iter().all(|v| v.is_finite() && *v >= 0.0), "camera {camera:?}: {aov:?} has NaN/Inf/negative");
+        }
+    }
+}
+
+/// The ray-marched baseline in the pass matches its f64 twin (same midpoint samples).
+#[test]
+fn raymarch_method_matches_its_f64_twin() {
+    let scene = plane_scene(
+        r#"
+        [[wave]]
+        origin = [0.5, 0.2, -1]
+        direction = [1, 0.3, 0.2]
+        a = 2
+        b = 1
+        core = 0.05
+        method = "raymarch"
+        steps = 32
+        "#,
+    );
+    let (w, h) = (48, 48);
+    let mut rt = common::runtime();
+    rt.load_scene(scene.clone()).unwrap();
+    let mut req = FrameRequest::new(w, h);
+    req.aovs = vec![Aov::Energy, Aov::Depth];
+    let frame = rt.render(&req).unwrap();
+    common::assert_clean(&rt);
+    let energy = &frame.aov(Aov::Energy).unwrap().data;
+    let depth = &frame.aov(Aov::Depth).unwrap().data;
+    let params = wave_params(&scene.waves[0].at(0.0));
+    let mut worst = 0f64;
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let (o, u) = scene.camera.pixel_ray(x, y, w, h);
+            let l = (depth[i] as f64).min(scene.camera.far);
+            let reference = raymarch(&params, o, u, l, 32, 0.5);
+            worst = worst.max((energy[i] as f64 - reference).abs() / reference);
+        }
+    }
+    // 32 samples each with a few f32 roundings: well under 1e-4 relative.
+    assert!(worst <= 1e-4, "worst {worst:.3e}");
+}
+
+#[test]
+fn plan_runs_the_pass_only_with_waves() {
+    let mut rt = common::runtime();
+    rt.load_scene(common::load("assets/scenes/single_cube.toml")).unwrap();
+    assert_eq!(rt.pass_names(), vec!["raster", "tonemap"]);
+    let mut req = FrameRequest::new(8, 8);
+    req.aovs = vec![Aov::Energy];
+    let err = rt.render(&req).unwrap_err().to_string();
+    assert!(err.contains("energy") && err.contains("wave"), "{err}");
+    rt.load_scene(common::load("assets/scenes/energy_wave.toml")).unwrap();
+    assert_eq!(rt.pass_names(), vec!["raster", "energy_wave", "tonemap"]);
+    rt.render(&req).unwrap();
+    common::assert_clean(&rt);
+}
+
+/// Hard rays on the GPU through the probe kernel (the pass's own GLSL), compared with the f64
+/// closed form on exactly the f32 inputs the GPU received (`GpuWave::to_frame`): rays passing
+/// 1e-1 … 1e-7 × |O − M| from M, exactly through M, the camera at M, parallel and anti-parallel to
+/// D down to 1e-6, in the plane I, the camera inside the beam and 1e5 away, L = 0, the clip at the
+/// plane I, the tip inside the clip interval. The f32 twin measures ≤ 5e-7 on these; the bound
+/// is the issue's bulk bound, 1e-5 (f32 keeps 6e-8 per operation; the closed form takes a few
+/// dozen operations with no cancellation left, see energy_wave_f32.rs).
+#[test]
+fn hard_rays_on_the_gpu_match_f64_on_the_same_inputs() {
+    use hadou::effects::energy_wave::line_integral_frame;
+    use hadou::effects::energy_wave_f32::{gpu_wave, GpuWave};
+    use hadou::passes::energy_probe::{ProbeMethod, ProbeRay};
+
+    let f3 = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
+    let widen = |v: [f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
+    let mut cases: Vec<(String, GpuWave, ProbeRay)> = Vec::new();
+    for (finite, core) in [(false, 0.0), (true, 0.0), (false, 1e-3), (true, 0.5)] {
+        let w = WaveParams {
+            origin: DVec3::new(3.0, -2.0, 5.0),
+            direction: DVec3::new(1.0, 0.5, -0.25).normalize(),
+            a: 60.0,
+            b: 30.0,
+            core,
+            length: if finite { 40.0 } else { f64::INFINITY },
+        };
+        let side = w.direction.cross(DVec3::Y).normalize();
+        let mut add = |name: &str, camera: DVec3, u: DVec3, l: f64| {
+            let g = gpu_wave(&w, camera);
+            cases.push((format!("{name} (finite {finite}, core {core})"), g, ProbeRay { u: f3(u), l: l as f32 }));
+        };
+        for k in 1..=7 {
+            let o = w.origin + DVec3::new(0.3, 0.9, -0.2).normalize() * 1e3;
+            let target = w.origin + side * (10f64.powi(-k) * 1e3);
+            add(&format!("near M 1e-{k}"), o, (target - o).normalize(), 2e3);
+        }
+        add("through M", w.origin + DVec3::X * 50.0, -DVec3::X, 100.0);
+        add("camera at M", w.origin, DVec3::new(0.2, 0.3, 0.9).normalize(), 50.0);
+        for k in 0..=6 {
+            let o = w.origin + side * 10f64.powi(-k) + w.direction * 5.0;
+            add(&format!("parallel 1e-{k}"), o, w.direction, 100.0);
+            add(&format!("anti-parallel 1e-{k}"), o, -w.direction, 100.0);
+        }
+        let o = w.origin + side * 100.0;
+        add("in the plane I", o, -side, 200.0);
+        add("inside the beam", w.origin + w.direction * 10.0 + side * 1e-2, DVec3::new(0.1, 0.8, 0.3).normalize(), 10.0);
+        add("1e5 from M", w.origin + DVec3::new(0.0, 0.6, 0.8) * 1e5, DVec3::new(0.0, -0.6, -0.8), 2e5);
+        add("L = 0", w.origin + side * 3.0, -side, 0.0);
+        let o = w.origin + DVec3::new(-7.0, 2.0, 1.0);
+        let u = DVec3::new(1.0, 0.1, 0.05).normalize();
+        let s_plane = -(o - w.origin).dot(w.direction) / u.dot(w.direction);
+        add("clip at the plane I", o, u, s_plane);
+        let tip = w.origin + w.direction * 40.0;
+        let o = tip + DVec3::new(0.0, 30.0, 10.0);
+        add("tip inside the clip interval", o, (tip + side * 1e-3 - o).normalize(), 80.0);
+    }
+    let mut rt = common::runtime();
+    let waves: Vec<GpuWave> = cases.iter().map(|c| c.1).collect();
+    let rays: Vec<ProbeRay> = cases.iter().map(|c| c.2).collect();
+    // The probe evaluates every (ray, wave) pair; case i is ray i with wave i, the diagonal.
+    let all = rt.energy_probe(&waves, &rays, ProbeMethod::Analytic).unwrap();
+    let mut worst = 0f64;
+    for (i, (name, g, ray)) in cases.iter().enumerate() {
+        let gpu = all[i * cases.len() + i] as f64;
+        let fair = line_integral_frame(&g.to_frame(), widen(ray.u), ray.l as f64);
+        assert!(gpu.is_finite() && gpu >= 0.0, "{name}: {gpu}");
+        let rel = if fair == 0.0 { gpu } else { (gpu - fair).abs() / fair };
+        worst = worst.max(rel);
+        assert!(rel <= 1e-5, "{name}: gpu {gpu:e} vs f64 {fair:e}, rel {rel:.2e}");
+    }
+    println!("{} hard rays on the GPU, worst rel {worst:.2e}", cases.len());
+    common::assert_clean(&rt);
+}

@@ -1,0 +1,599 @@
+//! Metaballs: the f64 cast (seed 000's algorithm) against the independent root check on random
+//! groups and rays, the hard cases one by one, and the f32 twin of the shader against f64 outside
+//! the tangency band. Run with `--nocapture` to see the measured iteration counts and errors.
+
+use glam::DVec3;
+use hadou::effects::metaballs::{
+    cast, cast_reference, field, gradient, iso_radius, Ball, Kernel, MetaHit, MetaballGroupParams,
+};
+use hadou::effects::metaballs_f32::{tangency, PackedGroup, MB_OVERFLOW};
+use hadou::scene::transform::{Transform, TransformOp};
+
+/// xorshift64*: deterministic, no dependency.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.next()
+    }
+    fn vec(&mut self, a: f64, b: f64) -> DVec3 {
+        DVec3::new(self.range(a, b), self.range(a, b), self.range(a, b))
+    }
+    fn unit(&mut self) -> DVec3 {
+        loop {
+            let v = self.vec(-1.0, 1.0);
+            let l = v.length();
+            if l > 0.1 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+}
+
+fn ball(centre: DVec3, radius: f64, q: f64) -> Ball {
+    Ball { centre, radius, q }
+}
+
+fn group(balls: Vec<Ball>) -> MetaballGroupParams {
+    MetaballGroupParams { threshold: 0.5, kernel: Kernel::Wyvill6, balls, transform: Transform::IDENTITY }
+}
+
+/// A random group: 2–9 balls in a box, some negative, either kernel, a random transform with a
+/// non-uniform scale half of the time.
+fn random_group(rng: &mut Rng) -> MetaballGroupParams {
+    let n = 2 + (rng.next() * 8.0) as usize;
+    let balls = (0..n)
+        .map(|_| {
+            let q = if rng.next() < 0.2 { rng.range(-1.2, -0.3) } else { rng.range(0.6, 2.0) };
+            ball(rng.vec(-2.5, 2.5), rng.range(1.0, 3.0), q)
+        })
+        .collect();
+    let mut ops = vec![TransformOp::Rotate { angle_deg: rng.range(0.0, 360.0), axis: rng.unit() }];
+    if rng.next() < 0.5 {
+        ops.insert(
+            0,
+            TransformOp::Scale(DVec3::new(rng.range(0.5, 2.0), rng.range(0.5, 2.0), rng.range(0.5, 2.0))),
+        );
+    }
+    ops.push(TransformOp::Translate(rng.vec(-3.0, 3.0)));
+    MetaballGroupParams {
+        threshold: rng.range(0.3, 0.8),
+        kernel: if rng.next() < 0.7 { Kernel::Wyvill6 } else { Kernel::Murakami4 },
+        balls,
+        transform: Transform::from_ops(&ops).unwrap(),
+    }
+}
+
+/// A camera 8–25 units from the group's centre looking at a random point near it.
+fn random_ray(rng: &mut Rng, g: &MetaballGroupParams) -> (DVec3, DVec3) {
+    let centre = g.transform.transform_point(DVec3::ZERO);
+    let origin = centre + rng.unit() * rng.range(8.0, 25.0);
+    let target = centre + rng.vec(-4.0, 4.0);
+    (origin, (target - origin).normalize())
+}
+
+/// The angle between two vectors, accurate near 0 (atan2 of |a × b| and a·b, not acos).
+fn angle_deg(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b)).to_degrees()
+}
+
+/// The hit satisfies F = T (independently of both root finders) and its normal is −∇F.
+fn check_on_surface(g: &MetaballGroupParams, o: DVec3, d: DVec3, h: &MetaHit, tol: f64) {
+    let ray = g.transform.ray_to_object(o, d);
+    let p = ray.origin + ray.dir * (h.t * ray.t_scale);
+    let f = field(g, p);
+    assert!((f - g.threshold).abs() <= tol, "F = {f} at the hit, T = {}", g.threshold);
+    let n = g.transform.transform_normal(-gradient(g, p));
+    assert!(angle_deg(n, h.normal) < 1e-6, "normal {} vs −∇F {n}", h.normal);
+}
+
+#[test]
+fn cast_matches_the_independent_root_check() {
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let (mut hits, mut misses, mut skipped, mut flat) = (0usize, 0usize, 0usize, 0usize);
+    let mut worst_rel = 0.0f64;
+    let mut worst_normal = 0.0f64;
+    let mut iters: Vec<u32> = Vec::new();
+    for _ in 0..400 {
+        let g = random_group(&mut rng);
+        for _ in 0..50 {
+            let (o, d) = random_ray(&mut rng, &g);
+            // A double root moves by √(noise): compare only rays that do not nearly touch T.
+            if tangency(&g, o, d, 0.0, 100.0).margin <= 1e-9 {
+                skipped += 1;
+                continue;
+            }
+            let a = cast(&g, o, d, 0.0, 100.0);
+            let b = cast_reference(&g, o, d, 0.0, 100.0);
+            match (a, b) {
+                (Some(a), Some(b)) => {
+                    hits += 1;
+                    let rel = (a.t - b.t).abs() / b.t;
+                    worst_rel = worst_rel.max(rel);
+                    worst_normal = worst_normal.max(angle_deg(a.normal, b.normal));
+                    assert!(rel <= 1e-9, "t = {} vs reference {} (rel {rel:e})\n{g:?}\n{o} {d}", a.t, b.t);
+                    if a.iterations > 0 {
+                        iters.push(a.iterations);
+                    }
+                    flat += usize::from(a.flat_root);
+                }
+                (None, None) => misses += 1,
+                _ => panic!("hit/miss disagree: cast {a:?}, reference {b:?}\n{g:?}\n{o} {d}"),
+            }
+        }
+    }
+    let mean = iters.iter().map(|&i| i as f64).sum::<f64>() / iters.len() as f64;
+    println!(
+        "f64 cast vs reference: {hits} hits ({flat} ended on the noise floor), {misses} misses, {skipped} \
+         near-tangent skipped; worst t error {worst_rel:.2e} relative, worst normal {worst_normal:.2e}°; Bézier clipping on {} hits: mean {mean:.2}, \
+         max {} iterations",
+        iters.len(),
+        iters.iter().max().unwrap()
+    );
+    assert!(hits > 3000 && misses > 1000, "{hits} hits, {misses} misses: the sample should have both");
+    assert!(worst_normal < 1e-5);
+}
+
+#[test]
+fn f32_twin_matches_f64_outside_the_tangency_band() {
+    let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+    let (mut agree, mut in_band, mut band_disagree, mut flagged) = (0usize, 0usize, 0usize, 0usize);
+    let (mut worst_t, mut worst_n) = (0.0f64, 0.0f64);
+    let mut min_disagree_margin = f64::INFINITY;
+    let mut iters: Vec<u32> = Vec::new();
+    for _ in 0..400 {
+        let g = random_group(&mut rng);
+        let packed = PackedGroup::new(&g);
+        for _ in 0..50 {
+            let (o, d) = random_ray(&mut rng, &g);
+            let t_min = rng.range(0.0, 1.0);
+            let a = cast(&g, o, d, t_min, 100.0);
+            let b = packed.cast(o, d, t_min, 100.0);
+            let band = tangency(&g, o, d, t_min, 100.0);
+            let same = match a {
+                Some(a) => b.hit() && (f64::from(b.t) - a.t).abs() <= 1e-4 * a.t,
+                None => !b.hit(),
+            };
+            if b.tangent() {
+                flagged += 1;
+            }
+            if band.in_band() {
+                in_band += 1;
+                if !same {
+                    band_disagree += 1;
+                }
+                continue;
+            }
+            if !same {
+                min_disagree_margin = min_disagree_margin.min(band.margin);
+            }
+            assert!(
+                same,
+                "outside the band (margin {:e}): f64 {a:?} vs f32 {b:?}\n{g:?}\n{o} {d} {t_min}",
+                band.margin
+            );
+            assert_eq!(b.flags & MB_OVERFLOW, 0);
+            if let Some(a) = a {
+                worst_t = worst_t.max((f64::from(b.t) - a.t).abs() / a.t);
+                let n = angle_deg(a.normal, b.normal.as_dvec3());
+                worst_n = worst_n.max(n);
+                assert!(n <= 0.5, "normal off by {n}° outside the band");
+                if b.iterations > 0 {
+                    iters.push(b.iterations);
+                }
+            }
+            agree += 1;
+        }
+    }
+    let mean = iters.iter().map(|&i| i as f64).sum::<f64>() / iters.len() as f64;
+    println!(
+        "f32 vs f64: {agree} rays agree outside the band; {in_band} in the band ({band_disagree} of them differ); \
+         {flagged} flagged MB_TANGENT by the f32 cast; worst depth {worst_t:.2e} relative, worst normal \
+         {worst_n:.3}°; f32 Bézier clipping on {} hits: mean {mean:.2}, max {} iterations",
+        iters.len(),
+        iters.iter().max().unwrap()
+    );
+    assert!(min_disagree_margin.is_infinite());
+    assert!(worst_t <= 1e-4);
+}
+
+/// Seed 000: one ball with q = 1, T = 0.5 has its surface at R/2; general q and T at ρ*·R.
+#[test]
+fn single_ball_radius() {
+    let o = DVec3::new(0.0, 0.0, 10.0);
+    for kernel in [Kernel::Wyvill6, Kernel::Murakami4] {
+        for (q, t, r) in [(1.0, 0.5, 2.0), (2.0, 0.5, 2.0), (1.0, 0.1, 3.0), (3.0, 2.0, 1.5)] {
+            let mut g = group(vec![ball(DVec3::ZERO, r, q)]);
+            g.kernel = kernel;
+            g.threshold = t;
+            let rho = iso_radius(kernel, q, t).unwrap();
+            if kernel == Kernel::Wyvill6 && q == 1.0 && t == 0.5 {
+                assert!((rho - 0.5).abs() <= 2e-16, "{rho}");
+            }
+            let h = cast(&g, o, -DVec3::Z, 0.0, 100.0).unwrap();
+            assert!(
+                (h.t - (10.0 - rho * r)).abs() < 1e-13,
+                "{kernel:?} q={q} T={t}: {} vs {}",
+                h.t,
+                10.0 - rho * r
+            );
+            assert_eq!(h.iterations, 0, "the lone-ball path needs no clipping");
+            check_on_surface(&g, o, -DVec3::Z, &h, 1e-13);
+            let f = PackedGroup::new(&g).cast(o, -DVec3::Z, 0.0, 100.0);
+            assert!(f.hit() && (f64::from(f.t) - h.t).abs() < 1e-6 * h.t);
+        }
+    }
+    // q ≤ T: a lone ball has no surface.
+    assert!(cast(&group(vec![ball(DVec3::ZERO, 2.0, 0.5)]), o, -DVec3::Z, 0.0, 100.0).is_none());
+}
+
+/// Tangent rays: a double root of the two-ball blend (both balls active, the Bézier path) and of
+/// a lone ball's sphere.
+#[test]
+fn tangent_rays() {
+    // Two unequal balls; rays along −z at x = 0.1. For each height y the field along the ray peaks
+    // where ∂F/∂z = 0 (bisection on the gradient); y* puts that peak exactly at T, so the ray at
+    // y* touches the surface at z*: a double root at t = 10 − z*.
+    let g =
+        group(vec![ball(DVec3::new(-1.0, 0.0, 0.3), 2.0, 1.0), ball(DVec3::new(1.2, 0.0, -0.4), 1.7, 0.9)]);
+    let x = 0.1;
+    let peak = |y: f64| {
+        let (mut lo, mut hi) = (-1.0f64, 1.0f64);
+        for _ in 0..200 {
+            let m = 0.5 * (lo + hi);
+            if gradient(&g, DVec3::new(x, y, m)).z > 0.0 {
+                lo = m;
+            } else {
+                hi = m;
+            }
+        }
+        0.5 * (lo + hi)
+    };
+    let (mut lo, mut hi) = (0.0f64, 2.0f64);
+    for _ in 0..200 {
+        let m = 0.5 * (lo + hi);
+        if field(&g, DVec3::new(x, m, peak(m))) > 0.5 {
+            lo = m;
+        } else {
+            hi = m;
+        }
+    }
+    let y = 0.5 * (lo + hi);
+    let z = peak(y);
+    let t_exact = 10.0 - z;
+    let o = DVec3::new(x, y, 10.0);
+    let h = cast(&g, o, -DVec3::Z, 0.0, 100.0);
+    let f32_hit = PackedGroup::new(&g).cast(o, -DVec3::Z, 0.0, 100.0);
+    let band = tangency(&g, o, -DVec3::Z, 0.0, 100.0);
+    assert!(band.in_band(), "a tangent ray is in the band (margin {:e})", band.margin);
+    println!(
+        "tangent ray, two balls (double root at t = {t_exact:.6}): f64 {} error {:.1e}, {} iterations, flat {}; \
+         f32 {} error {:.1e}, {} iterations, flags {:#x}; margin {:.1e}",
+        if h.is_some() { "hit" } else { "miss" },
+        h.map_or(f64::NAN, |h| (h.t - t_exact).abs()),
+        h.map_or(0, |h| h.iterations),
+        h.is_some_and(|h| h.flat_root),
+        if f32_hit.hit() { "hit" } else { "miss" },
+        if f32_hit.hit() { (f64::from(f32_hit.t) - t_exact).abs() } else { f64::NAN },
+        f32_hit.iterations,
+        f32_hit.flags,
+        band.margin
+    );
+    if let Some(h) = h {
+        assert!((h.t - t_exact).abs() < 1e-6, "a double root is found to about √ε: {} vs {t_exact}", h.t);
+    }
+    if f32_hit.hit() {
+        assert!((f64::from(f32_hit.t) - t_exact).abs() < 3e-3, "f32 double root: {} vs {t_exact}", f32_hit.t);
+    }
+    assert!(f32_hit.tangent(), "f32 flags the tangent ray: {f32_hit:?}");
+    // Slightly off the tangent, on each side: a clean miss above, two close roots below.
+    for (dy, expect) in [(1e-3, false), (-1e-3, true), (1e-6, false), (-1e-6, true)] {
+        let o = DVec3::new(x, y + dy, 10.0);
+        let a = cast(&g, o, -DVec3::Z, 0.0, 100.0);
+        let b = cast_reference(&g, o, -DVec3::Z, 0.0, 100.0);
+        assert_eq!(a.is_some(), expect);
+        assert_eq!(b.is_some(), expect);
+        if let (Some(a), Some(b)) = (a, b) {
+            assert!((a.t - b.t).abs() < 1e-9 * b.t, "{} vs {}", a.t, b.t);
+            let f = PackedGroup::new(&g).cast(o, -DVec3::Z, 0.0, 100.0);
+            println!(
+                "near-tangent (dy = {dy}): f64 {} iterations, t error {:.1e}; f32 {} iterations, t error {:.1e}, flags {:#x}",
+                a.iterations,
+                (a.t - b.t).abs(),
+                f.iterations,
+                (f64::from(f.t) - b.t).abs(),
+                f.flags
+            );
+        }
+    }
+    // A lone ball's sphere (ρ*R ≈ 1) touched at height 1: the analytic path. Hit or miss are
+    // both right (ρ* rounds to 0.4999999999999999); a hit is at the tangent point.
+    let g1 = group(vec![ball(DVec3::ZERO, 2.0, 1.0)]);
+    let o1 = DVec3::new(0.0, 1.0, 10.0);
+    if let Some(h) = cast(&g1, o1, -DVec3::Z, 0.0, 100.0) {
+        assert!((h.t - 10.0).abs() < 1e-7 && h.iterations == 0, "{h:?}");
+    }
+    assert!(tangency(&g1, o1, -DVec3::Z, 0.0, 100.0).in_band());
+    let f = PackedGroup::new(&g1).cast(o1, -DVec3::Z, 0.0, 100.0);
+    assert!(f.tangent(), "f32 flags the graze: {f:?}");
+}
+
+#[test]
+fn two_balls_with_the_same_centre() {
+    let g = group(vec![ball(DVec3::ZERO, 2.0, 1.0), ball(DVec3::ZERO, 2.0, 1.0)]);
+    let rho = iso_radius(Kernel::Wyvill6, 2.0, 0.5).unwrap();
+    let o = DVec3::new(0.3, 0.2, 10.0);
+    let h = cast(&g, o, -DVec3::Z, 0.0, 100.0).unwrap();
+    let expected = 10.0 - ((rho * 2.0f64).powi(2) - 0.13).sqrt();
+    assert!((h.t - expected).abs() < 1e-10, "{} vs {expected}", h.t);
+    assert!(h.iterations > 0, "two active balls take the Bézier path");
+    check_on_surface(&g, o, -DVec3::Z, &h, 1e-12);
+    // Different radii around one centre: still a sphere, radius where f(r²/4) + f(r²/1) = 0.5.
+    let g = group(vec![ball(DVec3::ZERO, 2.0, 1.0), ball(DVec3::ZERO, 1.0, 0.4)]);
+    let h = cast(&g, o, -DVec3::Z, 0.0, 100.0).unwrap();
+    let r = cast_reference(&g, o, -DVec3::Z, 0.0, 100.0).unwrap();
+    assert!((h.t - r.t).abs() < 1e-10 * r.t);
+    check_on_surface(&g, o, -DVec3::Z, &h, 1e-12);
+}
+
+#[test]
+fn negative_q_carves_into_a_positive_ball() {
+    let g = group(vec![ball(DVec3::ZERO, 2.0, 1.0), ball(DVec3::new(1.2, 0.0, 0.0), 1.5, -1.0)]);
+    // Along −x from x = 10: without the carving the surface is at x = 1 (t = 9).
+    let o = DVec3::new(10.0, 0.0, 0.0);
+    let h = cast(&g, o, -DVec3::X, 0.0, 100.0).unwrap();
+    let r = cast_reference(&g, o, -DVec3::X, 0.0, 100.0).unwrap();
+    assert!((h.t - r.t).abs() < 1e-10 * r.t, "{} vs {}", h.t, r.t);
+    assert!(h.t > 9.1, "the negative ball pushes the surface in: t = {}", h.t);
+    check_on_surface(&g, o, -DVec3::X, &h, 1e-12);
+    // Seen from the side the carved ball still has its far half.
+    let o = DVec3::new(-10.0, 0.0, 0.0);
+    let h = cast(&g, o, DVec3::X, 0.0, 100.0).unwrap();
+    assert!((h.t - 9.0).abs() < 1e-3, "{}", h.t);
+    // A negative ball alone has no surface.
+    assert!(cast(&group(vec![ball(DVec3::ZERO, 2.0, -1.0)]), o, DVec3::X, 0.0, 100.0).is_none());
+}
+
+#[test]
+fn camera_inside_the_support_and_inside_the_surface() {
+    let g = group(vec![ball(DVec3::ZERO, 2.0, 1.0)]);
+    let g2 = group(vec![ball(DVec3::ZERO, 2.0, 1.0), ball(DVec3::new(0.0, 0.0, -3.0), 2.0, 0.3)]);
+    for g in [&g, &g2] {
+        // Inside the support (r = 1.5), outside the surface (r = 1): the surface at t = 0.5.
+        let o = DVec3::new(0.0, 0.0, 1.5);
+        let h = cast(g, o, -DVec3::Z, 0.0, 100.0).unwrap();
+        let r = cast_reference(g, o, -DVec3::Z, 0.0, 100.0).unwrap();
+        assert!((h.t - r.t).abs() < 1e-12, "{} vs {}", h.t, r.t);
+        // Inside the surface: the first crossing is the exit, its normal points away from the camera.
+        let o = DVec3::new(0.0, 0.0, 0.3);
+        for d in [DVec3::Z, -DVec3::Z] {
+            let h = cast(g, o, d, 0.0, 100.0).unwrap();
+            let r = cast_reference(g, o, d, 0.0, 100.0).unwrap();
+            assert!((h.t - r.t).abs() < 1e-11, "{} vs {}", h.t, r.t);
+            assert!(h.normal.dot(d) > 0.99, "exit normal {} along {d}", h.normal);
+            let f = PackedGroup::new(g).cast(o, d, 0.0, 100.0);
+            assert!(f.hit() && (f64::from(f.t) - h.t).abs() < 1e-6, "{f:?}");
+        }
+    }
+    assert!((cast(&g, DVec3::new(0.0, 0.0, 0.3), DVec3::Z, 0.0, 100.0).unwrap().t - 0.7).abs() < 1e-14);
+}
+
+#[test]
+fn group_behind_the_camera() {
+    let g = group(vec![ball(DVec3::ZERO, 2.0, 1.0), ball(DVec3::new(0.0, 1.0, 0.0), 2.0, 1.0)]);
+    let o = DVec3::new(0.0, 0.0, 10.0);
+    assert!(cast(&g, o, DVec3::Z, 0.0, 100.0).is_none());
+    assert!(cast_reference(&g, o, DVec3::Z, 0.0, 100.0).is_none());
+    assert!(!PackedGroup::new(&g).cast(o, DVec3::Z, 0.0, 100.0).hit());
+    // Facing it, but t_max stops short (the depth buffer holds something nearer).
+    assert!(cast(&g, o, -DVec3::Z, 0.0, 8.0).is_none());
+    assert!(!PackedGroup::new(&g).cast(o, -DVec3::Z, 0.0, 8.0).hit());
+}
+
+#[test]
+fn ball_on_the_near_plane() {
+    let g = group(vec![ball(DVec3::ZERO, 2.0, 1.0), ball(DVec3::new(0.5, 0.0, 0.0), 1.0, 0.2)]);
+    let o = DVec3::new(0.0, 0.0, 10.0);
+    let first = cast_reference(&g, o, -DVec3::Z, 0.0, 100.0).unwrap();
+    // t_min exactly at the surface: the hit is t_min itself.
+    let h = cast(&g, o, -DVec3::Z, first.t, 100.0).unwrap();
+    assert!((h.t - first.t).abs() < 1e-12, "{} vs {}", h.t, first.t);
+    // t_min at the centre (the near plane through the ball): the ray starts inside, exits at R/2.
+    let h = cast(&g, o, -DVec3::Z, 10.0, 100.0).unwrap();
+    let r = cast_reference(&g, o, -DVec3::Z, 10.0, 100.0).unwrap();
+    assert!((h.t - r.t).abs() < 1e-11 && h.t > 10.9 && h.t < 11.1, "{} vs {}", h.t, r.t);
+    let f = PackedGroup::new(&g).cast(o, -DVec3::Z, 10.0, 100.0);
+    assert!(f.hit() && (f64::from(f.t) - h.t).abs() < 1e-5, "{f:?}");
+}
+
+#[test]
+fn ellipsoidal_metaballs() {
+    // Scale x by 3: the lone ball's surface is the ellipsoid with semi-axes (3, 1, 1).
+    let mut g = group(vec![ball(DVec3::ZERO, 2.0, 1.0)]);
+    g.transform = Transform::from_ops(&[TransformOp::Scale(DVec3::new(3.0, 1.0, 1.0))]).unwrap();
+    let h = cast(&g, DVec3::new(20.0, 0.0, 0.0), -DVec3::X, 0.0, 100.0).unwrap();
+    assert!((h.t - 17.0).abs() < 1e-12 && (h.normal - DVec3::X).length() < 1e-12, "{h:?}");
+    // An oblique ray: the normal is M⁻ᵀ applied to the object normal (seed 002).
+    let o = DVec3::new(10.0, 0.5, 6.0);
+    let d = (DVec3::new(1.0, 0.5, 0.0) - o).normalize();
+    let h = cast(&g, o, d, 0.0, 100.0).unwrap();
+    let p = o + d * h.t;
+    let ellipsoid = (p.x / 3.0).powi(2) + p.y * p.y + p.z * p.z;
+    assert!((ellipsoid - 1.0).abs() < 1e-12, "{ellipsoid}");
+    let n = DVec3::new(p.x / 9.0, p.y, p.z).normalize();
+    assert!(angle_deg(n, h.normal) < 1e-9);
+    // With two balls (the Bézier path) the reference agrees too.
+    g.balls.push(ball(DVec3::new(0.0, 1.5, 0.0), 1.5, 0.8));
+    let h = cast(&g, o, d, 0.0, 100.0).unwrap();
+    let r = cast_reference(&g, o, d, 0.0, 100.0).unwrap();
+    assert!((h.t - r.t).abs() < 1e-10 * r.t);
+    let f = PackedGroup::new(&g).cast(o, d, 0.0, 100.0);
+    assert!(
+        f.hit()
+            && (f64::from(f.t) - h.t).abs() < 1e-4 * h.t
+            && angle_deg(f.normal.as_dvec3(), h.normal) < 0.5
+    );
+}
+
+/// 10,000 balls strung along one ray: the sweep stays linear-ish (a sanity check, not timed).
+#[test]
+fn ten_thousand_balls_along_one_ray() {
+    let line =
+        |q: f64| group((0..10_000).map(|k| ball(DVec3::new(0.0, 0.0, -0.5 * k as f64), 1.0, q)).collect());
+    let o = DVec3::new(0.0, 0.0, 5.0);
+    // q = 0.1: about four overlapping balls give F ≈ 0.2 < T everywhere: a miss after all 20,000 events.
+    let g = line(0.1);
+    let start = std::time::Instant::now();
+    assert!(cast(&g, o, -DVec3::Z, 0.0, 1e4).is_none());
+    assert!(cast_reference(&g, o, -DVec3::Z, 0.0, 1e4).is_none());
+    println!("10,000 balls, miss: f64 cast + reference in {:?}", start.elapsed());
+    // q = 0.3: the first blob is hit before the 32 nearest balls run out, f32 included.
+    let g = line(0.3);
+    let h = cast(&g, o, -DVec3::Z, 0.0, 1e4).unwrap();
+    let r = cast_reference(&g, o, -DVec3::Z, 0.0, 1e4).unwrap();
+    assert!((h.t - r.t).abs() < 1e-9 * r.t, "{} vs {}", h.t, r.t);
+    let f = PackedGroup::new(&g).cast(o, -DVec3::Z, 0.0, 1e4);
+    assert!(f.hit() && (f64::from(f.t) - h.t).abs() < 1e-4 * h.t, "{f:?} vs {h:?}");
+    // The f32 miss cannot see past its 32 nearest supports: it says so instead of guessing.
+    // Casting again from where it stopped continues the search (every 32 supports or so).
+    let packed = PackedGroup::new(&line(0.1));
+    let (mut t_min, mut casts) = (0.0f64, 0);
+    loop {
+        let f = packed.cast(o, -DVec3::Z, t_min, 1e4);
+        casts += 1;
+        assert!(!f.hit(), "{f:?}");
+        if f.flags & MB_OVERFLOW == 0 {
+            break;
+        }
+        assert!(f64::from(f.t) > t_min, "no progress: {f:?}");
+        t_min = f64::from(f.t);
+    }
+    println!("10,000 balls, miss, f32: {casts} casts of 32 supports each to reach the end");
+    assert!(casts > 100);
+}
+
+/// Rays near silhouettes, where f32 and f64 may legitimately disagree: for random groups, find
+/// the silhouette between a hit and a miss by bisecting a sideways shift of the ray (f64), then
+/// cast at shifts 10⁻³ … 10⁻¹⁰ away from it on both sides. Outside the tangency band the f32
+/// twin must agree; inside it, disagreements are counted.
+#[test]
+fn silhouettes_f32_vs_f64() {
+    let mut rng = Rng(0x51_1f_4e_77_e1_1b_0b_5e);
+    let eps = f64::from(f32::EPSILON);
+    let (mut outside, mut inside, mut inside_differ, mut flagged_in_band, mut flagged_outside) =
+        (0, 0, 0, 0, 0);
+    let mut smallest_differ = f64::INFINITY;
+    let mut largest_differ = 0.0f64;
+    let mut hist = std::collections::BTreeMap::new();
+    let mut worst_t = 0.0f64;
+    let mut worst_n = 0.0f64;
+    for _ in 0..150 {
+        let g = random_group(&mut rng);
+        let packed = PackedGroup::new(&g);
+        for _ in 0..10 {
+            let (o, d) = random_ray(&mut rng, &g);
+            let Some(_) = cast(&g, o, d, 0.0, 100.0) else { continue };
+            // Shift sideways until the ray misses.
+            let side = d.cross(rng.unit()).normalize();
+            let mut far = 1.0;
+            while cast(&g, o + side * far, d, 0.0, 100.0).is_some() && far < 64.0 {
+                far *= 2.0;
+            }
+            if far >= 64.0 {
+                continue;
+            }
+            let (mut lo, mut hi) = (0.0f64, far);
+            for _ in 0..60 {
+                let m = 0.5 * (lo + hi);
+                if cast(&g, o + side * m, d, 0.0, 100.0).is_some() {
+                    lo = m;
+                } else {
+                    hi = m;
+                }
+            }
+            for k in 2..=20 {
+                for sign in [-1.0, 1.0] {
+                    let shift = 0.5 * (lo + hi) + sign * 10f64.powf(-k as f64 / 2.0);
+                    let oo = o + side * shift;
+                    let a = cast(&g, oo, d, 0.0, 100.0);
+                    let b = packed.cast(oo, d, 0.0, 100.0);
+                    let band = tangency(&g, oo, d, 0.0, 100.0);
+                    let same = match a {
+                        Some(a) => b.hit() && (f64::from(b.t) - a.t).abs() <= 1e-4 * a.t,
+                        None => !b.hit(),
+                    };
+                    if !same {
+                        largest_differ = largest_differ.max(band.margin / eps);
+                        let bucket = ((band.margin / eps).max(1e-3).log2().floor() as i32).clamp(-10, 10);
+                        *hist.entry(bucket).or_insert(0usize) += 1;
+                    }
+                    if band.in_band() {
+                        inside += 1;
+                        inside_differ += usize::from(!same);
+                        flagged_in_band += usize::from(b.tangent());
+                        continue;
+                    }
+                    flagged_outside += usize::from(b.tangent());
+                    if !same {
+                        smallest_differ = smallest_differ.min(band.margin / eps);
+                    }
+                    assert!(
+                        same,
+                        "outside the band (margin {:.1}ε): f64 {a:?} vs f32 {b:?}\n{g:?}\n{oo} {d}",
+                        band.margin / eps
+                    );
+                    outside += 1;
+                    if let Some(a) = a {
+                        worst_t = worst_t.max((f64::from(b.t) - a.t).abs() / a.t);
+                        let n = angle_deg(a.normal, b.normal.as_dvec3());
+                        worst_n = worst_n.max(n);
+                        assert!(
+                            n <= 0.5,
+                            "normal off by {n}° outside the band (margin {:.1}ε)",
+                            band.margin / eps
+                        );
+                    }
+                }
+            }
+        }
+    }
+    println!(
+        "silhouettes: {outside} rays outside the band agree (worst depth {worst_t:.2e} relative, worst normal \
+         {worst_n:.3}°); {inside} in the band, {inside_differ} of them differ; MB_TANGENT raised on \
+         {flagged_in_band} in-band and {flagged_outside} outside-band rays"
+    );
+    println!("largest margin of a disagreement: {largest_differ:.2}ε; by log2(margin/ε): {hist:?}");
+    assert!(inside > 100 && outside > 1000, "{inside} in the band, {outside} outside");
+}
+
+/// assets/scenes/metaballs.toml keeps seed 000's metaball.cfg balls, a carving (negative q) group
+/// and an ellipsoidal one; metaballs_4096.toml has 4,096 moving balls.
+#[test]
+fn metaball_assets() {
+    let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    let scene = hadou::scene::load_scene(&root.join("metaballs.toml")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.metaballs.len(), 3);
+    let seed = &scene.metaballs[0];
+    assert_eq!((seed.balls[0].centre, seed.balls[0].radius), (DVec3::ZERO, 2.0));
+    assert_eq!((seed.balls[1].centre, seed.balls[1].radius), (DVec3::new(0.0, 4.0, 0.0), 2.0));
+    // The top of the (0, 4, 0) ball is covered by its support alone: the lone-ball sphere, R/2.
+    let p = seed.at(0.0);
+    let h = cast(&p, DVec3::new(-5.0, 20.0, 0.0), -DVec3::Y, 0.0, 100.0).unwrap();
+    assert!((h.t - 15.0).abs() < 1e-12, "{}", h.t);
+    // At T = 1 the keyframes have lowered it by 0.6.
+    let h = cast(&seed.at(1.0), DVec3::new(-5.0, 20.0, 0.0), -DVec3::Y, 0.0, 100.0).unwrap();
+    assert!((h.t - 15.6).abs() < 1e-12, "{}", h.t);
+    assert!(scene.metaballs[1].balls.iter().any(|b| b.q < 0.0));
+    let m = scene.metaballs[2].transform.matrix;
+    assert!((m.x_axis.truncate().length() - m.y_axis.truncate().length()).abs() > 0.5, "not ellipsoidal");
+    assert_eq!(scene.metaballs[2].kernel, Kernel::Murakami4);
+    let swarm = hadou::scene::load_scene(&root.join("metaballs_4096.toml")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(swarm.metaballs[0].balls.len(), 4096);
+    assert!(swarm.metaballs[0].balls.iter().all(|b| b.velocity.length() <= 0.4 && b.velocity != DVec3::ZERO));
+}
