@@ -15,10 +15,15 @@ pub enum Aov {
     /// Σ over the scene's waves of the raw line integral H along the view ray, clipped by the
     /// depth (no colour, no intensity). One channel. Only for scenes with waves.
     Energy,
+    /// World thickness of material the first directional light crossed to reach the pixel's
+    /// translucent surface (seed 003: LUT or TSM, per material); +inf where the surface is not
+    /// translucent (or the scene has no light). One channel. Only for scenes with a translucent
+    /// instance.
+    Thickness,
 }
 
 impl Aov {
-    pub const ALL: [Aov; 4] = [Aov::Depth, Aov::Hdr, Aov::Normal, Aov::Energy];
+    pub const ALL: [Aov; 5] = [Aov::Depth, Aov::Hdr, Aov::Normal, Aov::Energy, Aov::Thickness];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -26,6 +31,7 @@ impl Aov {
             Aov::Hdr => "hdr",
             Aov::Normal => "normal",
             Aov::Energy => "energy",
+            Aov::Thickness => "thickness",
         }
     }
 
@@ -39,12 +45,13 @@ impl Aov {
             Aov::Hdr => Target::Hdr,
             Aov::Normal => Target::Normal,
             Aov::Energy => Target::Energy,
+            Aov::Thickness => Target::Thickness,
         }
     }
 
     pub fn channels(self) -> u32 {
         match self {
-            Aov::Depth | Aov::Energy => 1,
+            Aov::Depth | Aov::Energy | Aov::Thickness => 1,
             Aov::Hdr | Aov::Normal => 4,
         }
     }

@@ -13,8 +13,11 @@ use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::timestamps::TimestampPool;
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::passes::energy_wave::EnergyWavePass;
+use crate::passes::light_id::LightIdPass;
+use crate::passes::metaballs::MetaballsPass;
 use crate::passes::raster::RasterPass;
 use crate::passes::tonemap::TonemapPass;
+use crate::passes::translucency::{self, shared_data, TranslucencyPass};
 use crate::passes::{Pass, PassInputs};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
@@ -24,6 +27,9 @@ use crate::targets::{Target, Targets};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PassKind {
     Raster,
+    LightId,
+    Metaballs,
+    Translucency,
     EnergyWave,
     Tonemap,
 }
@@ -32,6 +38,19 @@ pub enum PassKind {
 pub fn plan(scene: &Scene) -> Vec<PassKind> {
     // The raster always runs: it clears the G-buffer every later pass reads, even with no instances.
     let mut kinds = vec![PassKind::Raster];
+    // The light's view of the translucent instances (it does not read the raster's images).
+    let translucent = translucency::needed(scene);
+    if translucent {
+        kinds.push(PassKind::LightId);
+    }
+    // After the raster (depth-tested against it), before the wave (which the metaballs clip).
+    if !scene.metaballs.is_empty() {
+        kinds.push(PassKind::Metaballs);
+    }
+    // Reads the G-buffer the raster and the metaballs wrote; before the wave, which adds on top.
+    if translucent {
+        kinds.push(PassKind::Translucency);
+    }
     if !scene.waves.is_empty() {
         kinds.push(PassKind::EnergyWave);
     }
@@ -51,9 +70,16 @@ pub fn build_passes(
     kinds: &[PassKind],
 ) -> GpuResult<Vec<Box<dyn Pass>>> {
     let mut passes: Vec<Box<dyn Pass>> = Vec::new();
+    // One bake and upload of the thickness LUTs, shared by light_id and translucency.
+    let mut translucent = None;
     for kind in kinds {
         let pass = match kind {
             PassKind::Raster => boxed(RasterPass::new(ctx, compiler)),
+            PassKind::LightId => shared_data(&mut translucent, ctx, memory, scene)
+                .and_then(|d| boxed(LightIdPass::new(ctx, memory, compiler, d))),
+            PassKind::Metaballs => boxed(MetaballsPass::new(ctx, memory, compiler, scene)),
+            PassKind::Translucency => shared_data(&mut translucent, ctx, memory, scene)
+                .and_then(|d| boxed(TranslucencyPass::new(ctx, memory, compiler, d))),
             PassKind::EnergyWave => boxed(EnergyWavePass::new(ctx, memory, compiler, scene)),
             PassKind::Tonemap => boxed(TonemapPass::new(ctx, compiler)),
         };
@@ -61,10 +87,13 @@ pub fn build_passes(
             Ok(p) => passes.push(p),
             Err(e) => {
                 passes.iter_mut().for_each(|p| p.destroy(ctx, memory));
+                translucency::release(translucent, ctx, memory);
                 return Err(e);
             }
         }
     }
+    // The passes hold their own references.
+    translucency::release(translucent, ctx, memory);
     Ok(passes)
 }
 
@@ -97,6 +126,14 @@ pub struct FrameStats {
     pub cpu_submit_wait_ms: f64,
     /// Whole frame on the CPU: uniforms, record, submit, wait, read-back.
     pub cpu_frame_ms: f64,
+    /// metaballs: pixels whose cast could not finish (more than 32 support spheres overlap at a
+    /// point, or the clipping did not converge): a surface may be missing there (logged).
+    pub metaball_overflow: u64,
+    /// metaballs: pixels where a metaball is the nearest surface, and the Bézier-clipping steps
+    /// their casts spent (sum, max).
+    pub metaball_hits: u64,
+    pub metaball_clip_steps: u64,
+    pub metaball_clip_steps_max: u64,
 }
 
 pub struct FrameRunner {
@@ -138,6 +175,7 @@ impl FrameRunner {
         let frame_start = Instant::now();
         for pass in passes.iter_mut() {
             pass.prepare(scene, time, targets.extent)?;
+            pass.prepare_device(ctx, memory)?;
         }
         let mut buffers = Vec::new();
         for &target in readback {
@@ -161,6 +199,7 @@ impl FrameRunner {
         let result = self.record_and_submit(ctx, passes, targets, scene_gpu, scene, time, &buffers);
         match result {
             Ok(mut stats) => {
+                passes.iter().for_each(|p| p.report(&mut stats));
                 stats.cpu_frame_ms = ms(frame_start.elapsed());
                 Ok((stats, buffers))
             }

@@ -23,7 +23,22 @@ pub enum Target {
     Ldr,
     /// Σ over waves of the line integral H along each view ray; R32F. Only with waves.
     Energy,
+    /// light_id: per texel of the light's view, (instance id + 1, surface-voxel id) of the first
+    /// translucent surface the light reaches, (0, 0) where none; RG32UI, `LIGHT_MAP_SIZE`².
+    LightIds,
+    /// light_id: light-space distance of that surface along the light (TSM's depth); R32F,
+    /// `LIGHT_MAP_SIZE`².
+    LightZ,
+    /// light_id's own D32 depth attachment, `LIGHT_MAP_SIZE`².
+    LightDepth,
+    /// translucency: world thickness of material the light crossed to reach the pixel's
+    /// translucent surface, +inf elsewhere; R32F.
+    Thickness,
 }
+
+/// Side of the light_id maps in texels (they do not follow the frame's size): the light's view
+/// is fitted to the translucent instances, so a texel is 1/1024 of their bounding diameter.
+pub const LIGHT_MAP_SIZE: u32 = 1024;
 
 impl Target {
     pub fn name(self) -> &'static str {
@@ -35,15 +50,19 @@ impl Target {
             Target::Distance => "distance",
             Target::Ldr => "ldr",
             Target::Energy => "energy",
+            Target::LightIds => "light_ids",
+            Target::LightZ => "light_z",
+            Target::LightDepth => "light_depth",
+            Target::Thickness => "thickness",
         }
     }
 
     pub fn format(self) -> vk::Format {
         match self {
-            Target::Depth => vk::Format::D32_SFLOAT,
+            Target::Depth | Target::LightDepth => vk::Format::D32_SFLOAT,
             Target::Hdr | Target::Normal => vk::Format::R16G16B16A16_SFLOAT,
-            Target::Ids => vk::Format::R32G32_UINT,
-            Target::Distance | Target::Energy => vk::Format::R32_SFLOAT,
+            Target::Ids | Target::LightIds => vk::Format::R32G32_UINT,
+            Target::Distance | Target::Energy | Target::LightZ | Target::Thickness => vk::Format::R32_SFLOAT,
             Target::Ldr => vk::Format::R8G8B8A8_UNORM,
         }
     }
@@ -52,17 +71,28 @@ impl Target {
     pub fn texel_bytes(self) -> u64 {
         match self {
             Target::Depth | Target::Distance | Target::Ldr | Target::Energy => 4,
-            Target::Hdr | Target::Normal | Target::Ids => 8,
+            Target::LightZ | Target::LightDepth | Target::Thickness => 4,
+            Target::Hdr | Target::Normal | Target::Ids | Target::LightIds => 8,
+        }
+    }
+
+    /// The size of a target that does not follow the frame's (the light maps); `None` for the rest.
+    pub fn fixed_extent(self) -> Option<vk::Extent2D> {
+        match self {
+            Target::LightIds | Target::LightZ | Target::LightDepth => {
+                Some(vk::Extent2D { width: LIGHT_MAP_SIZE, height: LIGHT_MAP_SIZE })
+            }
+            _ => None,
         }
     }
 
     fn usage(self) -> vk::ImageUsageFlags {
         let base = vk::ImageUsageFlags::TRANSFER_SRC;
         match self {
-            Target::Depth => {
+            Target::Depth | Target::LightDepth => {
                 base | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED
             }
-            Target::Ldr | Target::Energy => base | vk::ImageUsageFlags::STORAGE,
+            Target::Ldr | Target::Energy | Target::Thickness => base | vk::ImageUsageFlags::STORAGE,
             _ => base | vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
         }
     }
@@ -74,6 +104,7 @@ struct Tracked {
 }
 
 pub struct Targets {
+    /// The frame's size; a target with a `fixed_extent` has its own (`Image::extent`).
     pub extent: vk::Extent2D,
     images: Vec<(Target, Tracked)>,
 }
@@ -88,7 +119,8 @@ impl Targets {
     ) -> GpuResult<Self> {
         let mut targets = Targets { extent, images: Vec::new() };
         for &target in wanted {
-            match memory.create_image(ctx, target.name(), extent, target.format(), target.usage()) {
+            let size = target.fixed_extent().unwrap_or(extent);
+            match memory.create_image(ctx, target.name(), size, target.format(), target.usage()) {
                 Ok(image) => targets.images.push((target, Tracked { image, last: ImageAccess::UNDEFINED })),
                 Err(e) => {
                     targets.destroy(ctx, memory);

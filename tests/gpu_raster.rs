@@ -54,7 +54,10 @@ fn reference(scene: &Scene, caster: &SceneCaster, w: u32, h: u32) -> Vec<PixelRe
 const DEPTH_REL_TOL: f64 = 1e-4;
 
 fn check_depth(scene_rel: &str, w: u32, h: u32) {
-    let scene = common::load(scene_rel);
+    let mut scene = common::load(scene_rel);
+    // The raster's depth alone: metaballs (a compute pass) would add surfaces the mesh ray cast
+    // does not know; they have their own test.
+    scene.metaballs.clear();
     let caster = caster(&scene);
     let refs = reference(&scene, &caster, w, h);
     let mut rt = common::runtime();

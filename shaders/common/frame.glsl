@@ -24,9 +24,15 @@ struct InstanceData {
     uvec4 ids;           // x: instance id (scene order), y: material id
 };
 
+#define MATERIAL_LAMBERT 0u
+#define MATERIAL_TRANSLUCENT 1u
+#define THICKNESS_LUT 0u
+#define THICKNESS_TSM 1u
+
 struct MaterialData {
     vec4 albedo;         // rgb
-    uvec4 kind;          // x: 0 = lambert
+    uvec4 kind;          // x: MATERIAL_*; y (translucent): THICKNESS_*
+    vec4 sigma;          // rgb (translucent): extinction per world unit
 };
 
 #endif

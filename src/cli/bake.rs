@@ -2,7 +2,7 @@
 //! [--force]`: bakes thickness LUTs (seed 003) through the on-disk cache, with a progress line on
 //! stderr and one summary line per table on stdout.
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use std::sync::Mutex;
@@ -11,7 +11,9 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::Args;
 use hadou::effects::bake_cache::{self, BakeCache, CacheOutcome};
-use hadou::effects::thickness_lut::{self, BakeOptions, BakeStats, ThicknessLut, DEFAULT_MAX_TEXTURE_DIM, LUT_FORMAT};
+use hadou::effects::thickness_lut::{
+    self, BakeOptions, BakeStats, ThicknessLut, DEFAULT_MAX_TEXTURE_DIM, LUT_FORMAT,
+};
 use hadou::scene::mesh::Mesh;
 use hadou::scene::{MaterialKind, ThicknessMode};
 
@@ -71,32 +73,49 @@ fn jobs(args: &BakeArgs) -> anyhow::Result<Vec<Job>> {
     }
     Ok(out
         .into_iter()
-        .map(|(m, res)| Job { label: format!("mesh \"{}\"", scene.meshes[m].name), mesh: scene.meshes[m].mesh.clone(), res })
+        .map(|(m, res)| Job {
+            label: format!("mesh \"{}\"", scene.meshes[m].name),
+            mesh: scene.meshes[m].mesh.clone(),
+            res,
+        })
         .collect())
 }
 
-/// A progress line on stderr, redrawn at most every 100 ms.
+/// A progress line on stderr: redrawn in place at most every 100 ms on a terminal, a new line
+/// every 2 s otherwise; 100 % exactly once.
 struct Progress {
     label: String,
-    last: Mutex<Option<Instant>>,
+    terminal: bool,
+    /// When the line was last drawn, and whether 100 % has been shown.
+    state: Mutex<(Option<Instant>, bool)>,
 }
 
 impl Progress {
+    fn new(label: String) -> Progress {
+        Progress { label, terminal: std::io::stderr().is_terminal(), state: Mutex::new((None, false)) }
+    }
+
     fn show(&self, done: usize, total: usize) {
-        let Ok(mut last) = self.last.lock() else { return };
-        let due = last.is_none_or(|t| t.elapsed().as_millis() >= 100);
-        if !due && done < total {
+        let Ok(mut state) = self.state.lock() else { return };
+        let (last, finished) = &mut *state;
+        let period = if self.terminal { 100 } else { 2000 };
+        let due = last.is_none_or(|t| t.elapsed().as_millis() >= period);
+        if *finished || (!due && done < total) {
             return;
         }
         *last = Some(Instant::now());
+        *finished = done >= total;
         let percent = if total == 0 { 100.0 } else { done as f64 * 100.0 / total as f64 };
         let mut err = std::io::stderr().lock();
-        let _ = write!(err, "\r{}: {percent:5.1}% of {total} pairs", self.label);
+        let (start, end) = if self.terminal { ("\r", "") } else { ("", "\n") };
+        let _ = write!(err, "{start}{}: {percent:5.1}% of {total} pairs{end}", self.label);
         let _ = err.flush();
     }
 
     fn finish(&self) {
-        let _ = writeln!(std::io::stderr());
+        if self.terminal {
+            let _ = writeln!(std::io::stderr());
+        }
     }
 }
 
@@ -110,14 +129,14 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     if args.out.is_some() && jobs.len() != 1 {
         bail!("--out needs exactly one table, but {} has {}", args.input.display(), jobs.len());
     }
-    let options = BakeOptions { threads: args.threads, max_texture_dim: args.max_texture_dim, exact_only: false };
+    let options =
+        BakeOptions { threads: args.threads, max_texture_dim: args.max_texture_dim, exact_only: false };
     let cache = BakeCache::from_env();
     if cache.is_none() {
         log::warn!("no cache folder (set HADOU_CACHE_DIR, XDG_CACHE_HOME or HOME): baking without a cache");
     }
     for job in &jobs {
-        let progress =
-            Progress { label: format!("baking {} at {}³", job.label, job.res), last: Mutex::new(None) };
+        let progress = Progress::new(format!("baking {} at {}³", job.label, job.res));
         let show = |done: usize, total: usize| progress.show(done, total);
         let start = Instant::now();
         let (lut, stats, how) = match (&cache, args.force) {

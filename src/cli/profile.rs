@@ -1,6 +1,6 @@
 //! `hadou profile SCENE [--size WxH] [--frames N] [--warmup K] [--json F] [--trace F]`
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -59,12 +59,19 @@ pub fn run(args: ProfileArgs) -> anyhow::Result<()> {
             starts.push(start);
         }
         if last_report.elapsed().as_secs_f64() > 1.0 || i + 1 == total {
-            eprint!("\rframe {}/{total}", i + 1);
-            let _ = std::io::stderr().flush();
+            // Rewrite one line on a terminal; one line per report in a log.
+            if std::io::stderr().is_terminal() {
+                eprint!("\rframe {}/{total}", i + 1);
+                let _ = std::io::stderr().flush();
+            } else {
+                eprintln!("frame {}/{total}", i + 1);
+            }
             last_report = Instant::now();
         }
     }
-    eprintln!();
+    if std::io::stderr().is_terminal() {
+        eprintln!();
+    }
     let report = ProfileReport::new(
         args.scene.display().to_string(),
         runtime.device_info().clone(),

@@ -18,6 +18,12 @@
 //!   points to f32 precision; a plain f32 cross product would leave an absolute error of
 //!   ~2⁻²⁴·|O − M| in h (6 % of h at 1e-6·|O − M|), and an f32 split point can land half an ulp of s
 //!   away from the crossing, which is comparable to the clamp floor of a ray grazing M.
+//! - A double-float sum that is rounded at once (the components of R × c and of the wedge, the
+//!   numerators of ξ, the Newton residual) takes 3 ops instead of a renormalizing add:
+//!   (x.hi + y.hi) + (x.lo + y.lo) is exact in its first addition when it cancels (Sterbenz) and
+//!   otherwise rounds at least half the larger operand, so it keeps ~2⁻²³ of the result plus
+//!   2⁻⁴⁶ of the operands, as exact as the operands themselves. A piece's length s₁ − s₀ of two
+//!   double-float split points is rounded the same way.
 //! - Nothing else needs more than f32: ρ = √(ξ² + H²) is a sum of squares, and the logarithms
 //!   take arguments without cancellation.
 //! - Measured (tests/energy_wave_math.rs, and the GLSL on lavapipe): hard rays agree with the f64
@@ -25,11 +31,40 @@
 //!
 //! # log1p
 //! Mesa lowers GLSL `asinh` without log1p and Vulkan allows `log` an absolute error of 2⁻²¹ in
-//! [0.5, 2], so [`log1p_f32`] evaluates log1p(x) = 2·atanh(z), z = x/(2 + x), as the odd series
-//! 2·(z + z³/3 + … + z¹⁵/15) for −0.5 ≤ x ≤ 1 (|z| ≤ 1/3), and `log(1 + x)` only outside, where
-//! `log` has a relative bound (3 ulp) and 1 + x rounds by at most half an ulp (relative to the
-//! result ≥ ln 2). Eight terms: the first omitted one, z¹⁷/17, relative to the sum is at most
-//! (1/3)¹⁶/17·9/8 = 1.5e-9 ≈ 2⁻²⁴/40; seven would leave 3.6e-8 ≈ 0.6 ulp.
+//! [0.5, 2], so [`log1p_f32`] uses no `log` at all, and no branch (the GPU would run both sides,
+//! see "Cost"): u = 1 + x rounded and its rounding error err = x − (u − 1), exact (Fast2Sum's
+//! error term for |x| ≤ 1; for x > 1, u − 1 is exact below 2²⁴ and Sterbenz makes the difference
+//! exact); u = 2ᵏ·f with f in [√½, √2) read from the bits; then
+//! log1p(x) = k·ln 2 + 2·atanh(z) + err/u, z = (f − 1)/(f + 1) (f − 1 exact by Sterbenz),
+//! |z| ≤ 0.1716, atanh as the odd series z + z³/3 + … + z⁹/9: the first omitted term, z¹¹/11,
+//! is below 2.0e-9 relative, and the dropped −(err/u)²/2 below 2⁻⁴⁹. k·ln 2 is split so that
+//! k·LN2_HI is exact. Measured: ≤ 2.7e-7 relative (2.2 ulp) over [−0.99, 1e30] (20 million
+//! random f32 arguments and the sweep of the test below).
+//!
+//! # One log1p per piece
+//! A piece's three cases (both ends ≥ 0, both ≤ 0 mirrored onto ≥ 0, and ξ_a < 0 < ξ_b) differ
+//! only in the argument of one log1p: the straddling case asinh(ξ_b/hh) + asinh(−ξ_a/hh) is
+//! log1p(y_a + y_b + y_a·y_b) with y = e^asinh(x/hh) − 1 = x·(hh + ρ + x)/(hh·(hh + ρ)) for
+//! x = −ξ_a, ξ_b ≥ 0: a sum of products of nonnegative terms, so its relative error is that of
+//! the y's, and log1p's relative error is at most its argument's. The clamp keeps x/hh ≤ 2²⁰
+//! (hh ≥ F ≥ 2⁻²⁰·S ≥ 2⁻²⁰·|ξ| when the closest approach is inside), so y_a·y_b ≤ 2⁴³.
+//!
+//! # Cost
+//! The GLSL is one straight path with selects. On lavapipe (Mesa 22.3) every `if` becomes an
+//! execution mask and both sides run for every group of 8 invocations, even when no lane takes
+//! one of them (measured: a never-taken branch around the whole integral costs as much as
+//! running it), and a `for` loop runs its body once more, masked, on its last test. So a cheap
+//! plain-f32 path for "easy" rays, with the double-float path as a fallback, would be paid on top
+//! of the exact path, never instead of it. Nor would it be cheap in accuracy: h = |p × u| in plain
+//! f32 has an absolute error of a few 2⁻²⁴·|O − M| (measured on 20 000 rays per ratio, relative
+//! to h: worst 8e-7 at h = 2⁻⁴·|O − M|, 1.2e-5 at 2⁻⁸, 4.7e-5 at 2⁻¹⁰), and H inherits up to
+//! all of it, where the twin is held to 1e-5 and measures ≤ 5e-7. What the straight path saves:
+//! the sphere term has its one piece (not three), two plane crossings are computed instead of
+//! four, ξ(0) = A/m needs no double-float work, each piece takes one log1p of the branch-free
+//! kind above (the first version evaluated both branches of log1p, `log` and the series, four
+//! times per piece, six pieces per pixel), and the point centres share |V|² and |V|. The
+//! pass's `main` (shaders/energy_wave.comp) reads the first wave in uniform control flow and
+//! loops over waves with a do-while. Measured at 512×512 on lavapipe: 44 → 8 ms per frame.
 //!
 //! # Thresholds (f32)
 //! - Linear form when m·Δs ≤ 2⁻¹²·(ρ_a + ρ_b): its relative error is below (2⁻¹²)² = 2⁻²⁴ (the
@@ -120,29 +155,30 @@ const WAVE_PARALLEL_MIN: f32 = 8.673_617e-19; // 2^-60
 const WAVE_LINEAR_TAU: f32 = 2.441_406_3e-4; // 2^-12
 const HADOU_BIG: f32 = 3.0e38;
 const WAVE_MAX_LENGTH: f32 = 1.0e18; // L is clamped here: squares stay finite
+const HADOU_SQRT2: f32 = std::f32::consts::SQRT_2; // √2 rounded to f32 (just below √2)
+const HADOU_LN2_HI: f32 = 0.693_145_75; // ln 2 to 16 bits: k·LN2_HI is exact
+const HADOU_LN2_LO: f32 = 1.428_606_8e-6; // ln 2 − LN2_HI
 
-/// log1p(x) for x > −1 without `log` near 1 (see the module docs). The GLSL is `hadou_log1p`.
+/// log1p(x) for −1 < x < 3e38 without `log` and without a branch (see the module docs). The
+/// GLSL is `hadou_log1p`.
 pub fn log1p_f32(x: f32) -> f32 {
-    // GLSL: x > 1.0 || x < -0.5
-    if !(-0.5..=1.0).contains(&x) {
-        return (1.0 + x).ln();
-    }
-    let z = x / (2.0 + x);
+    let u = 1.0 + x;
+    let err = x - (u - 1.0);
+    let bits = u.to_bits() as i32;
+    let mut k = ((bits >> 23) & 255) - 127;
+    let mut f = f32::from_bits(((bits & 8_388_607) | 1_065_353_216) as u32); // mantissa, in [1, 2)
+    let high = f > HADOU_SQRT2;
+    f = if high { 0.5 * f } else { f };
+    k = if high { k + 1 } else { k };
+    let z = (f - 1.0) / (f + 1.0);
     let z2 = z * z;
-    let mut p = 1.0 / 15.0;
-    p = p * z2 + 1.0 / 13.0;
-    p = p * z2 + 1.0 / 11.0;
-    p = p * z2 + 1.0 / 9.0;
+    let mut p = 1.0 / 9.0;
     p = p * z2 + 1.0 / 7.0;
     p = p * z2 + 1.0 / 5.0;
     p = p * z2 + 1.0 / 3.0;
     p = p * z2 + 1.0;
-    2.0 * z * p
-}
-
-/// asinh(x) for x ≥ 0 as log1p(x + x²/(1 + √(1 + x²))).
-fn hadou_asinh_pos(x: f32) -> f32 {
-    log1p_f32(x + x * x / (1.0 + (1.0 + x * x).sqrt()))
+    let fk = k as f32;
+    fk * HADOU_LN2_HI + (fk * HADOU_LN2_LO + (2.0 * z * p + err / u))
 }
 
 // Double-float arithmetic: [hi, lo] with hi + lo the value (GLSL: vec2).
@@ -227,6 +263,34 @@ fn hadou_df_round(x: Df) -> f32 {
     x[0] + x[1]
 }
 
+/// round(x + y) for double-floats with |lo| ≤ 2⁻²³·|hi| (sums, products): when x.hi + y.hi
+/// cancels it is exact (Sterbenz), otherwise it is at least half the larger operand; either way
+/// the result is good to ~2⁻²³ of itself plus 2⁻⁴⁶ of the operands, as exact as the operands
+/// are (3 ops instead of a renormalizing `hadou_df_add` and the rounding).
+fn hadou_df_add_round(x: Df, y: Df) -> f32 {
+    (x[0] + y[0]) + (x[1] + y[1])
+}
+
+/// a ≥ b for normalized double-floats (|lo| ≤ half an ulp of hi, as `hadou_fast_two_sum`
+/// returns): their order is the order of (hi, lo).
+fn hadou_df_ge(a: Df, b: Df) -> bool {
+    a[0] > b[0] || (a[0] == b[0] && a[1] >= b[1])
+}
+
+fn hadou_df_max(a: Df, b: Df) -> Df {
+    if hadou_df_ge(a, b) {
+        a
+    } else {
+        b
+    }
+}
+
+/// b − a rounded, for normalized 0 ≤ a ≤ b: b.hi − a.hi is exact when a.hi ≥ b.hi/2 (Sterbenz)
+/// and otherwise at least b.hi/2, so the result is good to ~2⁻²³ relative.
+fn hadou_df_span(a: Df, b: Df) -> f32 {
+    (b[0] - a[0]) + (b[1] - a[1])
+}
+
 fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -236,7 +300,8 @@ fn xyz(v: [f32; 4]) -> [f32; 3] {
 }
 
 /// The ray in the frame of the beam, shared by its three centres (GLSL: `WaveRay`): u_D = u·D,
-/// c = D × u, |c|², R·c as double-floats, and |R × c|² (from a double-float R × c).
+/// c = D × u, |c|², R·c and the point centres' |V|² = u_D² + |c|² as double-floats, |V|, and
+/// |R × c|² (from a double-float R × c).
 #[derive(Clone, Copy, Debug)]
 struct WaveRay {
     ud: Df,
@@ -245,6 +310,8 @@ struct WaveRay {
     cz: Df,
     cc: Df,
     rc: Df,
+    vv: Df,
+    mv: f32,
     rxc2: f32,
 }
 
@@ -258,16 +325,19 @@ fn wave_ray(g: &GpuWave, u: [f32; 3]) -> WaveRay {
     let cc = hadou_df_add(hadou_df_add(hadou_df_sqr(cx), hadou_df_sqr(cy)), hadou_df_sqr(cz));
     let rc =
         hadou_df_add(hadou_df_add(hadou_df_mul(r[0], cx), hadou_df_mul(r[1], cy)), hadou_df_mul(r[2], cz));
+    let vv = hadou_df_add(hadou_df_sqr(ud), cc);
+    let mv = hadou_df_round(vv).sqrt();
     let x = [
-        hadou_df_round(hadou_df_add(hadou_df_mul(r[1], cz), hadou_df_neg(hadou_df_mul(r[2], cy)))),
-        hadou_df_round(hadou_df_add(hadou_df_mul(r[2], cx), hadou_df_neg(hadou_df_mul(r[0], cz)))),
-        hadou_df_round(hadou_df_add(hadou_df_mul(r[0], cy), hadou_df_neg(hadou_df_mul(r[1], cx)))),
+        hadou_df_add_round(hadou_df_mul(r[1], cz), hadou_df_neg(hadou_df_mul(r[2], cy))),
+        hadou_df_add_round(hadou_df_mul(r[2], cx), hadou_df_neg(hadou_df_mul(r[0], cz))),
+        hadou_df_add_round(hadou_df_mul(r[0], cy), hadou_df_neg(hadou_df_mul(r[1], cx))),
     ];
-    WaveRay { ud, cx, cy, cz, cc, rc, rxc2: dot3(x, x) }
+    WaveRay { ud, cx, cy, cz, cc, rc, vv, mv, rxc2: dot3(x, x) }
 }
 
 /// A line P₀ + s·V seen from its centre: ξ(s) = (A + s·B)/m (A = P₀·V, B = |V|² as
-/// double-floats), closest distance h. GLSL: `WaveCentre`.
+/// double-floats), closest distance h; m = 0 when |V| ≤ 2⁻⁶⁰ (ξ = 0, h = |P₀|). GLSL:
+/// `WaveCentre`.
 #[derive(Clone, Copy, Debug)]
 struct WaveCentre {
     a: Df,
@@ -278,19 +348,21 @@ struct WaveCentre {
 
 /// The centre M (q = q₀) or T (q = q₀ − ℓ): the 4D line (q, R) + s·(u_D, c).
 fn wave_centre_point(ray: &WaveRay, q: f32, r: [f32; 3]) -> WaveCentre {
-    let b = hadou_df_add(hadou_df_sqr(ray.ud), ray.cc);
-    let m = hadou_df_round(b).sqrt();
-    if !(m > WAVE_PARALLEL_MIN) {
+    if !(ray.mv > WAVE_PARALLEL_MIN) {
         return WaveCentre { a: [0.0, 0.0], b: [0.0, 0.0], m: 0.0, h: (q * q + dot3(r, r)).sqrt() };
     }
-    let a = hadou_df_add(hadou_df_mul(q, ray.ud), ray.rc);
     // |P₀ ∧ V|² = |q·c − u_D·R|² + |R × c|².
     let w = [
-        hadou_df_round(hadou_df_add(hadou_df_mul(q, ray.cx), hadou_df_neg(hadou_df_mul(r[0], ray.ud)))),
-        hadou_df_round(hadou_df_add(hadou_df_mul(q, ray.cy), hadou_df_neg(hadou_df_mul(r[1], ray.ud)))),
-        hadou_df_round(hadou_df_add(hadou_df_mul(q, ray.cz), hadou_df_neg(hadou_df_mul(r[2], ray.ud)))),
+        hadou_df_add_round(hadou_df_mul(q, ray.cx), hadou_df_neg(hadou_df_mul(r[0], ray.ud))),
+        hadou_df_add_round(hadou_df_mul(q, ray.cy), hadou_df_neg(hadou_df_mul(r[1], ray.ud))),
+        hadou_df_add_round(hadou_df_mul(q, ray.cz), hadou_df_neg(hadou_df_mul(r[2], ray.ud))),
     ];
-    WaveCentre { a, b, m, h: (dot3(w, w) + ray.rxc2).sqrt() / m }
+    WaveCentre {
+        a: hadou_df_add(hadou_df_mul(q, ray.ud), ray.rc),
+        b: ray.vv,
+        m: ray.mv,
+        h: (dot3(w, w) + ray.rxc2).sqrt() / ray.mv,
+    }
 }
 
 /// The axis: the 3D line R + s·c (|R + s·c| = distance to the axis).
@@ -302,16 +374,19 @@ fn wave_centre_axis(ray: &WaveRay, r: [f32; 3]) -> WaveCentre {
     WaveCentre { a: ray.rc, b: ray.cc, m, h: ray.rxc2.sqrt() / m }
 }
 
-/// ξ(s) = (A + s·B)/m, the sum in double-float.
+/// ξ(s) = (A + s·B)/m, the sum in double-float (0 when m = 0: then A = B = 0 and the division
+/// is by 1).
 fn wave_xi(c: &WaveCentre, s: Df) -> f32 {
-    if c.m == 0.0 {
-        return 0.0;
-    }
-    let t = hadou_df_mul_df(s, c.b);
-    hadou_df_round(hadou_df_add(c.a, t)) / c.m
+    hadou_df_add_round(c.a, hadou_df_mul_df(s, c.b)) / if c.m > 0.0 { c.m } else { 1.0 }
 }
 
-/// One piece of a term: its length and ξ at its ends (empty when ds ≤ 0). GLSL: `WavePiece`.
+/// ξ(0) = A/m.
+fn wave_xi0(c: &WaveCentre) -> f32 {
+    hadou_df_round(c.a) / if c.m > 0.0 { c.m } else { 1.0 }
+}
+
+/// One piece of a term: its length (≤ 0: empty) and ξ at its ends, seen from a centre with m,
+/// h. GLSL: `WavePiece`.
 #[derive(Clone, Copy, Debug)]
 struct WavePiece {
     ds: f32,
@@ -321,108 +396,115 @@ struct WavePiece {
     h: f32,
 }
 
-fn wave_piece_empty() -> WavePiece {
-    WavePiece { ds: 0.0, xa: 0.0, xb: 0.0, m: 0.0, h: 0.0 }
-}
-
-/// The piece [s0, s1] (double-float ends) of the line seen from `c`.
-fn wave_piece(c: &WaveCentre, s0: Df, s1: Df) -> WavePiece {
-    let mut p = wave_piece_empty();
-    let ds = hadou_df_round(hadou_df_add(s1, hadou_df_neg(s0)));
-    if ds > 0.0 {
-        p.ds = ds;
-        p.xa = wave_xi(c, s0);
-        p.xb = wave_xi(c, s1);
-        p.m = c.m;
-        p.h = c.h;
-    }
-    p
-}
-
-/// ∫ ds/√(ξ(s)² + hh²) over one piece, hh = √(h² + ε_F²): ρ_a, ρ_b (and hh where the closest
-/// approach is inside) are at least F ≥ 2⁻⁶⁰, so no division here is by 0.
+/// ∫ ds/√(ξ(s)² + hh²) over one nonempty piece, hh = √(h² + ε_F²), ρ = √(ξ² + hh²); the three
+/// cases (see the module docs) pick one log1p argument. ρ_a, ρ_b (and hh where the closest
+/// approach is inside) are at least F ≥ 2⁻⁶⁰, so no division whose result is used is by 0.
 fn wave_piece_integral(p: &WavePiece, hh: f32) -> f32 {
-    let ds = p.ds;
-    let ra = (p.xa * p.xa + hh * hh).sqrt();
-    let rb = (p.xb * p.xb + hh * hh).sqrt();
-    if p.m * ds <= WAVE_LINEAR_TAU * (ra + rb) {
-        return 2.0 * ds / (ra + rb);
+    let h2 = hh * hh;
+    let ra = (p.xa * p.xa + h2).sqrt();
+    let rb = (p.xb * p.xb + h2).sqrt();
+    let sr = ra + rb;
+    let mds = p.m * p.ds;
+    if mds <= WAVE_LINEAR_TAU * sr {
+        return 2.0 * p.ds / sr;
     }
-    let v = if p.xa >= 0.0 {
-        log1p_f32(p.m * ds * (1.0 + (p.xa + p.xb) / (ra + rb)) / (p.xa + ra))
-    } else if p.xb <= 0.0 {
-        log1p_f32(p.m * ds * (1.0 - (p.xa + p.xb) / (ra + rb)) / (rb - p.xb))
+    let neg = p.xa < 0.0 && p.xb <= 0.0;
+    let (xa, xb, r0) = if neg { (-p.xb, -p.xa, rb) } else { (p.xa, p.xb, ra) };
+    let arg = if xa >= 0.0 {
+        // Both ends on one side (the negative side mirrored onto the positive one).
+        mds * (sr + xa + xb) / (sr * (xa + r0))
     } else {
-        hadou_asinh_pos(p.xb / hh) + hadou_asinh_pos(-p.xa / hh)
+        // ξ_a < 0 < ξ_b: y = e^asinh(x/hh) − 1 for x = −ξ_a and ξ_b, the sum of the two asinh as
+        // one log1p of (1 + y_a)(1 + y_b) − 1.
+        let (ha, hb) = (hh + ra, hh + rb);
+        let ya = -p.xa * (ha - p.xa) / (hh * ha);
+        let yb = p.xb * (hb + p.xb) / (hh * hb);
+        ya + yb + ya * yb
     };
-    v / p.m
+    log1p_f32(arg) / if p.m > 0.0 { p.m } else { 1.0 }
 }
 
-/// One term: its pieces share the clamp (see `energy_wave`'s module docs).
-fn wave_term(p0: &WavePiece, p1: &WavePiece, p2: &WavePiece, eps: f32, l: f32) -> f32 {
-    let e2 = eps * eps;
-    let mut smax2 = 0.0f32;
-    let mut dmin2 = HADOU_BIG;
-    for p in [p0, p1, p2] {
-        if p.ds > 0.0 {
-            let h2 = p.h * p.h;
-            smax2 = smax2.max(p.xa * p.xa + h2 + e2).max(p.xb * p.xb + h2 + e2);
-            let mut xn = 0.0f32;
-            if p.xa > 0.0 {
-                xn = p.xa;
-            } else if p.xb < 0.0 {
-                xn = -p.xb;
-            }
-            dmin2 = dmin2.min(xn * xn + h2);
-        }
+/// A piece's share of the clamp: S² (its larger end distance², with ε) and d² (its nearest
+/// distance², without ε); neutral values for an empty piece.
+fn wave_piece_smax2(p: &WavePiece, e2: f32) -> f32 {
+    if p.ds > 0.0 {
+        (p.xa * p.xa).max(p.xb * p.xb) + p.h * p.h + e2
+    } else {
+        0.0
     }
+}
+
+fn wave_piece_dmin2(p: &WavePiece) -> f32 {
+    let xn = if p.xa > 0.0 {
+        p.xa
+    } else if p.xb < 0.0 {
+        -p.xb
+    } else {
+        0.0
+    };
+    if p.ds > 0.0 {
+        xn * xn + p.h * p.h
+    } else {
+        HADOU_BIG
+    }
+}
+
+/// The clamp's ε_F² for a term (see `energy_wave`'s module docs) from its S² and d².
+fn wave_core2(smax2: f32, dmin2: f32, e2: f32, l: f32) -> f32 {
+    let scale = if smax2 > 0.0 { smax2.sqrt() } else { l };
+    let fl = (WAVE_CLAMP_RATIO * scale).max(WAVE_CLAMP_MIN);
+    e2.max(fl * fl - dmin2)
+}
+
+fn wave_piece_term(p: &WavePiece, core2: f32) -> f32 {
+    if p.ds > 0.0 {
+        wave_piece_integral(p, (p.h * p.h + core2).sqrt())
+    } else {
+        0.0
+    }
+}
+
+/// The sphere term: one piece.
+fn wave_term1(p: &WavePiece, eps: f32, l: f32) -> f32 {
+    let e2 = eps * eps;
+    let core2 = wave_core2(wave_piece_smax2(p, e2), wave_piece_dmin2(p), e2, l);
+    wave_piece_term(p, core2)
+}
+
+/// The line term: its three pieces share the clamp.
+fn wave_term3(p0: &WavePiece, p1: &WavePiece, p2: &WavePiece, eps: f32, l: f32) -> f32 {
+    let e2 = eps * eps;
+    let smax2 = wave_piece_smax2(p0, e2).max(wave_piece_smax2(p1, e2)).max(wave_piece_smax2(p2, e2));
+    let dmin2 = wave_piece_dmin2(p0).min(wave_piece_dmin2(p1)).min(wave_piece_dmin2(p2));
     if dmin2 == HADOU_BIG {
         return 0.0;
     }
-    let scale = if smax2 > 0.0 { smax2.sqrt() } else { l };
-    let fl = (WAVE_CLAMP_RATIO * scale).max(WAVE_CLAMP_MIN);
-    let core2 = e2.max(fl * fl - dmin2);
-    let mut sum = 0.0f32;
-    for p in [p0, p1, p2] {
-        if p.ds > 0.0 {
-            sum += wave_piece_integral(p, (p.h * p.h + core2).sqrt());
-        }
-    }
-    sum
+    let core2 = wave_core2(smax2, dmin2, e2, l);
+    wave_piece_term(p0, core2) + wave_piece_term(p1, core2) + wave_piece_term(p2, core2)
 }
 
-/// clamp(num/den, 0, L) as a double-float, for a double-float den ≥ 0, dividing only when the
-/// answer is inside (a den flushed to 0 on the GPU gives L, never inf or NaN). One Newton step on
-/// the residual num − s·den puts the split where q = 0 (or q = ℓ) to ~2⁻⁴⁸ relative: an f32 split
-/// point (off by up to half an ulp of s, which can be comparable to the clamp floor F of a ray
-/// grazing M) would integrate the wrong formula between the true and the rounded crossing.
+/// clamp(num/den, 0, L) as a normalized double-float, for a double-float den ≥ 0: 0 when
+/// num ≤ 0, else s = num/den refined by one Newton step on the exact residual num − s·den, L when
+/// that reaches L or is not finite (den 0, or flushed to 0 on the GPU). The step puts the split
+/// where q = 0 (or q = ℓ) to ~2⁻⁴⁶ relative: an f32 split point (off by up to half an ulp of s,
+/// which can be comparable to the clamp floor F of a ray grazing M) would integrate the wrong
+/// formula between the true and the rounded crossing. An out-of-range s is replaced by 2L
+/// before the step, so the step stays finite (its inputs below 2¹¹⁵).
 fn wave_crossing(num: f32, den: Df, l: f32) -> Df {
     if num <= 0.0 {
         return [0.0, 0.0];
     }
-    // num ≥ L·den, decided on the exact residual (a rounded product can hide a crossing just
-    // before L).
-    if hadou_df_round(hadou_df_add([num, 0.0], hadou_df_neg(hadou_df_mul(l, den)))) >= 0.0 {
-        return [l, 0.0];
+    let mut s = num / den[0];
+    if !(s >= 0.0 && s < 2.0 * l) {
+        s = 2.0 * l;
     }
-    let s = num / den[0];
-    if !(s < HADOU_BIG) {
-        return [l, 0.0];
+    let r = hadou_df_add_round([num, 0.0], hadou_df_neg(hadou_df_mul(s, den)));
+    let t = hadou_fast_two_sum(s, r / den[0]);
+    if t[0] < l || (t[0] == l && t[1] <= 0.0) {
+        t
+    } else {
+        [l, 0.0]
     }
-    let r = hadou_df_add([num, 0.0], hadou_df_neg(hadou_df_mul(s, den)));
-    let t = hadou_fast_two_sum(s, hadou_df_round(r) / den[0]);
-    if t[0] > l || (t[0] == l && t[1] > 0.0) {
-        return [l, 0.0];
-    }
-    t
-}
-
-/// The larger of two double-floats.
-fn hadou_df_max(a: Df, b: Df) -> Df {
-    if hadou_df_round(hadou_df_add(a, hadou_df_neg(b))) >= 0.0 {
-        return a;
-    }
-    b
 }
 
 /// H = ∫₀ᴸ E(O + s·u) ds in closed form (GLSL: `wave_line_integral`). `u` is used exactly as
@@ -437,34 +519,56 @@ pub fn line_integral_f32(g: &GpuWave, u: [f32; 3], l: f32) -> f32 {
     let qt = g.rperp[3];
     let eps = g.strength[2];
     let finite = g.flags[0] != 0;
+    let zero: Df = [0.0, 0.0];
+    let end: Df = [l, 0.0];
     let ray = wave_ray(g, u);
     // The sphere term: one piece, centre M.
     let cm = wave_centre_point(&ray, q0, r);
-    let zero: Df = [0.0, 0.0];
-    let end: Df = [l, 0.0];
-    let sphere = wave_term(&wave_piece(&cm, zero, end), &wave_piece_empty(), &wave_piece_empty(), eps, l);
-    // The line term: behind M (q < 0), along the beam, past the tip (q > ℓ); split points as
-    // double-floats.
-    let (b0, b1, c0, c1, t0, t1);
-    if ray.ud[0] >= 0.0 {
-        let s0 = wave_crossing(-q0, ray.ud, l);
-        let s1 = if finite { hadou_df_max(wave_crossing(-qt, ray.ud, l), s0) } else { end };
-        (b0, b1, c0, c1, t0, t1) = (zero, s0, s0, s1, s1, end);
+    let xm0 = wave_xi0(&cm);
+    let xml = wave_xi(&cm, end);
+    let sphere = wave_term1(&WavePiece { ds: l, xa: xm0, xb: xml, m: cm.m, h: cm.h }, eps, l);
+    // The line term: behind M (q < 0), along the beam, past the tip (q > ℓ). sm, st: where the
+    // ray crosses q = 0 and q = ℓ (double-floats). Along +D (u_D ≥ 0) the pieces are [0, sm],
+    // [sm, st], [st, L]; against it [sm, L], [st, sm], [0, st].
+    let fwd = ray.ud[0] >= 0.0;
+    let aud = if fwd { ray.ud } else { hadou_df_neg(ray.ud) };
+    let sg = if fwd { -1.0 } else { 1.0 };
+    let mut sm = wave_crossing(sg * q0, aud, l);
+    let mut st = if finite {
+        wave_crossing(sg * qt, aud, l)
+    } else if fwd {
+        end
     } else {
-        let s1 = if finite { wave_crossing(qt, hadou_df_neg(ray.ud), l) } else { zero };
-        let s0 = hadou_df_max(wave_crossing(q0, hadou_df_neg(ray.ud), l), s1);
-        (b0, b1, c0, c1, t0, t1) = (s0, end, s1, s0, zero, s1);
+        zero
+    };
+    let smax = hadou_df_max(sm, st);
+    if fwd {
+        st = smax;
+    } else {
+        sm = smax;
     }
-    let pb = wave_piece(&cm, b0, b1);
-    let mut pc = wave_piece_empty();
-    if hadou_df_round(hadou_df_add(c1, hadou_df_neg(c0))) > 0.0 {
-        pc = wave_piece(&wave_centre_axis(&ray, r), c0, c1);
-    }
-    let mut pt = wave_piece_empty();
-    if hadou_df_round(hadou_df_add(t1, hadou_df_neg(t0))) > 0.0 {
-        pt = wave_piece(&wave_centre_point(&ray, qt, r), t0, t1);
-    }
-    let line = wave_term(&pb, &pc, &pt, eps, l);
+    let xms = wave_xi(&cm, sm);
+    let piece = |ds, xa, xb, c: &WaveCentre| WavePiece { ds, xa, xb, m: c.m, h: c.h };
+    let pb = if fwd {
+        piece(hadou_df_round(sm), xm0, xms, &cm)
+    } else {
+        piece(hadou_df_span(sm, end), xms, xml, &cm)
+    };
+    let ca = wave_centre_axis(&ray, r);
+    let (xas, xat) = (wave_xi(&ca, sm), wave_xi(&ca, st));
+    let pc = if fwd {
+        piece(hadou_df_span(sm, st), xas, xat, &ca)
+    } else {
+        piece(hadou_df_span(st, sm), xat, xas, &ca)
+    };
+    let ct = wave_centre_point(&ray, qt, r);
+    let xts = wave_xi(&ct, st);
+    let pt = if fwd {
+        piece(hadou_df_span(st, end), xts, wave_xi(&ct, end), &ct)
+    } else {
+        piece(hadou_df_round(st), wave_xi0(&ct), xts, &ct)
+    };
+    let line = wave_term3(&pb, &pc, &pt, eps, l);
     g.strength[0] * sphere + g.strength[1] * line
 }
 

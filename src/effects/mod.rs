@@ -9,4 +9,5 @@ pub mod raycast;
 pub mod thickness;
 pub mod thickness_lut;
 pub mod tonemap;
+pub mod translucency;
 pub mod voxelize;

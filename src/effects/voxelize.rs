@@ -3,9 +3,11 @@
 //!
 //! **Grid.** At resolution N the voxel edge is h = (longest extent of the mesh's bounding box) / N.
 //! Along each axis the grid has `dims[a] = ceil(extent[a] / h) + 2` voxels (one voxel of padding on
-//! each side, at least), centred on the bounding box: `origin = centre − dims·h/2`, and voxel
-//! (x, y, z) covers `origin + [x, x+1)·h` (likewise y, z) with its centre at `origin + (x+½)·h`.
-//! Faces of the bounding box therefore fall on voxel boundaries, never on voxel centres.
+//! each side, at least), centred on the bounding box and nudged by a thousandth of a voxel
+//! (`GRID_NUDGE`): `origin = centre − dims·h/2 + GRID_NUDGE·h`; voxel (x, y, z) covers
+//! `origin + [x, x+1)·h` (likewise y, z) with its centre at `origin + (x+½)·h`. Faces of the
+//! bounding box therefore fall near voxel boundaries, never on voxel centres, and the nudge keeps
+//! centres off the diagonal planes simple meshes have.
 //!
 //! **Solid.** A voxel is solid when its centre is inside the solid (winding number > 0). For each
 //! (y, z) row one line through the row's centres is cast along +x with `MeshBvh::crossings`
@@ -33,6 +35,12 @@ use glam::DVec3;
 
 use super::raycast::MeshBvh;
 use crate::scene::mesh::{is_degenerate, Mesh};
+
+/// The grid is moved off the centred position by this many voxels (the fractional parts of √2, √3
+/// and √5, times 10⁻³): man-made meshes put faces on planes such as x + y = c that centred voxel
+/// centres hit exactly (a 45° face of a unit wedge at 20³ held 1 in 5 of all pairs' ends), which the
+/// bake's fast path must leave to the slower exact path. The padding stays ≥ 0.999 voxel.
+pub const GRID_NUDGE: DVec3 = DVec3::new(0.000_414_213_562, 0.000_732_050_808, 0.000_236_067_977);
 
 /// Grid resolutions accepted by `voxelize` (a 256³ grid is 17M voxels: ~150 MB of work arrays).
 pub const MAX_VOXEL_RES: u32 = 256;
@@ -98,7 +106,7 @@ pub fn grid_layout(mesh: &Mesh, res: u32) -> Result<([u32; 3], DVec3, f64), Voxe
         cells.min(res) + 2
     });
     let span = DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * h;
-    let origin = (lo + hi) * 0.5 - span * 0.5;
+    let origin = (lo + hi) * 0.5 - span * 0.5 + GRID_NUDGE * h;
     Ok((dims, origin, h))
 }
 
@@ -168,7 +176,15 @@ impl VoxelGrid {
 
     /// The surface voxel whose centre is nearest to `p` (exact; ties to the lower id).
     pub fn nearest_surface_voxel(&self, p: DVec3) -> Option<u32> {
-        nearest_exact(self, p)
+        Lookup {
+            dims: self.dims,
+            origin: self.origin,
+            h: self.voxel_size,
+            surface_voxels: &self.surface_voxels,
+            id_grid: &self.id_grid,
+            nearest_grid: &self.nearest_grid,
+        }
+        .nearest_exact(p)
     }
 }
 
@@ -358,32 +374,45 @@ fn nearest_seeds(seeds: &[[u32; 3]], dims: [u32; 3]) -> Vec<u32> {
     best.into_iter().map(|(_, id)| id).collect()
 }
 
-/// Exact nearest surface voxel centre to `p`: the grid's answer bounds the search radius.
-fn nearest_exact(grid: &VoxelGrid, p: DVec3) -> Option<u32> {
-    if !p.is_finite() || grid.surface_voxels.is_empty() {
-        return None;
-    }
-    let guess = grid.nearest_grid[grid.linear(grid.voxel_of(p))];
-    let mut best = (grid.surface_centre(guess).distance_squared(p), guess);
-    // Any closer centre lies within √best of p: scan the voxels whose centres can be that close.
-    let r = best.0.sqrt();
-    let lo = grid.voxel_of(p - DVec3::splat(r + grid.voxel_size));
-    let hi = grid.voxel_of(p + DVec3::splat(r + grid.voxel_size));
-    for z in lo[2]..=hi[2] {
-        for y in lo[1]..=hi[1] {
-            for x in lo[0]..=hi[0] {
-                let id = grid.id_grid[grid.linear([x, y, z])];
-                if id == u32::MAX {
-                    continue;
-                }
-                let d = grid.surface_centre(id).distance_squared(p);
-                if d < best.0 || (d == best.0 && id < best.1) {
-                    best = (d, id);
+/// The grid data a nearest-voxel search needs (shared by `VoxelGrid` and `ThicknessLut`).
+pub(crate) struct Lookup<'a> {
+    pub dims: [u32; 3],
+    pub origin: DVec3,
+    pub h: f64,
+    pub surface_voxels: &'a [[u32; 3]],
+    pub id_grid: &'a [u32],
+    pub nearest_grid: &'a [u32],
+}
+
+impl Lookup<'_> {
+    /// Exact nearest surface voxel centre to `p` (ties to the lower id): `nearest_grid`'s answer
+    /// bounds the search radius, then every surface voxel whose centre can be closer is checked.
+    pub fn nearest_exact(&self, p: DVec3) -> Option<u32> {
+        if !p.is_finite() || self.surface_voxels.is_empty() {
+            return None;
+        }
+        let centre = |id: u32| voxel_centre(self.origin, self.h, self.surface_voxels[id as usize]);
+        let guess = self.nearest_grid[linear(self.dims, voxel_of(self.dims, self.origin, self.h, p))];
+        let mut best = (centre(guess).distance_squared(p), guess);
+        let r = best.0.sqrt() + self.h;
+        let lo = voxel_of(self.dims, self.origin, self.h, p - DVec3::splat(r));
+        let hi = voxel_of(self.dims, self.origin, self.h, p + DVec3::splat(r));
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                for x in lo[0]..=hi[0] {
+                    let id = self.id_grid[linear(self.dims, [x, y, z])];
+                    if id == u32::MAX {
+                        continue;
+                    }
+                    let d = centre(id).distance_squared(p);
+                    if d < best.0 || (d == best.0 && id < best.1) {
+                        best = (d, id);
+                    }
                 }
             }
         }
+        Some(best.1)
     }
-    Some(best.1)
 }
 
 #[cfg(test)]
@@ -401,7 +430,7 @@ mod tests {
         let g = grid(&m, 10);
         assert_eq!(g.dims, [12, 12, 12]);
         assert!((g.voxel_size - 0.2).abs() < 1e-15);
-        assert!((g.origin - DVec3::splat(-1.2)).length() < 1e-12);
+        assert!((g.origin - DVec3::splat(-1.2) - GRID_NUDGE * 0.2).length() < 1e-12);
         let solid = g.solid.iter().filter(|&&s| s).count();
         assert_eq!(solid, 1000);
         // The 10³ block minus its 8³ interior.
@@ -515,29 +544,5 @@ mod tests {
         let mut point = cube.clone();
         point.positions.iter_mut().for_each(|p| *p = [0.0; 3]);
         assert!(matches!(voxelize(&point, &bvh, 8), Err(VoxelizeError::ZeroSize { .. })));
-    }
-}
-
-#[cfg(test)]
-mod measure_tmp {
-    use super::*;
-    use crate::scene::procedural;
-    #[test]
-    #[ignore]
-    fn shapes() {
-        for (r, h, w) in
-            [(0.5, 1.6, 0.05), (0.3, 1.6, 0.04), (0.25, 1.6, 0.04), (0.2, 1.6, 0.03), (0.22, 1.5, 0.035)]
-        {
-            let m = procedural::bottle(r, h, w, 0.5, 48).unwrap();
-            let bvh = MeshBvh::new(&m).unwrap();
-            for res in [30, 40, 50, 56] {
-                let g = voxelize(&m, &bvh, res).unwrap();
-                let n = g.surface_voxels.len() as f64;
-                println!(
-                    "bottle r {r} h {h} w {w} res {res}: surface {n} u8 MB {:.2}",
-                    n * (n + 1.0) / 2.0 / 1e6
-                );
-            }
-        }
     }
 }

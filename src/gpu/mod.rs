@@ -9,6 +9,7 @@ pub mod pipeline;
 pub mod recorder;
 pub mod shader;
 pub mod timestamps;
+pub mod upload;
 pub mod validation;
 
 pub use ash::vk;

@@ -13,9 +13,15 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("common/energy_wave.glsl", include_str!("../../shaders/common/energy_wave.glsl")),
     ("energy_wave.comp", include_str!("../../shaders/energy_wave.comp")),
     ("energy_probe.comp", include_str!("../../shaders/energy_probe.comp")),
+    ("common/metaballs.glsl", include_str!("../../shaders/common/metaballs.glsl")),
+    ("metaballs.comp", include_str!("../../shaders/metaballs.comp")),
     ("raster.vert", include_str!("../../shaders/raster.vert")),
     ("raster.frag", include_str!("../../shaders/raster.frag")),
     ("tonemap.comp", include_str!("../../shaders/tonemap.comp")),
+    ("common/translucency.glsl", include_str!("../../shaders/common/translucency.glsl")),
+    ("light_id.vert", include_str!("../../shaders/light_id.vert")),
+    ("light_id.frag", include_str!("../../shaders/light_id.frag")),
+    ("translucency.comp", include_str!("../../shaders/translucency.comp")),
 ];
 
 pub struct ShaderCompiler {

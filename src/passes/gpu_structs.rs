@@ -40,8 +40,18 @@ pub struct InstanceData {
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct MaterialData {
     pub albedo: [f32; 4],
+    /// x: `MATERIAL_LAMBERT` or `MATERIAL_TRANSLUCENT`; y (translucent): `THICKNESS_LUT` or
+    /// `THICKNESS_TSM`.
     pub kind: [u32; 4],
+    /// rgb (translucent): extinction σ per world unit; 0 for lambert.
+    pub sigma: [f32; 4],
 }
+
+/// `MaterialData::kind` values. Keep in sync with shaders/common/frame.glsl.
+pub const MATERIAL_LAMBERT: u32 = 0;
+pub const MATERIAL_TRANSLUCENT: u32 = 1;
+pub const THICKNESS_LUT: u32 = 0;
+pub const THICKNESS_TSM: u32 = 1;
 
 const _: () = {
     assert!(std::mem::size_of::<GpuLight>() == 32);
@@ -51,7 +61,8 @@ const _: () = {
     assert!(std::mem::offset_of!(FrameUniforms, lights) == 128);
     assert!(std::mem::size_of::<InstanceData>() == 144);
     assert!(std::mem::offset_of!(InstanceData, ids) == 128);
-    assert!(std::mem::size_of::<MaterialData>() == 32);
+    assert!(std::mem::size_of::<MaterialData>() == 48);
+    assert!(std::mem::offset_of!(MaterialData, sigma) == 32);
 };
 
 pub fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
@@ -104,5 +115,19 @@ pub fn instance_records(scene: &Scene) -> (Vec<InstanceData>, Vec<(u32, u32)>) {
 }
 
 pub fn material_records(scene: &Scene) -> Vec<MaterialData> {
-    scene.materials.iter().map(|m| MaterialData { albedo: vec4_f32(m.albedo, 1.0), kind: [0; 4] }).collect()
+    use crate::scene::{MaterialKind, ThicknessMode};
+    let record = |m: &crate::scene::Material| {
+        let albedo = vec4_f32(m.albedo, 1.0);
+        match m.kind {
+            MaterialKind::Lambert => MaterialData { albedo, kind: [MATERIAL_LAMBERT, 0, 0, 0], sigma: [0.0; 4] },
+            MaterialKind::Translucent { sigma, thickness, .. } => {
+                let mode = match thickness {
+                    ThicknessMode::Lut => THICKNESS_LUT,
+                    ThicknessMode::Tsm => THICKNESS_TSM,
+                };
+                MaterialData { albedo, kind: [MATERIAL_TRANSLUCENT, mode, 0, 0], sigma: vec4_f32(sigma, 0.0) }
+            }
+        }
+    };
+    scene.materials.iter().map(record).collect()
 }

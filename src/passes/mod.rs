@@ -4,8 +4,11 @@
 pub mod energy_probe;
 pub mod energy_wave;
 pub mod gpu_structs;
+pub mod light_id;
+pub mod metaballs;
 pub mod raster;
 pub mod tonemap;
+pub mod translucency;
 
 use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::Memory;
@@ -34,6 +37,13 @@ pub trait Pass {
     fn prepare(&mut self, _scene: &Scene, _time: f64, _extent: crate::gpu::vk::Extent2D) -> GpuResult<()> {
         Ok(())
     }
+    /// Per-frame host work that needs the device, right after `prepare` (e.g. growing a buffer
+    /// this frame needs and rewriting the pass's own descriptors). The previous frame has finished.
+    fn prepare_device(&mut self, _ctx: &GpuContext, _memory: &Memory) -> GpuResult<()> {
+        Ok(())
+    }
+    /// After the frame's fence: adds what the pass counted on the device to the frame's stats.
+    fn report(&self, _stats: &mut crate::frame::FrameStats) {}
     /// The images this pass reads or writes, and how.
     fn uses(&self) -> Vec<(Target, ImageAccess)>;
     /// Points the pass's descriptors at the scene's buffers and the frame's images

@@ -105,10 +105,10 @@ fn sigma(o: &Owner, def: &MaterialDef) -> Result<DVec3, SceneError> {
             let span = o.ctx.key_start(&distance.span())..distance.span().end;
             Err(o.ctx.err(span, format!("{}: `attenuation_distance` needs `attenuation_color` too", o.label)))
         }
-        (None, None, None) => Err(o.fail_here(format!(
+        (None, None, None) => Err(o.fail_here(
             "kind \"translucent\" needs an extinction: `sigma = [r, g, b]` (each > 0, per world unit) \
-             or `attenuation_color` (each in (0, 1)) with `attenuation_distance` (> 0)"
-        ))),
+             or `attenuation_color` (each in (0, 1)) with `attenuation_distance` (> 0)",
+        )),
     }
 }
 

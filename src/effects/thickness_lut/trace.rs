@@ -3,8 +3,10 @@
 //!
 //! - Every triangle is listed in each voxel its (slightly padded) box overlaps (separating-axis
 //!   test, Akenine-Möller), so every crossing of a segment lies in a listed voxel it visits.
-//! - The segment's voxels come from an integer 3D DDA (both ends are voxel centres, so the
-//!   boundary crossings t = (½ + k)/|Δ| compare exactly as integers).
+//! - The segment's voxels come from a 3D DDA (Amanatides & Woo) specialized to voxel-centre ends:
+//!   axis a's k-th boundary is at t = (½ + k)/|Δa|, each axis steps exactly |Δa| times.
+//! - Per row (all segments from one centre p) the plane distances (p − a)·n of every triangle are
+//!   computed once.
 //! - Each listed triangle is tested once per segment: both ends clearly on one side of its plane
 //!   → no crossing; otherwise the crossing point's in-triangle test must be clear too.
 //! - The winding starts at the row-cast winding of the first centre and must end at that of the
@@ -193,57 +195,6 @@ impl SegmentTracer {
         true
     }
 
-    #[cfg(test)]
-    pub fn stats(&self, sv: &[[u32; 3]]) -> (usize, usize, usize, (f64, f64, f64)) {
-        let dirty = self.cell_start.windows(2).filter(|w| w[1] > w[0]).count();
-        let mut s = self.scratch();
-        let (mut pairs, mut steps, mut dsteps, mut tests) = (0.0, 0.0, 0.0, 0.0);
-        for i in (0..sv.len()).step_by(37) {
-            for j in (i + 1..sv.len()).step_by(7) {
-                pairs += 1.0;
-                s.current += 1;
-                let cur = s.current;
-                self.walk(sv[i], sv[j], |v| {
-                    steps += 1.0;
-                    let cells = &self.cell_tris[self.cell_start[v] as usize..self.cell_start[v + 1] as usize];
-                    if !cells.is_empty() {
-                        dsteps += 1.0;
-                    }
-                    for &t in cells {
-                        if s.stamp[t as usize] != cur {
-                            s.stamp[t as usize] = cur;
-                            tests += 1.0;
-                            let tri = &self.tris[t as usize];
-                            let p = self.centre(sv[i]);
-                            let d = self.centre(sv[j]) - p;
-                            let sp = (p - tri.a).dot(tri.n);
-                            let sq = sp + d.dot(tri.n);
-                            if (sp > 0.0) != (sq > 0.0) {
-                                PASS.with(|c| c.set(c.get() + 1));
-                            }
-                            match crossing(tri, p - tri.a, sp, d) {
-                                Hit::At(..) => HITS.with(|c| c.set(c.get() + 1)),
-                                _ => {}
-                            }
-                        }
-                    }
-                    true
-                });
-            }
-        }
-        println!(
-            "plane pass {} hits {}",
-            PASS.with(|c| c.get()) as f64 / pairs,
-            HITS.with(|c| c.get()) as f64 / pairs
-        );
-        (
-            self.cell_start.len() - 1,
-            self.cell_tris.len(),
-            dirty,
-            (steps / pairs, dsteps / pairs, tests / pairs),
-        )
-    }
-
     fn centre(&self, [x, y, z]: [u32; 3]) -> DVec3 {
         self.origin + (DVec3::new(x as f64, y as f64, z as f64) + 0.5) * self.h
     }
@@ -294,9 +245,6 @@ impl SegmentTracer {
         }
     }
 }
-
-#[cfg(test)]
-thread_local! { static PASS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) }; static HITS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) }; }
 
 enum Hit {
     None,

@@ -1,0 +1,86 @@
+// Structs and lookups shared by light_id.vert/.frag and translucency.comp. Keep in sync with
+// src/passes/translucency.rs (LutRecord, TranslucentInstance, LightViewData; sizes asserted there)
+// and src/effects/translucency.rs (the light view's math).
+#ifndef HADOU_TRANSLUCENCY_GLSL
+#define HADOU_TRANSLUCENCY_GLSL
+
+#define NO_LUT 0xffffffffu
+
+// One baked thickness table (a mesh at a voxel resolution).
+struct LutRecord {
+    vec4 origin;    // xyz: object-space minimum corner of voxel (0, 0, 0); w: voxel edge h
+    uvec4 dims;     // xyz: grid voxels; w: surface voxels N
+    uvec4 offsets;  // x: first word of its nearest grid in `grid`; y: first texel of its table in the
+                    // LUT image; z: its first surface-voxel centre in `centres`
+};
+
+// Per scene instance (scene order, the G-buffer's instance id).
+struct TranslucentInstance {
+    mat4 model;
+    mat4 inverse_model;
+    uvec4 info;     // x: LutRecord index or NO_LUT; y: 1 when the instance's material is translucent
+};
+
+// The light's orthographic view (effects::translucency::LightView).
+struct LightViewData {
+    vec4 centre;    // xyz: C; w: R
+    vec4 right;     // xyz
+    vec4 up;        // xyz
+    vec4 dir;       // xyz: the unit direction the light travels
+};
+
+// (x, y) in [-1, 1] across the map, z: the light-space distance in [0, 2R].
+vec3 light_project(LightViewData v, vec3 p) {
+    vec3 d = p - v.centre.xyz;
+    return vec3(dot(d, v.right.xyz) / v.centre.w, dot(d, v.up.xyz) / v.centre.w, dot(d, v.dir.xyz) + v.centre.w);
+}
+
+#ifdef HADOU_TRANSLUCENCY_GRID
+// Needs `grid` (uint[]) and `centres` (vec4[]) declared before this file is included with
+// HADOU_TRANSLUCENCY_GRID.
+
+// The (clamped) voxel containing object point p.
+ivec3 voxel_of(LutRecord r, vec3 p) {
+    vec3 g = floor((p - r.origin.xyz) / r.origin.w);
+    // NaN compares false: clamp of NaN is not defined, so pick 0 explicitly.
+    g = vec3(isnan(g.x) ? 0.0 : g.x, isnan(g.y) ? 0.0 : g.y, isnan(g.z) ? 0.0 : g.z);
+    return ivec3(clamp(g, vec3(0.0), vec3(r.dims.xyz - 1u)));
+}
+
+// effects::translucency::surface_voxel_near_line: among the nearest-grid entries of the 27
+// voxels around p's voxel, the surface voxel whose centre lies nearest (squared, first in z, y, x
+// order on a tie) to the world line through object point p along world direction l.
+uint surface_voxel_near_line(LutRecord r, mat3 model, vec3 p, vec3 l) {
+    ivec3 v = voxel_of(r, p);
+    ivec3 dims = ivec3(r.dims.xyz);
+    uint best = NO_LUT;
+    float best_d2 = 0.0;
+    for (int dz = -1; dz <= 1; ++dz) {
+        for (int dy = -1; dy <= 1; ++dy) {
+            for (int dx = -1; dx <= 1; ++dx) {
+                ivec3 q = v + ivec3(dx, dy, dz);
+                if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
+                uint id = grid[r.offsets.x + uint(q.x + dims.x * (q.y + dims.y * q.z))];
+                vec3 w = model * (centres[r.offsets.z + id].xyz - p);
+                vec3 off = w - l * dot(w, l);
+                float d2 = dot(off, off);
+                if (best == NO_LUT || d2 < best_d2) {
+                    best = id;
+                    best_d2 = d2;
+                }
+            }
+        }
+    }
+    return best;
+}
+#endif
+
+// The texel index of pair (i, j) in a table of n surface voxels (thickness_lut::pair_index): the
+// upper triangle row by row; exact in uint for n <= 46340.
+uint lut_pair_index(uint i, uint j, uint n) {
+    uint a = min(i, j);
+    uint b = max(i, j);
+    return a * n - (a * (a - 1u)) / 2u + (b - a);
+}
+
+#endif

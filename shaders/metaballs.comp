@@ -1,0 +1,276 @@
+#version 460
+// metaballs: per pixel, the world view ray cast against every metaball group binned to the
+// pixel's 16×16 tile, depth-tested against the raster (t_max = the `distance` target, t_min = the
+// near plane along the ray). The nearest surface writes HDR colour (Lambert + Blinn-Phong under
+// the scene's directional lights and ambient), distance, normal (toward the camera) and ids.
+// Binning and buffer layouts: src/passes/metaballs.rs. Cast: shaders/common/metaballs.glsl;
+// CPU twins src/effects/metaballs.rs (f64) and src/effects/metaballs_f32.rs (its arithmetic).
+//
+// Per group present in the tile, each pixel first gathers its candidates: the balls of the
+// tile's run whose support its ray enters in [from, stop), at most MB_MAX_RAY_BALLS of them.
+// The subgroup (always inside one tile, so sharing the run) walks the run together: each lane
+// loads one ball, a cone test against the subgroup's rays drops the balls no lane can see, and
+// the rest are broadcast to every lane. (On lavapipe a storage-buffer load whose address is not
+// provably uniform is a scalar loop over the lanes; this loads each ball once per subgroup.)
+// The run is sorted by a lower bound of the entry distance, so the walk stops once every lane's
+// `stop` lies before the next ball. metaball_cast then runs on the pixel's candidates only.
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_vote : require
+#include "common/frame.glsl"
+#include "common/metaballs.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, r32f) uniform image2D distance_image;
+layout(set = 0, binding = 1, rgba16f) uniform image2D hdr;
+layout(set = 0, binding = 2, rgba16f) uniform image2D normal_image;
+layout(set = 0, binding = 3, rg32ui) uniform uimage2D ids;
+layout(set = 0, binding = 4, std140) uniform FrameBlock { FrameUniforms frame; };
+layout(set = 0, binding = 5, std430) readonly buffer Materials { MaterialData materials[]; };
+layout(set = 0, binding = 6, std430) readonly buffer Groups { MetaGroup groups[]; };
+layout(set = 0, binding = 7, std430) readonly buffer Balls { MetaBall balls[]; };
+// Keep in sync with `TileLists` in src/passes/metaballs.rs: tiles[0 .. active) are the headers of
+// the tiles holding any ball (x: index of the tile's first run in this array, y: run count,
+// z, w: the tile's column and row); the runs follow (x: group, y: first entry in `entries`,
+// z: entry count, w: RUN_* flags), one per group present in the tile; each run's entries sorted
+// by ‖c − o‖ − R (object space, o the camera).
+layout(set = 0, binding = 8, std430) readonly buffer Tiles { uvec4 tiles[]; };
+layout(set = 0, binding = 9, std430) readonly buffer Entries { uint entries[]; };
+// Keep in sync with the STAT_* indices in src/passes/metaballs.rs.
+layout(set = 0, binding = 10, std430) buffer Stats { uint stats[]; };
+
+// The pixel's candidates (global ball indices) for the current cast.
+uint cand[MB_MAX_RAY_BALLS];
+#define MB_BALL(i) balls[i]
+#define MB_INDEX(k) cand[k]
+#include "common/metaballs.glsl"
+
+// Keep in sync with MetaballParams in src/passes/metaballs.rs.
+layout(push_constant) uniform MetaballParams {
+    vec4 right;    // right × tan(fov/2) × aspect
+    vec4 up;       // up × tan(fov/2)
+    vec4 forward;  // w: the camera's near distance (view depth)
+    uvec4 dims;    // width, height, active tiles, instance id of group 0 (scene instances)
+    vec4 range;    // x: the camera's far distance
+} params;
+
+#define STAT_DROPPED 0         // pixels whose search could not finish (more than
+                               // MB_MAX_RAY_BALLS supports overlap at one point, or
+                               // MB_NOT_CONVERGED): a surface may be missing there
+#define STAT_HITS 1            // pixels where a metaball is the nearest surface
+#define STAT_ITERATIONS 2      // Σ Bézier-clipping steps of those hits' casts
+#define STAT_MAX_ITERATIONS 3
+
+// Keep in sync with RUN_LONE_BOUND in src/passes/metaballs.rs: all q ≥ 0 and F = 0 on the near
+// plane, so F > T at a point well inside one ball's lone isosurface sphere bounds the first hit.
+#define RUN_LONE_BOUND 1u
+
+const float HALF_MAX = 65504.0;
+const float FLT_MAX = 3.402823466e38;
+// Blinn-Phong: a white highlight of this strength and exponent on every metaball material.
+const float SPECULAR = 0.25;
+const float SHININESS = 48.0;
+
+// Keep in sync with TILES_PER_ROW in src/passes/metaballs.rs.
+#define TILES_PER_ROW 8192u
+
+void main() {
+    // Four 8×8 workgroups per active tile (a tile holding any ball): every subgroup shares its
+    // tile, so the loops over the tile's runs and balls are uniform.
+    uint tile = gl_WorkGroupID.y * TILES_PER_ROW + gl_WorkGroupID.x / 4u;
+    uvec4 header = uvec4(0u);
+    if (tile < params.dims.z) header = tiles[tile];
+    uint quarter = gl_WorkGroupID.x % 4u;
+    uvec2 p = header.zw * 16u + uvec2(quarter % 2u, quarter / 2u) * 8u + gl_LocalInvocationID.xy;
+    bool inside = tile < params.dims.z && p.x < params.dims.x && p.y < params.dims.y;
+    uint dropped = 0u;
+    bool found = false;
+    MetaHit best;
+    uint best_group = 0u;
+    // The ray through the pixel centre, as Camera::pixel_ray and energy_wave.comp build it.
+    float ndc_x = 2.0 * (float(p.x) + 0.5) / float(params.dims.x) - 1.0;
+    float ndc_y = 1.0 - 2.0 * (float(p.y) + 0.5) / float(params.dims.y);
+    vec3 u = normalize(params.forward.xyz + ndc_x * params.right.xyz + ndc_y * params.up.xyz);
+    vec3 origin = frame.camera_pos.xyz;
+    // t_max: the raster's distance (+inf where nothing was hit), at most the far distance;
+    // t_min: the near plane, measured along this ray.
+    float t_max = -1.0;
+    if (inside && header.y != 0u) t_max = min(imageLoad(distance_image, ivec2(p)).r, params.range.x);
+    float t_min = params.forward.w / dot(u, params.forward.xyz);
+
+    for (uint r = 0u; r < header.y; ++r) {
+        uvec4 run = tiles[header.x + r];
+        MetaGroup g = groups[run.x];
+        // The ray in the group's object space, as metaball_cast computes it.
+        vec3 o = (g.to_object * vec4(origin, 1.0)).xyz;
+        vec3 dv = (g.to_object * vec4(u, 0.0)).xyz;
+        float ts = length(dv);
+        vec3 d = dv / ts;
+        // The subgroup's rays as one cone about `axis` (object space), for culling balls.
+        vec3 axis = normalize(subgroupAdd(d));
+        float cos_half = min(subgroupMin(dot(axis, d)), 1.0);
+        float sin_half = sqrt(max(1.0 - cos_half * cos_half, 0.0));
+
+        float from = t_min;
+        bool live = inside && t_max >= t_min;
+        bool lone_bound = (run.w & RUN_LONE_BOUND) != 0u;
+        float cap = FLT_MAX;  // object space: balls entering later are left out of this round
+        // Each round casts [from, stop): a miss moves `from` to the entry of the first ball left
+        // out (past at least one more ball of the run), a pile-up narrows `cap` (halving a
+        // window of at most 2^24 floats); the guard only bounds what cannot happen.
+        for (uint round = 0u; subgroupAny(live); ++round) {
+            if (round > 2u * run.z + 64u) {
+                if (live) dropped += 1u;
+                break;
+            }
+            float t0 = from * ts;
+            float t1 = t_max * ts;
+            int n = 0;
+            float limit = min(cap, t1);  // entry of the first ball left out (object space)
+            float bound = t1;            // a point inside the surface (RUN_LONE_BOUND)
+            float stop = limit;          // min(limit, bound): no ball entering later matters
+            float max_en = t0;           // the latest entry kept
+            for (uint base = 0u; base < run.z; base += gl_SubgroupSize) {
+                uint k = base + gl_SubgroupInvocationID;
+                MetaBall mine;
+                uint mine_id = 0u;
+                bool seen = false;
+                if (k < run.z) {
+                    mine_id = entries[run.y + k];
+                    mine = balls[mine_id];
+                    // Sphere-cone test, the radius padded for the f32 arithmetic.
+                    vec3 w = mine.centre_radius.xyz - o;
+                    float dist = length(w);
+                    float R = mine.centre_radius.w * 1.001 + 1e-6 * dist;
+                    float sin_s = R / dist;
+                    float cos_s = sqrt(max(1.0 - sin_s * sin_s, 0.0));
+                    seen = !(sin_s < 1.0) || dot(axis, w) >= dist * (cos_half * cos_s - sin_half * sin_s);
+                } else {
+                    mine.centre_radius = vec4(0.0);
+                    mine.coeffs = vec4(0.0);
+                }
+                // ‖c − o‖ − R of the chunk's first ball bounds the entry of all that follow.
+                vec4 first = subgroupBroadcast(mine.centre_radius, 0u);
+                float key = length(first.xyz - o) - first.w;
+                key -= 1e-5 * (abs(key) + 2.0 * first.w);
+                if (subgroupAll(!live || key >= stop)) break;
+                uvec4 ballot = subgroupBallot(seen);
+                for (uint word = 0u; word * 32u < gl_SubgroupSize; ++word) {
+                    uint bits = ballot[word];
+                    while (bits != 0u) {
+                        uint j = word * 32u + uint(findLSB(bits));
+                        bits &= bits - 1u;
+                        vec4 ball = subgroupBroadcast(mine.centre_radius, j);
+                        float rr = subgroupBroadcast(mine.coeffs.y, j);
+                        uint id = subgroupBroadcast(mine_id, j);
+                        // The support chord, as metaball_cast computes it.
+                        vec3 w = ball.xyz - o;
+                        float tc = dot(w, d);
+                        vec3 cr = cross(w, d);
+                        float h2 = dot(cr, cr);
+                        float D = ball.w * ball.w - h2;
+                        float half_chord = sqrt(max(D, 0.0));
+                        float en = tc - half_chord;
+                        float ex = tc + half_chord;
+                        if (live && D > 0.0 && ex > t0 && en < stop) {
+                            // Well inside the lone isosurface sphere at t_c: F > T there.
+                            if (lone_bound && tc > t0 && h2 < 0.998 * rr * rr) {
+                                bound = min(bound, tc);
+                                stop = min(stop, bound);
+                            }
+                            if (n < MB_MAX_RAY_BALLS) {
+                                cand[n] = id;
+                                max_en = max(max_en, en);
+                                ++n;
+                            } else {
+                                limit = min(limit, en);
+                                stop = min(stop, limit);
+                            }
+                        }
+                    }
+                }
+            }
+            if (live) {
+                bool cut = limit < min(t1, bound);
+                if (cut && !(limit > t0)) {
+                    // A ball containing `from` came after MB_MAX_RAY_BALLS others: search a
+                    // narrower window, unless those all contain `from` as well.
+                    if (max_en > t0) {
+                        cap = t0 + 0.5 * (max_en - t0);
+                    } else {
+                        dropped += 1u;
+                        live = false;
+                    }
+                } else {
+                    cap = FLT_MAX;
+                    float t_end = stop < t1 ? stop / ts : t_max;
+                    MetaHit h = metaball_cast(origin, u, g, 0u, uint(n), from, t_end);
+                    if ((h.flags & MB_HIT) != 0u) {
+                        best = h;
+                        best_group = run.x;
+                        found = true;
+                        t_max = h.t;  // later groups must be nearer
+                        live = false;
+                    } else if ((h.flags & MB_NOT_CONVERGED) != 0u) {
+                        dropped += 1u;
+                        live = false;
+                    } else if ((h.flags & MB_OVERFLOW) != 0u || cut) {
+                        // Go on from where the search stopped.
+                        float next = (h.flags & MB_OVERFLOW) != 0u ? h.t : t_end;
+                        if (!(next > from)) {
+                            dropped += 1u;
+                            live = false;
+                        }
+                        from = next;
+                    } else if (bound < t1) {
+                        // The bound promised a hit, which only a graze within the tangency band
+                        // can miss: search again without it.
+                        lone_bound = false;
+                    } else {
+                        live = false;
+                    }
+                }
+            }
+        }
+    }
+
+    if (found) {
+        vec3 n = best.normal;
+        // Toward the camera, like the raster's normals (the camera may be inside the blob).
+        if (dot(n, u) > 0.0) n = -n;
+        MetaGroup g = groups[best_group];
+        MaterialData mat = materials[g.info.w];
+        vec3 v = -u;
+        vec3 diffuse = frame.ambient.rgb;
+        vec3 specular = vec3(0.0);
+        for (uint i = 0u; i < frame.counts.x; ++i) {
+            vec3 l = -frame.lights[i].direction.xyz;
+            float nl = dot(n, l);
+            if (nl > 0.0) {
+                diffuse += nl * frame.lights[i].radiance.rgb;
+                vec3 hv = normalize(l + v);
+                specular += SPECULAR * pow(max(dot(n, hv), 0.0), SHININESS) * frame.lights[i].radiance.rgb;
+            }
+        }
+        vec3 color = min(mat.albedo.rgb * diffuse + specular, vec3(HALF_MAX));
+        imageStore(hdr, ivec2(p), vec4(color, 1.0));
+        imageStore(distance_image, ivec2(p), vec4(best.t, 0.0, 0.0, 0.0));
+        imageStore(normal_image, ivec2(p), vec4(n, 1.0));
+        imageStore(ids, ivec2(p), uvec4(params.dims.w + best_group + 1u, g.info.w, 0u, 0u));
+    }
+
+    // Counters: one atomic per subgroup.
+    uint hit_count = subgroupAdd(found ? 1u : 0u);
+    uint iter_sum = subgroupAdd(found ? best.iterations : 0u);
+    uint iter_max = subgroupMax(found ? best.iterations : 0u);
+    uint drop_sum = subgroupAdd(dropped);
+    if (subgroupElect()) {
+        if (drop_sum != 0u) atomicAdd(stats[STAT_DROPPED], drop_sum);
+        if (hit_count != 0u) {
+            atomicAdd(stats[STAT_HITS], hit_count);
+            atomicAdd(stats[STAT_ITERATIONS], iter_sum);
+            atomicMax(stats[STAT_MAX_ITERATIONS], iter_max);
+        }
+    }
+}

@@ -1,0 +1,112 @@
+#version 460
+// translucency (seed 003): for each pixel whose surface is a translucent instance, the thickness d
+// of material the light crossed to reach it, and HDR += L · albedo · exp(-σ·d) per channel.
+//   TSM: d = z(P) - z(entry), the light-space distances of the shaded point P and of the first
+//        surface the light reaches on the same instance (cavities and gaps count as material).
+//   LUT: d = f(i, j) · |P - entry|: f the baked inside fraction between the surface voxel i at P
+//        and the surface voxel j where the light enters (from the light_id map); entry lies on
+//        P's own light ray, so |M(b - a)| = z(P) - z(entry).
+// Fallbacks are documented in src/passes/translucency.rs. CPU twin: src/effects/translucency.rs.
+#include "common/frame.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 8, std430) readonly buffer Grid { uint grid[]; };
+layout(set = 0, binding = 12, std430) readonly buffer Centres { vec4 centres[]; };
+#define HADOU_TRANSLUCENCY_GRID
+#include "common/translucency.glsl"
+
+// Keep in sync with TranslucencyParams in src/passes/translucency.rs.
+struct TranslucencyParams {
+    vec4 right;     // camera right × tan(fov/2) × aspect
+    vec4 up;        // image up × tan(fov/2)
+    vec4 forward;
+    vec4 camera;    // xyz: position
+    vec4 radiance;  // rgb: the first light's colour × intensity; w: 1 when the scene has a light
+    LightViewData view;
+    uvec4 dims;     // frame width, height, light map size, scene instances
+    uvec4 lut;      // x: LUT image width in texels
+};
+
+layout(set = 0, binding = 0, std140) uniform ParamsBlock { TranslucencyParams params; };
+layout(set = 0, binding = 1, rg32ui) uniform readonly uimage2D ids_image;
+layout(set = 0, binding = 2, r32f) uniform readonly image2D distance_image;
+layout(set = 0, binding = 3, rgba16f) uniform image2D hdr;
+layout(set = 0, binding = 4, rg32ui) uniform readonly uimage2D light_ids;
+layout(set = 0, binding = 5, r32f) uniform readonly image2D light_z;
+layout(set = 0, binding = 6, r32f) uniform writeonly image2D thickness_image;
+layout(set = 0, binding = 7) uniform sampler2D lut_image;
+layout(set = 0, binding = 9, std430) readonly buffer Luts { LutRecord luts[]; };
+layout(set = 0, binding = 10, std430) readonly buffer Translucent { TranslucentInstance translucent[]; };
+layout(set = 0, binding = 11, std430) readonly buffer Materials { MaterialData materials[]; };
+
+const float HALF_MAX = 65504.0;
+
+// The stored fraction f(i, j) of a table.
+float lut_fraction(LutRecord r, uint i, uint j) {
+    uint k = r.offsets.y + lut_pair_index(i, j, r.dims.w);
+    uint w = params.lut.x;
+    return texelFetch(lut_image, ivec2(int(k % w), int(k / w)), 0).r;
+}
+
+// The texel of the light map nearest to `centre` that holds `instance` (the centre first, then its
+// 4 and then its diagonal neighbours), or (-1, -1).
+ivec2 own_texel(ivec2 centre, uint instance) {
+    const ivec2 order[9] = ivec2[9](ivec2(0, 0), ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1),
+                                    ivec2(1, 1), ivec2(-1, 1), ivec2(1, -1), ivec2(-1, -1));
+    int last = int(params.dims.z) - 1;
+    for (int k = 0; k < 9; ++k) {
+        ivec2 t = clamp(centre + order[k], ivec2(0), ivec2(last));
+        if (imageLoad(light_ids, t).x == instance + 1u) return t;
+    }
+    return ivec2(-1);
+}
+
+float thickness_at(vec3 P, uint instance, uint mode) {
+    vec3 lp = light_project(params.view, P);
+    float size = float(params.dims.z);
+    ivec2 centre = clamp(ivec2(floor((lp.xy * 0.5 + 0.5) * size)), ivec2(0), ivec2(params.dims.z - 1u));
+    ivec2 t = own_texel(centre, instance);
+    if (t.x < 0) {
+        // The light reaches P first through another instance: TSM's distance from that surface
+        // (everything between counts); through none (a light silhouette texel): no material.
+        bool other = imageLoad(light_ids, centre).x != 0u;
+        return other ? max(lp.z - imageLoad(light_z, centre).r, 0.0) : 0.0;
+    }
+    float tsm = max(lp.z - imageLoad(light_z, t).r, 0.0);
+    TranslucentInstance ti = translucent[instance];
+    if (mode == THICKNESS_TSM || ti.info.x == NO_LUT) return tsm;
+    LutRecord r = luts[ti.info.x];
+    uint i = surface_voxel_near_line(r, mat3(ti.model), (ti.inverse_model * vec4(P, 1.0)).xyz, params.view.dir.xyz);
+    uint j = imageLoad(light_ids, t).y;
+    if (i >= r.dims.w || j >= r.dims.w) return tsm;
+    // The gaps the table knows, (1 - f)·|M(c_j - c_i)|, taken off the path: its ends lie on the
+    // surface, so the rest is material.
+    float f = lut_fraction(r, i, j);
+    vec3 span = mat3(ti.model) * (centres[r.offsets.z + j].xyz - centres[r.offsets.z + i].xyz);
+    return clamp(tsm - (1.0 - f) * length(span), 0.0, tsm);
+}
+
+void main() {
+    uvec2 p = gl_GlobalInvocationID.xy;
+    if (p.x >= params.dims.x || p.y >= params.dims.y) return;
+    uvec2 ids = imageLoad(ids_image, ivec2(p)).xy;
+    float d = uintBitsToFloat(0x7f800000u);  // +inf: no translucent surface
+    // Instance ids past the scene's instances (metaball groups) have no light map entry.
+    if (ids.x != 0u && ids.x <= params.dims.w && params.radiance.w != 0.0) {
+        uint instance = ids.x - 1u;
+        MaterialData mat = materials[ids.y];
+        if (mat.kind.x == MATERIAL_TRANSLUCENT && translucent[instance].info.y != 0u) {
+            // The pixel ray as Camera::pixel_ray builds it, to the raster's distance.
+            float ndc_x = 2.0 * (float(p.x) + 0.5) / float(params.dims.x) - 1.0;
+            float ndc_y = 1.0 - 2.0 * (float(p.y) + 0.5) / float(params.dims.y);
+            vec3 u = normalize(params.forward.xyz + ndc_x * params.right.xyz + ndc_y * params.up.xyz);
+            vec3 P = params.camera.xyz + u * imageLoad(distance_image, ivec2(p)).r;
+            d = thickness_at(P, instance, mat.kind.y);
+            vec3 light = params.radiance.rgb * mat.albedo.rgb * exp(-mat.sigma.rgb * d);
+            vec4 c = imageLoad(hdr, ivec2(p));
+            imageStore(hdr, ivec2(p), vec4(min(c.rgb + light, vec3(HALF_MAX)), c.a));
+        }
+    }
+    imageStore(thickness_image, ivec2(p), vec4(d, 0.0, 0.0, 0.0));
+}

@@ -1,0 +1,189 @@
+//! translucency (seed 003) on the CPU in f64: the light's view the `light_id` pass renders from,
+//! and the colour the `translucency` pass adds. Twin of shaders/light_id.vert/.frag and
+//! shaders/translucency.comp (the thickness itself is `effects::thickness` and
+//! `ThicknessLut::world_thickness_between`).
+//!
+//! **Light view.** An orthographic view along the scene's first directional light l, fitted to the
+//! bounding sphere (centre C, radius R) of every translucent instance: the sphere around the centre
+//! of the world box of all their transformed mesh-box corners, through the farthest corner, padded
+//! by `SPHERE_PAD` so f32 rounding never clips a surface. For a world point p:
+//! x = (p − C)·right / R, y = (p − C)·up / R (each in [−1, 1] across the map), and the light-space
+//! distance z = (p − C)·l + R (0 on the plane where the light enters the sphere, 2R where it
+//! leaves). Texel (⌊(x + 1)/2·S⌋, ⌊(y + 1)/2·S⌋) of an S² map holds what the rasterizer sampled at
+//! its centre (Vulkan: NDC y = −1 is row 0).
+//!
+//! **Colour.** colour = surface + L·albedo·exp(−σ·d) per RGB channel (seed 003, eq. 2): `surface` is
+//! the raster's Lambert + ambient, L the first light's colour × intensity, d the thickness.
+
+use glam::{DVec2, DVec3};
+
+use super::thickness::transmittance;
+use super::thickness_lut::ThicknessLut;
+use crate::scene::transform::Transform;
+use crate::scene::{MaterialKind, Scene};
+
+/// Relative padding of the fitted sphere's radius.
+pub const SPHERE_PAD: f64 = 1e-3;
+
+/// An orthographic view along a directional light; see the module documentation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightView {
+    pub centre: DVec3,
+    pub radius: f64,
+    pub right: DVec3,
+    pub up: DVec3,
+    /// Unit direction the light travels.
+    pub dir: DVec3,
+}
+
+impl LightView {
+    /// The view along the scene's first light fitted to its translucent instances; `None` without
+    /// a light or a translucent instance.
+    pub fn fit(scene: &Scene) -> Option<LightView> {
+        let light = scene.lights.first()?;
+        let mut corners = Vec::new();
+        for inst in &scene.instances {
+            if !matches!(scene.materials[inst.material].kind, MaterialKind::Translucent { .. }) {
+                continue;
+            }
+            let (lo, hi) = scene.meshes[inst.mesh].mesh.bounds();
+            for k in 0..8 {
+                let pick = |bit: usize, a: f64, b: f64| if k & bit == 0 { a } else { b };
+                let c = DVec3::new(pick(1, lo.x, hi.x), pick(2, lo.y, hi.y), pick(4, lo.z, hi.z));
+                corners.push(inst.transform.transform_point(c));
+            }
+        }
+        LightView::around(light.direction, &corners)
+    }
+
+    /// The view along `dir` fitted to the bounding sphere of `points`; `None` for no points, a
+    /// zero direction or non-finite values.
+    pub fn around(dir: DVec3, points: &[DVec3]) -> Option<LightView> {
+        let dir = dir.try_normalize()?;
+        let (first, rest) = points.split_first()?;
+        let (lo, hi) = rest.iter().fold((*first, *first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let centre = (lo + hi) * 0.5;
+        let far = points.iter().map(|p| p.distance(centre)).fold(0.0, f64::max);
+        // A point set of zero size still needs a map of non-zero size.
+        let radius = far.max(1e-6 * (1.0 + centre.length())) * (1.0 + SPHERE_PAD);
+        let hint = if dir.y.abs() < 0.9 { DVec3::Y } else { DVec3::X };
+        let right = dir.cross(hint).normalize();
+        let up = right.cross(dir);
+        let view = LightView { centre, radius, right, up, dir };
+        (centre.is_finite() && radius.is_finite()).then_some(view)
+    }
+
+    /// (x, y) in [−1, 1]² across the map, and the light-space distance z in [0, 2R].
+    pub fn project(&self, p: DVec3) -> (DVec2, f64) {
+        let v = p - self.centre;
+        (DVec2::new(v.dot(self.right), v.dot(self.up)) / self.radius, v.dot(self.dir) + self.radius)
+    }
+
+    /// The texel of an `size`² map whose centre's light ray passes nearest to `p`; `None` outside.
+    pub fn texel(&self, p: DVec3, size: u32) -> Option<(u32, u32)> {
+        let (xy, _) = self.project(p);
+        let t = (xy + 1.0) * 0.5 * size as f64;
+        let inside = |c: f64| (0.0..size as f64).contains(&c.floor());
+        (inside(t.x) && inside(t.y)).then(|| (t.x.floor() as u32, t.y.floor() as u32))
+    }
+}
+
+/// The surface voxel for an end of a light path: among the nearest-grid entries of the 27 voxels
+/// around the (clamped) voxel of object point `p`, the one whose centre lies nearest to the world
+/// line through p along `dir` (the light's world direction), by squared distance, the first in
+/// z, y, x order on a tie. Nearest to the line rather than to p: the table's segment then runs
+/// beside the light's path instead of across it (an end moved along the path changes nothing
+/// below, one moved sideways changes the gaps it crosses). `None` for a non-finite point.
+pub fn surface_voxel_near_line(lut: &ThicknessLut, m: &Transform, p: DVec3, dir: DVec3) -> Option<u32> {
+    if !p.is_finite() {
+        return None;
+    }
+    let v = lut.voxel_of(p);
+    let mut best: Option<(f64, u32)> = None;
+    for dz in -1i64..=1 {
+        for dy in -1i64..=1 {
+            for dx in -1i64..=1 {
+                let q = [v[0] as i64 + dx, v[1] as i64 + dy, v[2] as i64 + dz];
+                if (0..3).any(|a| q[a] < 0 || q[a] >= lut.dims[a] as i64) {
+                    continue;
+                }
+                let (nx, ny) = (lut.dims[0] as usize, lut.dims[1] as usize);
+                let id = lut.nearest_grid[q[0] as usize + nx * (q[1] as usize + ny * q[2] as usize)];
+                let w = m.matrix.transform_vector3(lut.centre(id) - p);
+                let off = w - dir * w.dot(dir);
+                let d2 = off.dot(off);
+                if best.is_none_or(|(b, _)| d2 < b) {
+                    best = Some((d2, id));
+                }
+            }
+        }
+    }
+    best.map(|(_, id)| id)
+}
+
+/// The LUT thickness between the light's entry point `a` and the shaded point `b` (object space)
+/// of an instance with transform `m`, as the translucency shader computes it: the path's world
+/// length minus the gaps the table knows, (1 − f(i, j))·|M(c_j − c_i)|, clamped to [0, |M(b − a)|],
+/// with i, j the `surface_voxel_near_line` of b and a along the path. The ends lie on the surface,
+/// so what the centre segment does not cover near them is material: unlike f·|M(b − a)|
+/// (`world_thickness_between`), a thin wall keeps its part between the surface and the voxel
+/// centre. `None` for a non-finite point.
+pub fn lut_thickness(lut: &ThicknessLut, m: &Transform, a: DVec3, b: DVec3) -> Option<f64> {
+    let dir = (m.transform_point(a) - m.transform_point(b)).normalize_or_zero();
+    let i = surface_voxel_near_line(lut, m, b, dir)?;
+    let j = surface_voxel_near_line(lut, m, a, dir)?;
+    let path = (m.transform_point(b) - m.transform_point(a)).length();
+    let span = (m.transform_point(lut.centre(j)) - m.transform_point(lut.centre(i))).length();
+    Some((path - (1.0 - lut.fraction(i, j)) * span).clamp(0.0, path))
+}
+
+/// The light that crossed d of material: L·albedo·exp(−σ·d) per channel (0 for d = +inf).
+pub fn transmitted(radiance: DVec3, albedo: DVec3, sigma: DVec3, d: f64) -> DVec3 {
+    if d == f64::INFINITY {
+        return DVec3::ZERO;
+    }
+    radiance * albedo * transmittance(sigma, d)
+}
+
+/// What the translucency pass writes to HDR: the surface term plus the transmitted light.
+pub fn translucent_colour(surface: DVec3, radiance: DVec3, albedo: DVec3, sigma: DVec3, d: f64) -> DVec3 {
+    surface + transmitted(radiance, albedo, sigma, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn view_covers_its_points_and_orders_them_along_the_light() {
+        let pts = [DVec3::new(-2.0, 0.0, 0.0), DVec3::new(3.0, 1.0, -1.0), DVec3::new(0.5, -2.0, 2.0)];
+        let dir = DVec3::new(0.0, -0.25, 1.0);
+        let v = LightView::around(dir, &pts).unwrap();
+        assert!((v.dir.length() - 1.0).abs() < 1e-15 && v.right.dot(v.dir).abs() < 1e-15);
+        assert!(v.up.dot(v.dir).abs() < 1e-15 && v.up.dot(v.right).abs() < 1e-15);
+        for p in pts {
+            let (xy, z) = v.project(p);
+            assert!(xy.length() < 1.0 && z > 0.0 && z < 2.0 * v.radius);
+            assert!(v.texel(p, 1024).is_some());
+        }
+        // Moving along the light only changes z, by the distance moved.
+        let (xy0, z0) = v.project(pts[0]);
+        let (xy1, z1) = v.project(pts[0] + v.dir * 0.7);
+        assert!((xy1 - xy0).length() < 1e-12 && (z1 - z0 - 0.7).abs() < 1e-12);
+        // A vertical light picks another hint and still gives an orthonormal frame.
+        let w = LightView::around(DVec3::NEG_Y, &pts).unwrap();
+        assert!(w.right.dot(w.dir).abs() < 1e-15 && (w.up.length() - 1.0).abs() < 1e-15);
+        assert!(LightView::around(DVec3::ZERO, &pts).is_none());
+        assert!(LightView::around(dir, &[]).is_none());
+    }
+
+    #[test]
+    fn colour_is_surface_plus_attenuated_light() {
+        let (l, a, s) = (DVec3::splat(2.0), DVec3::new(0.5, 1.0, 0.25), DVec3::new(1.0, 2.0, 0.0));
+        let c = translucent_colour(DVec3::splat(0.1), l, a, s, 0.5);
+        assert!((c.x - (0.1 + 1.0 * (-0.5f64).exp())).abs() < 1e-15);
+        assert!((c.y - (0.1 + 2.0 * (-1.0f64).exp())).abs() < 1e-15);
+        assert!((c.z - 0.6).abs() < 1e-15);
+        assert_eq!(transmitted(l, a, s, f64::INFINITY), DVec3::ZERO);
+    }
+}

@@ -1,0 +1,617 @@
+//! metaballs: ray-casts the scene's metaball groups per pixel (seed 000, Bézier clipping in
+//! shaders/common/metaballs.glsl), depth-tested against the raster, and writes the nearest surface
+//! into HDR colour, `distance`, `normal` and `ids` so later passes (energy wave, AOVs) see it.
+//!
+//! # Binning (CPU, every frame, [`bin_balls`])
+//! Each ball's world bounding sphere ([`world_bound`]) is projected to a conservative rectangle of
+//! 16×16-pixel tiles ([`sphere_tiles`]): exact tangent planes through the camera, padded by a
+//! pixel; a sphere crossing the near plane covers the whole screen, one entirely nearer than the
+//! near plane (behind the camera included) or beyond the far plane is skipped. The lists are
+//! exact and variable-length ([`TileLists`]), so nothing is cut short; the host-visible buffers
+//! grow (and the pass rewrites its own descriptors) when a frame needs more.
+//!
+//! Per pixel the shader casts each group present in its tile over that tile's run of balls; a
+//! cast reporting `MB_OVERFLOW` (more than 32 supports on the ray) is repeated from the returned
+//! t. Where that cannot move on (more than 32 supports overlap at one point) or the clipping does
+//! not converge, the pixel is counted in `FrameStats::metaball_overflow` and a warning is logged.
+
+use glam::DVec3;
+use gpu_allocator::MemoryLocation;
+
+use super::{Pass, PassInputs};
+use crate::effects::metaballs::MetaballGroupParams;
+use crate::effects::metaballs_f32::{gpu_balls, gpu_group, world_bound, GpuMetaBall, GpuMetaGroup};
+use crate::frame::FrameStats;
+use crate::gpu::barriers::{cmd_barriers, memory_barrier, ImageAccess};
+use crate::gpu::memory::{Buffer, Memory};
+use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
+use crate::gpu::shader::ShaderCompiler;
+use crate::gpu::{vk, GpuContext, GpuResult};
+use crate::scene::camera::Camera;
+use crate::scene::Scene;
+use crate::scene_gpu::SceneGpu;
+use crate::targets::{Target, Targets};
+
+/// Tile edge in pixels.
+pub const TILE: u32 = 16;
+/// Active tiles per row of the dispatch (4 workgroups each: within maxComputeWorkGroupCount[0]).
+/// Keep in sync with shaders/metaballs.comp.
+const TILES_PER_ROW: u32 = 8192;
+
+/// Push constants. Keep in sync with `MetaballParams` in shaders/metaballs.comp.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct MetaballParams {
+    /// xyz: right × tan(fov/2) × aspect.
+    pub right: [f32; 4],
+    /// xyz: image up × tan(fov/2).
+    pub up: [f32; 4],
+    /// xyz: forward; w: the camera's near distance (a view depth).
+    pub forward: [f32; 4],
+    /// width, height, active tiles, the instance id of group 0 (= the scene's instance count).
+    pub dims: [u32; 4],
+    /// x: the camera's far distance.
+    pub range: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<MetaballParams>() == 80);
+
+/// Indices into the stats buffer. Keep in sync with STAT_* in shaders/metaballs.comp.
+const STAT_DROPPED: usize = 0;
+const STAT_HITS: usize = 1;
+const STAT_ITERATIONS: usize = 2;
+const STAT_MAX_ITERATIONS: usize = 3;
+const STAT_COUNT: usize = 4;
+
+impl MetaballParams {
+    pub fn new(scene: &Scene, extent: vk::Extent2D) -> Self {
+        let cam = &scene.camera;
+        let b = cam.basis();
+        let tan_half = (cam.fov_y_deg.to_radians() * 0.5).tan();
+        let aspect = extent.width as f64 / extent.height as f64;
+        let v = |d: DVec3, w: f64| [d.x as f32, d.y as f32, d.z as f32, w as f32];
+        MetaballParams {
+            right: v(b.right * (tan_half * aspect), 0.0),
+            up: v(b.up * tan_half, 0.0),
+            forward: v(b.forward, cam.near),
+            dims: [extent.width, extent.height, 0, scene.instances.len() as u32],
+            range: [cam.far as f32, 0.0, 0.0, 0.0],
+        }
+    }
+}
+
+/// The tiles (inclusive ranges x0..=x1, y0..=y1) a world sphere may cover, or `None` when no
+/// pixel ray can reach it between the near and far planes.
+pub fn sphere_tiles(camera: &Camera, extent: vk::Extent2D, centre: DVec3, radius: f64) -> Option<[u32; 4]> {
+    let (w, h) = (extent.width, extent.height);
+    let (tiles_x, tiles_y) = (w.div_ceil(TILE), h.div_ceil(TILE));
+    let full = Some([0, 0, tiles_x - 1, tiles_y - 1]);
+    let b = camera.basis();
+    let v = centre - camera.position;
+    // Pad for the f32 arithmetic of the shader (positions, transforms, pixel rays).
+    let r = radius * (1.0 + 1e-5) + 1e-6 * (v.length() + radius);
+    let z = v.dot(b.forward);
+    if !(z + r >= camera.near * (1.0 - 1e-6)) || z - r > camera.far * (1.0 + 1e-6) {
+        return None; // wholly nearer than the near plane (or behind the camera), or beyond far
+    }
+    if z - r <= camera.near {
+        return full; // crosses the near plane
+    }
+    let tan_half = (camera.fov_y_deg.to_radians() * 0.5).tan();
+    let aspect = w as f64 / h as f64;
+    // Planes through the camera containing the other image axis and tangent to the sphere:
+    // x = k·z with (x − k z)² = r²(1 + k²); valid as the sphere lies in z > r.
+    let slopes = |x: f64| {
+        let disc = (x * x + z * z - r * r).max(0.0).sqrt();
+        let den = z * z - r * r;
+        ((x * z - r * disc) / den, (x * z + r * disc) / den)
+    };
+    let (kx0, kx1) = slopes(v.dot(b.right));
+    let (ky0, ky1) = slopes(v.dot(b.up));
+    // NDC → pixel coordinates (x right, y down), then the pixels whose centres may fall inside,
+    // widened by one pixel.
+    let px = |k: f64| (k / (tan_half * aspect) + 1.0) * 0.5 * w as f64;
+    let py = |k: f64| (1.0 - k / tan_half) * 0.5 * h as f64;
+    let (x0, x1) = (px(kx0) - 1.5, px(kx1) + 0.5);
+    let (y0, y1) = (py(ky1) - 1.5, py(ky0) + 0.5);
+    if !(x1 >= 0.0 && y1 >= 0.0 && x0 < w as f64 && y0 < h as f64) {
+        return None; // off screen (also rejects NaN)
+    }
+    let tile = |p: f64, n: u32| ((p.max(0.0).min((n - 1) as f64) as u32) / TILE).min(n.div_ceil(TILE) - 1);
+    Some([tile(x0.floor(), w), tile(y0.floor(), h), tile(x1.ceil(), w), tile(y1.ceil(), h)])
+}
+
+/// `run.w` flag: every q of the group is ≥ 0 and no support sphere reaches the near plane, so
+/// a ray passing well inside a ball's lone isosurface sphere (the sphere q·f = T) at t_c has its
+/// first hit before t_c (there F ≥ q·f > T while F(t_min) = 0 < T): the shader stops there.
+pub const RUN_LONE_BOUND: u32 = 1;
+
+/// Per-tile ball lists, grouped by metaball group. Keep in sync with `Tiles`/`Entries` in
+/// shaders/metaballs.comp:
+/// - `tiles[0 .. active]`: one header per tile that holds any ball (row-major order), x: index in
+///   `tiles` of the tile's first run, y: its run count, z, w: the tile's column and row. The pass
+///   dispatches 2×2 workgroups of 8×8 per header, so empty tiles cost nothing;
+/// - `tiles[active ..]`: the runs, x: group index, y: first entry, z: entry count, w: flags
+///   ([`RUN_LONE_BOUND`]); a tile's runs are contiguous, one per group present in the tile, in
+///   group order;
+/// - `entries`: global ball indices (into the ball buffer, all groups concatenated); within a run
+///   sorted by the ball's key ‖c − o‖ − R in the group's object space (o the camera), a lower
+///   bound of the distance t′ at which any ray from the camera enters its support, so the shader
+///   can stop once every ray of a subgroup has a bound nearer than the next ball's key.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TileLists {
+    pub tiles_x: u32,
+    pub tiles_y: u32,
+    /// Tiles with at least one run.
+    pub active: u32,
+    pub tiles: Vec<[u32; 4]>,
+    pub entries: Vec<u32>,
+}
+
+impl TileLists {
+    /// The (group, global ball indices) runs of tile (tx, ty).
+    pub fn runs(&self, tx: u32, ty: u32) -> Vec<(u32, &[u32])> {
+        let heads = &self.tiles[..self.active as usize];
+        let Some(head) = heads.iter().find(|h| h[2] == tx && h[3] == ty) else { return Vec::new() };
+        (0..head[1])
+            .map(|r| {
+                let run = self.tiles[(head[0] + r) as usize];
+                (run[0], &self.entries[run[1] as usize..(run[1] + run[2]) as usize])
+            })
+            .collect()
+    }
+}
+
+/// What binning needs of one group: per ball its world bounding sphere (centre, radius) and its
+/// sort key, and the group's run flags.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GroupBins {
+    pub bounds: Vec<(DVec3, f64)>,
+    pub keys: Vec<f64>,
+    pub flags: u32,
+}
+
+impl GroupBins {
+    /// The bounds ([`world_bound`], the transform's largest singular value computed once per
+    /// group), the keys ‖c − M⁻¹·camera‖ − R and the flags of a group seen from `camera`.
+    pub fn new(group: &MetaballGroupParams, camera: &Camera, extent: vk::Extent2D) -> GroupBins {
+        let Some(first) = group.balls.first() else { return GroupBins::default() };
+        let scale = world_bound(group, 0).1 / first.radius;
+        let bounds: Vec<(DVec3, f64)> = group
+            .balls
+            .iter()
+            .map(|b| (group.transform.transform_point(b.centre), b.radius * scale))
+            .collect();
+        let o = group.transform.inverse.transform_point3(camera.position);
+        let keys = group.balls.iter().map(|b| (b.centre - o).length() - b.radius).collect();
+        // Every point of the near plane inside the view lies within this distance of the camera.
+        let tan_y = (camera.fov_y_deg.to_radians() * 0.5).tan();
+        let tan_x = tan_y * extent.width as f64 / extent.height as f64;
+        let near_reach = camera.near * (1.0 + tan_x * tan_x + tan_y * tan_y).sqrt() * (1.0 + 1e-3);
+        let clear = bounds.iter().all(|(c, r)| (*c - camera.position).length() - r > near_reach);
+        let positive = group.balls.iter().all(|b| b.q >= 0.0);
+        GroupBins { bounds, keys, flags: if clear && positive { RUN_LONE_BOUND } else { 0 } }
+    }
+}
+
+/// Bins every ball to the tiles its world bounding sphere may cover; global indices run over
+/// the groups in order.
+pub fn bin_balls(camera: &Camera, extent: vk::Extent2D, groups: &[GroupBins]) -> TileLists {
+    let (tiles_x, tiles_y) = (extent.width.div_ceil(TILE), extent.height.div_ceil(TILE));
+    let n_tiles = (tiles_x * tiles_y) as usize;
+    // (global index, group, tile rectangle) of every visible ball, in group order.
+    let mut rects: Vec<(u32, u32, [u32; 4])> = Vec::new();
+    let mut keys: Vec<f64> = Vec::new();
+    for (g, group) in groups.iter().enumerate() {
+        for (i, &(centre, radius)) in group.bounds.iter().enumerate() {
+            if let Some(rect) = sphere_tiles(camera, extent, centre, radius) {
+                rects.push((keys.len() as u32 + i as u32, g as u32, rect));
+            }
+        }
+        keys.extend(group.keys.iter().copied().chain(std::iter::repeat(0.0)).take(group.bounds.len()));
+    }
+    let for_tiles = |rect: [u32; 4], f: &mut dyn FnMut(usize)| {
+        for ty in rect[1]..=rect[3] {
+            for tx in rect[0]..=rect[2] {
+                f((ty * tiles_x + tx) as usize);
+            }
+        }
+    };
+    const NONE: u32 = u32::MAX;
+    let mut entry_count = vec![0u32; n_tiles];
+    let mut run_count = vec![0u32; n_tiles];
+    let mut last_group = vec![NONE; n_tiles];
+    for &(_, g, rect) in &rects {
+        for_tiles(rect, &mut |t| {
+            entry_count[t] += 1;
+            if last_group[t] != g {
+                last_group[t] = g;
+                run_count[t] += 1;
+            }
+        });
+    }
+    let total_runs: u32 = run_count.iter().sum();
+    let total_entries: u32 = entry_count.iter().sum();
+    let active = run_count.iter().filter(|&&c| c > 0).count();
+    let mut tiles = vec![[0u32; 4]; active + total_runs as usize];
+    let mut run_cursor = vec![0u32; n_tiles];
+    let mut entry_cursor = vec![0u32; n_tiles];
+    let (mut head, mut run_at, mut entry_at) = (0usize, active as u32, 0u32);
+    for t in 0..n_tiles {
+        run_cursor[t] = run_at;
+        entry_cursor[t] = entry_at;
+        if run_count[t] > 0 {
+            tiles[head] = [run_at, run_count[t], t as u32 % tiles_x, t as u32 / tiles_x];
+            head += 1;
+        }
+        run_at += run_count[t];
+        entry_at += entry_count[t];
+    }
+    let mut entries = vec![0u32; total_entries as usize];
+    last_group.fill(NONE);
+    for &(ball, g, rect) in &rects {
+        for_tiles(rect, &mut |t| {
+            if last_group[t] != g {
+                last_group[t] = g;
+                tiles[run_cursor[t] as usize] = [g, entry_cursor[t], 0, groups[g as usize].flags];
+                run_cursor[t] += 1;
+            }
+            tiles[run_cursor[t] as usize - 1][2] += 1;
+            entries[entry_cursor[t] as usize] = ball;
+            entry_cursor[t] += 1;
+        });
+    }
+    for run in &tiles[active..] {
+        let list = &mut entries[run[1] as usize..(run[1] + run[2]) as usize];
+        list.sort_unstable_by(|a, b| keys[*a as usize].total_cmp(&keys[*b as usize]).then(a.cmp(b)));
+    }
+    TileLists { tiles_x, tiles_y, active: active as u32, tiles, entries }
+}
+
+/// What the device counted in the last frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MetaballCounts {
+    /// Pixels whose cast could not finish: a surface may be missing there.
+    pub dropped: u64,
+    /// Pixels where a metaball was the nearest surface.
+    pub hits: u64,
+    /// Σ and max of the Bézier-clipping steps of those hits.
+    pub clip_steps: u64,
+    pub clip_steps_max: u64,
+}
+
+pub struct MetaballsPass {
+    pipeline: Pipeline,
+    set: vk::DescriptorSet,
+    groups: Option<Buffer>,
+    balls: Option<Buffer>,
+    tiles: Option<Buffer>,
+    entries: Option<Buffer>,
+    stats: Option<Buffer>,
+    params: MetaballParams,
+    // This frame's host data, written by `prepare` and uploaded by `prepare_device`.
+    gpu_groups: Vec<GpuMetaGroup>,
+    gpu_balls: Vec<GpuMetaBall>,
+    lists: TileLists,
+}
+
+const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
+
+impl MetaballsPass {
+    pub fn new(
+        ctx: &GpuContext,
+        memory: &Memory,
+        compiler: &mut ShaderCompiler,
+        scene: &Scene,
+    ) -> GpuResult<Self> {
+        let spirv = compiler.compile("metaballs.comp", &[])?;
+        let compute = vk::ShaderStageFlags::COMPUTE;
+        let mut bindings: Vec<_> =
+            (0..4).map(|i| binding(i, vk::DescriptorType::STORAGE_IMAGE, compute)).collect();
+        bindings.push(binding(4, vk::DescriptorType::UNIFORM_BUFFER, compute));
+        bindings.extend((5..11).map(|i| binding(i, vk::DescriptorType::STORAGE_BUFFER, compute)));
+        let push = std::mem::size_of::<MetaballParams>() as u32;
+        let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, &bindings, push)?;
+        let mut pass = MetaballsPass {
+            pipeline,
+            set: vk::DescriptorSet::null(),
+            groups: None,
+            balls: None,
+            tiles: None,
+            entries: None,
+            stats: None,
+            params: MetaballParams::default(),
+            gpu_groups: Vec::new(),
+            gpu_balls: Vec::new(),
+            lists: TileLists::default(),
+        };
+        let ball_count: usize = scene.metaballs.iter().map(|g| g.balls.len()).sum();
+        let group_bytes = (std::mem::size_of::<GpuMetaGroup>() * scene.metaballs.len().max(1)) as u64;
+        let ball_bytes = (std::mem::size_of::<GpuMetaBall>() * ball_count.max(1)) as u64;
+        // Tile lists start at a 1080p screen of headers and four tiles per ball; they grow on demand.
+        let tile_bytes = 16 * 8192;
+        let entry_bytes = 4 * (4 * ball_count as u64).max(1024);
+        let made = (|| -> GpuResult<()> {
+            let host = MemoryLocation::CpuToGpu;
+            pass.groups = Some(memory.create_buffer(ctx, "metaballs groups", group_bytes, STORAGE, host)?);
+            pass.balls = Some(memory.create_buffer(ctx, "metaballs balls", ball_bytes, STORAGE, host)?);
+            pass.tiles = Some(memory.create_buffer(ctx, "metaballs tiles", tile_bytes, STORAGE, host)?);
+            pass.entries =
+                Some(memory.create_buffer(ctx, "metaballs entries", entry_bytes, STORAGE, host)?);
+            let stat_bytes = (4 * STAT_COUNT) as u64;
+            let back = MemoryLocation::GpuToCpu;
+            pass.stats = Some(memory.create_buffer(ctx, "metaballs stats", stat_bytes, STORAGE, back)?);
+            Ok(())
+        })();
+        if let Err(e) = made {
+            pass.destroy(ctx, memory);
+            return Err(e);
+        }
+        Ok(pass)
+    }
+
+    /// The counters of the last frame (after its fence).
+    pub fn counts(&self) -> MetaballCounts {
+        let Some(words) = self.stats.as_ref().and_then(|b| b.mapped()) else {
+            return MetaballCounts::default();
+        };
+        let word = |i: usize| u32::from_le_bytes(words[4 * i..4 * i + 4].try_into().unwrap_or([0; 4])) as u64;
+        MetaballCounts {
+            dropped: word(STAT_DROPPED),
+            hits: word(STAT_HITS),
+            clip_steps: word(STAT_ITERATIONS),
+            clip_steps_max: word(STAT_MAX_ITERATIONS),
+        }
+    }
+
+    /// Makes `slot` hold at least `bytes`, recreating it (half as large again) when it is too
+    /// small; returns whether it was recreated (its descriptor must be rewritten).
+    fn ensure(
+        ctx: &GpuContext,
+        memory: &Memory,
+        slot: &mut Option<Buffer>,
+        name: &str,
+        bytes: u64,
+    ) -> GpuResult<bool> {
+        if slot.as_ref().is_some_and(|b| b.size >= bytes) {
+            return Ok(false);
+        }
+        if let Some(old) = slot.take() {
+            memory.destroy_buffer(ctx, old);
+        }
+        let size = bytes + bytes / 2;
+        *slot = Some(memory.create_buffer(ctx, name, size, STORAGE, MemoryLocation::CpuToGpu)?);
+        Ok(true)
+    }
+}
+
+fn write(buffer: &mut Option<Buffer>, bytes: &[u8]) -> GpuResult<()> {
+    match buffer {
+        Some(b) if !bytes.is_empty() => b.write(0, bytes),
+        _ => Ok(()),
+    }
+}
+
+impl Pass for MetaballsPass {
+    fn name(&self) -> &'static str {
+        "metaballs"
+    }
+
+    fn prepare(&mut self, scene: &Scene, time: f64, extent: vk::Extent2D) -> GpuResult<()> {
+        self.gpu_groups.clear();
+        self.gpu_balls.clear();
+        let mut bins = Vec::with_capacity(scene.metaballs.len());
+        for group in &scene.metaballs {
+            let params = group.at(time);
+            let first = self.gpu_balls.len() as u32;
+            self.gpu_groups.push(gpu_group(&params, first, group.material as u32));
+            self.gpu_balls.extend(gpu_balls(&params));
+            bins.push(GroupBins::new(&params, &scene.camera, extent));
+        }
+        self.lists = bin_balls(&scene.camera, extent, &bins);
+        self.params = MetaballParams::new(scene, extent);
+        self.params.dims[2] = self.lists.active;
+        Ok(())
+    }
+
+    fn prepare_device(&mut self, ctx: &GpuContext, memory: &Memory) -> GpuResult<()> {
+        let tile_bytes = (16 * self.lists.tiles.len()) as u64;
+        let entry_bytes = (4 * self.lists.entries.len()) as u64;
+        let new_tiles = Self::ensure(ctx, memory, &mut self.tiles, "metaballs tiles", tile_bytes)?;
+        let new_entries = Self::ensure(ctx, memory, &mut self.entries, "metaballs entries", entry_bytes)?;
+        if (new_tiles || new_entries) && self.set != vk::DescriptorSet::null() {
+            if let (Some(tiles), Some(entries)) = (&self.tiles, &self.entries) {
+                write_set(ctx, self.set, &[(8, Bound::Storage(tiles.raw)), (9, Bound::Storage(entries.raw))]);
+            }
+        }
+        write(&mut self.groups, bytemuck::cast_slice(&self.gpu_groups))?;
+        write(&mut self.balls, bytemuck::cast_slice(&self.gpu_balls))?;
+        write(&mut self.tiles, bytemuck::cast_slice(&self.lists.tiles))?;
+        write(&mut self.entries, bytemuck::cast_slice(&self.lists.entries))?;
+        write(&mut self.stats, &[0u8; 4 * STAT_COUNT])
+    }
+
+    fn uses(&self) -> Vec<(Target, ImageAccess)> {
+        [Target::Distance, Target::Hdr, Target::Normal, Target::Ids]
+            .into_iter()
+            .map(|t| (t, ImageAccess::COMPUTE_READ_WRITE))
+            .collect()
+    }
+
+    fn bind(
+        &mut self,
+        ctx: &GpuContext,
+        pool: &DescriptorPool,
+        scene_gpu: &SceneGpu,
+        targets: &Targets,
+    ) -> GpuResult<()> {
+        let (Some(groups), Some(balls), Some(tiles), Some(entries), Some(stats)) =
+            (&self.groups, &self.balls, &self.tiles, &self.entries, &self.stats)
+        else {
+            return Ok(());
+        };
+        self.set = pool.allocate(ctx, self.pipeline.set_layout, "metaballs set")?;
+        write_set(
+            ctx,
+            self.set,
+            &[
+                (0, Bound::StorageImage(targets.image(Target::Distance).view)),
+                (1, Bound::StorageImage(targets.image(Target::Hdr).view)),
+                (2, Bound::StorageImage(targets.image(Target::Normal).view)),
+                (3, Bound::StorageImage(targets.image(Target::Ids).view)),
+                (4, Bound::Uniform(scene_gpu.uniforms.raw)),
+                (5, Bound::Storage(scene_gpu.materials.raw)),
+                (6, Bound::Storage(groups.raw)),
+                (7, Bound::Storage(balls.raw)),
+                (8, Bound::Storage(tiles.raw)),
+                (9, Bound::Storage(entries.raw)),
+                (10, Bound::Storage(stats.raw)),
+            ],
+        );
+        Ok(())
+    }
+
+    fn record(&self, inputs: &PassInputs) {
+        let rec = inputs.rec;
+        rec.bind_pipeline(&self.pipeline, self.set);
+        rec.push_constants(&self.pipeline, vk::ShaderStageFlags::COMPUTE, bytemuck::bytes_of(&self.params));
+        // Four 8×8 workgroups per tile that holds any ball, TILES_PER_ROW tiles per row.
+        let active = self.lists.active;
+        if active > 0 {
+            let rows = active.div_ceil(TILES_PER_ROW);
+            rec.dispatch_2d(4 * 8 * active.min(TILES_PER_ROW), 8 * rows, (8, 8));
+        }
+        // The counters are read on the host after the frame's fence.
+        let to_host = memory_barrier(
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            vk::PipelineStageFlags2::HOST,
+            vk::AccessFlags2::HOST_READ,
+        );
+        cmd_barriers(&rec.ctx.device, rec.cmd, &[], &[to_host]);
+    }
+
+    fn report(&self, stats: &mut FrameStats) {
+        let c = self.counts();
+        stats.metaball_overflow += c.dropped;
+        stats.metaball_hits += c.hits;
+        stats.metaball_clip_steps += c.clip_steps;
+        stats.metaball_clip_steps_max = stats.metaball_clip_steps_max.max(c.clip_steps_max);
+        if c.dropped > 0 {
+            log::warn!(
+                "metaballs: {} pixels could not finish their cast (more than {} support spheres overlap \
+                 at a point, or the clipping did not converge): a surface may be missing there",
+                c.dropped,
+                crate::effects::metaballs_f32::MB_MAX_RAY_BALLS
+            );
+        }
+    }
+
+    fn destroy(&mut self, ctx: &GpuContext, memory: &Memory) {
+        self.pipeline.destroy(ctx);
+        for b in [&mut self.groups, &mut self.balls, &mut self.tiles, &mut self.entries, &mut self.stats] {
+            if let Some(b) = b.take() {
+                memory.destroy_buffer(ctx, b);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera() -> Camera {
+        Camera {
+            position: DVec3::new(0.0, 0.0, 10.0),
+            look_at: DVec3::ZERO,
+            up: DVec3::Y,
+            fov_y_deg: 60.0,
+            near: 0.1,
+            far: 100.0,
+        }
+    }
+
+    const EXTENT: vk::Extent2D = vk::Extent2D { width: 100, height: 60 };
+
+    /// Every pixel whose ray passes within the sphere lies in the tiles `sphere_tiles` gives.
+    #[test]
+    fn rectangles_cover_every_ray_through_the_sphere() {
+        let cam = camera();
+        let spheres = [
+            (DVec3::new(0.0, 0.0, 0.0), 1.0),
+            (DVec3::new(4.0, -2.0, 3.0), 0.7),
+            (DVec3::new(-6.0, 3.0, -5.0), 2.5),
+            (DVec3::new(1.0, 0.0, 9.0), 0.5), // across the edge of the view, close to the camera
+            (DVec3::new(0.3, 0.2, 9.0), 0.95), // crosses the near plane: whole screen
+        ];
+        for (c, r) in spheres {
+            let rect = sphere_tiles(&cam, EXTENT, c, r).expect("visible");
+            let mut hit_any = false;
+            for y in 0..EXTENT.height {
+                for x in 0..EXTENT.width {
+                    let (o, d) = cam.pixel_ray(x, y, EXTENT.width, EXTENT.height);
+                    let w = c - o;
+                    let passes = w.cross(d).length() <= r && w.dot(d) + r > 0.0;
+                    if passes {
+                        hit_any = true;
+                        let (tx, ty) = (x / TILE, y / TILE);
+                        assert!(
+                            tx >= rect[0] && tx <= rect[2] && ty >= rect[1] && ty <= rect[3],
+                            "sphere {c} r {r}: pixel ({x}, {y}) outside {rect:?}"
+                        );
+                    }
+                }
+            }
+            assert!(hit_any);
+        }
+        // Tight: a small sphere at the centre covers few tiles.
+        let rect = sphere_tiles(&cam, EXTENT, DVec3::ZERO, 0.2).unwrap();
+        assert!(rect[2] - rect[0] <= 1 && rect[3] - rect[1] <= 1, "{rect:?}");
+    }
+
+    #[test]
+    fn hidden_spheres_are_skipped() {
+        let cam = camera();
+        assert_eq!(sphere_tiles(&cam, EXTENT, DVec3::new(0.0, 0.0, 12.0), 1.0), None); // behind
+        assert_eq!(sphere_tiles(&cam, EXTENT, DVec3::new(0.0, 0.0, 9.95), 0.01), None); // before near
+        assert_eq!(sphere_tiles(&cam, EXTENT, DVec3::new(40.0, 0.0, 0.0), 1.0), None); // off screen
+        assert_eq!(sphere_tiles(&cam, EXTENT, DVec3::new(0.0, 0.0, -200.0), 1.0), None); // past far
+                                                                                         // Camera inside the sphere: whole screen.
+        assert_eq!(sphere_tiles(&cam, EXTENT, DVec3::new(0.0, 0.0, 10.5), 1.0), Some([0, 0, 6, 3]));
+    }
+
+    #[test]
+    fn lists_group_runs_by_group() {
+        let cam = camera();
+        let bins = |bounds: Vec<(DVec3, f64)>| GroupBins { keys: vec![0.0; bounds.len()], bounds, flags: 0 };
+        let groups = vec![
+            bins(vec![(DVec3::ZERO, 1.0), (DVec3::new(3.0, 0.0, 0.0), 1.0)]),
+            bins(vec![(DVec3::new(0.5, 0.0, 0.0), 1.0), (DVec3::new(0.0, 0.0, 20.0), 1.0)]),
+        ];
+        let lists = bin_balls(&cam, EXTENT, &groups);
+        assert_eq!((lists.tiles_x, lists.tiles_y), (7, 4));
+        let mut total = 0;
+        for ty in 0..4 {
+            for tx in 0..7 {
+                let runs = lists.runs(tx, ty);
+                let groups: Vec<u32> = runs.iter().map(|r| r.0).collect();
+                let mut sorted = groups.clone();
+                sorted.dedup();
+                assert_eq!(groups, sorted, "one run per group");
+                for (g, list) in runs {
+                    assert!(!list.is_empty());
+                    for &i in list {
+                        assert!(if g == 0 { i < 2 } else { i == 2 }, "ball {i} in group {g}");
+                    }
+                    total += list.len();
+                }
+            }
+        }
+        assert_eq!(total, lists.entries.len());
+        // The centre tiles hold balls 0 and 2 (ball 3 is behind the camera).
+        let centre = lists.runs(3, 1);
+        assert_eq!(centre.iter().map(|r| r.0).collect::<Vec<_>>(), vec![0, 1]);
+        assert!(!lists.entries.contains(&3));
+    }
+}

@@ -1,0 +1,588 @@
+//! translucency (seed 003): for each pixel whose surface is a translucent instance, the world
+//! thickness d of material the light of the scene's first directional light crossed to reach it,
+//! written to the `thickness` target (+inf elsewhere), and HDR += L·albedo·exp(−σ·d) per channel on
+//! top of the raster's Lambert (CPU twin: `effects::translucency`). Runs after the raster, the
+//! `light_id` pass and the metaballs, before the energy wave.
+//!
+//! # Per pixel
+//!
+//! The shaded point P = camera + u·distance (the pixel ray as `Camera::pixel_ray` builds it, the
+//! raster's `distance`). Projected into the light's view (`effects::translucency::LightView`) it
+//! falls in texel t of the light_id maps, which hold the instance and the surface voxel j of the
+//! first translucent surface the light reaches there, and that surface's light-space distance
+//! z(entry). The texel used is t itself when it holds P's instance, else the nearest of its 8
+//! neighbours that does (P at the silhouette seen from the light). With tsm = max(z(P) − z(entry), 0):
+//! - `thickness = "tsm"`: d = tsm (translucent shadow maps: cavities and gaps count as material).
+//! - `thickness = "lut"`: d = f(i, j)·tsm, i = the nearest-grid surface voxel at M⁻¹P, f the baked
+//!   inside fraction of the pair (`ThicknessLut::world_thickness_between`: the light's entry point
+//!   lies on P's own light ray, so |M(b − a)| = tsm).
+//!
+//! **Fallbacks** (no texel of P's instance in the 3×3 block): when texel t holds another instance,
+//! the light crossed that one first: d = max(z(P) − z(t), 0), TSM's distance from its surface (the
+//! gap and the other instance count as material); when t holds none, P lies at a silhouette seen
+//! from the light: d = 0. Without a directional light, d = +inf and nothing is added. Metaball
+//! groups (instance ids past the scene's instances) are not translucent here. Opaque instances do
+//! not shadow the light (the raster has no shadows either).
+//!
+//! # GPU data (built once at scene load, shared with `light_id`)
+//!
+//! Every (mesh, voxel_res) drawn by an instance whose material is translucent with
+//! `thickness = "lut"` is baked through `BakeCache` (`effects::bake_cache`; the device's
+//! maxImageDimension2D is the bake's texture limit) and packed into:
+//! - **LUT image**, `R8_UNORM`, sampled with `texelFetch`: the tables one after the other in one
+//!   texel numbering (no descriptor indexing on lavapipe, so one image for all meshes). Table m's
+//!   pair (i, j) is texel `base_m + pair_index(i, j, N_m)`, texel k at `(k mod W, k / W)` with
+//!   `W = min(total, 4096, limit)` and `H = ceil(total / W)` (W becomes the limit when H would
+//!   exceed it) — for one table exactly its `LutLayout`. Bytes = W·H ≈ Σ N_m(N_m+1)/2. A total
+//!   above limit² texels is refused naming maxImageDimension2D.
+//! - **nearest grids**, storage buffer of u32: every table's `nearest_grid` (dims.x·dims.y·dims.z
+//!   words each, x fastest), one after the other. 4 bytes a grid voxel.
+//! - **`LutRecord`** per table (48 bytes): origin + voxel edge, dims + N, grid word offset + first
+//!   texel.
+//! - **`TranslucentInstance`** per scene instance, scene order (80 bytes): M⁻¹ (from the f64
+//!   inverse), the table index (`NO_LUT` for TSM or opaque instances), a translucent flag.
+//!
+//! The surface-voxel centres are not uploaded: with d = f(i, j)·|M(b − a)| the shader never needs
+//! them (`ThicknessLut::surface_centres_f32` is there for a centre-to-centre variant).
+//! For assets/scenes/translucency.toml this is a 4096×6723 texel table image (~27.5 MB: ring 60³
+//! 16.6 MB, bottle 56³ 7.2 MB, hollow cube 25³ 3.7 MB) and ~0.9 MB of grids.
+
+use std::sync::Arc;
+
+use gpu_allocator::MemoryLocation;
+
+use super::{Pass, PassInputs};
+use crate::effects::bake_cache::BakeCache;
+use crate::effects::thickness_lut::{bake, BakeOptions, ThicknessLut, LUT_WIDTH};
+use crate::effects::translucency::LightView;
+use crate::gpu::barriers::ImageAccess;
+use crate::gpu::memory::{Buffer, Image, Memory};
+use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
+use crate::gpu::shader::ShaderCompiler;
+use crate::gpu::upload::{upload_image, Sampler};
+use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
+use crate::passes::gpu_structs::{instance_records, mat4_f32};
+use crate::scene::{MaterialKind, Scene, ThicknessMode};
+use crate::scene_gpu::SceneGpu;
+use crate::targets::{Target, Targets, LIGHT_MAP_SIZE};
+
+/// `TranslucentInstance::info.x` of an instance without a table.
+pub const NO_LUT: u32 = u32::MAX;
+
+/// One baked table. Keep in sync with `LutRecord` in shaders/common/translucency.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LutRecord {
+    /// xyz: object-space minimum corner of voxel (0, 0, 0); w: voxel edge.
+    pub origin: [f32; 4],
+    /// xyz: grid voxels; w: surface voxels N.
+    pub dims: [u32; 4],
+    /// x: first word of the nearest grid; y: first texel of the table; z: first surface-voxel centre.
+    pub offsets: [u32; 4],
+}
+
+/// Per scene instance. Keep in sync with `TranslucentInstance` in shaders/common/translucency.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TranslucentInstance {
+    pub model: [[f32; 4]; 4],
+    pub inverse_model: [[f32; 4]; 4],
+    /// x: `LutRecord` index or `NO_LUT`; y: 1 when the material is translucent.
+    pub info: [u32; 4],
+}
+
+/// The light's view. Keep in sync with `LightViewData` in shaders/common/translucency.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LightViewData {
+    /// xyz: centre; w: radius.
+    pub centre: [f32; 4],
+    pub right: [f32; 4],
+    pub up: [f32; 4],
+    /// xyz: the unit direction the light travels.
+    pub dir: [f32; 4],
+}
+
+/// The translucency pass's uniforms. Keep in sync with shaders/translucency.comp.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TranslucencyParams {
+    /// xyz: camera right × tan(fov/2) × aspect.
+    pub right: [f32; 4],
+    /// xyz: image up × tan(fov/2).
+    pub up: [f32; 4],
+    pub forward: [f32; 4],
+    /// xyz: camera position.
+    pub camera: [f32; 4],
+    /// rgb: the first light's colour × intensity; w: 1 when the scene has a light.
+    pub radiance: [f32; 4],
+    pub view: LightViewData,
+    /// Frame width, height, light map size, scene instances.
+    pub dims: [u32; 4],
+    /// x: LUT image width.
+    pub lut: [u32; 4],
+}
+
+const _: () = {
+    assert!(std::mem::size_of::<LutRecord>() == 48);
+    assert!(std::mem::size_of::<TranslucentInstance>() == 144);
+    assert!(std::mem::offset_of!(TranslucentInstance, info) == 128);
+    assert!(std::mem::size_of::<LightViewData>() == 64);
+    assert!(std::mem::size_of::<TranslucencyParams>() == 176);
+    assert!(std::mem::offset_of!(TranslucencyParams, view) == 80);
+    assert!(std::mem::offset_of!(TranslucencyParams, dims) == 144);
+};
+
+fn v4(v: glam::DVec3, w: f32) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w]
+}
+
+impl LightViewData {
+    pub fn new(view: &LightView) -> Self {
+        LightViewData {
+            centre: v4(view.centre, view.radius as f32),
+            right: v4(view.right, 0.0),
+            up: v4(view.up, 0.0),
+            dir: v4(view.dir, 0.0),
+        }
+    }
+}
+
+/// The size of the packed table image for `total` texels under a `limit`-texel side, or an error
+/// naming the limit.
+pub fn atlas_extent(total: u64, limit: u32) -> GpuResult<vk::Extent2D> {
+    let limit64 = limit.max(1) as u64;
+    let mut width = total.clamp(1, (LUT_WIDTH as u64).min(limit64));
+    let mut height = total.div_ceil(width).max(1);
+    if height > limit64 {
+        width = limit64;
+        height = total.div_ceil(width);
+    }
+    if height > limit64 {
+        return Err(GpuError::Limit {
+            what: "translucency LUT image".into(),
+            message: format!(
+                "the scene's thickness tables hold {total} texels, more than a {limit}×{limit} image \
+                 (the device's maxImageDimension2D is {limit}); lower the materials' voxel_res"
+            ),
+        });
+    }
+    Ok(vk::Extent2D { width: width as u32, height: height as u32 })
+}
+
+/// What was baked for one table, for logs and reports.
+#[derive(Clone, Debug)]
+pub struct LutSummary {
+    pub mesh: String,
+    pub res: u32,
+    pub surface_voxels: u32,
+    /// Bytes of its table (N(N+1)/2) and of its nearest grid.
+    pub table_bytes: u64,
+    pub grid_bytes: u64,
+}
+
+/// The scene's translucency data on the GPU, shared by `light_id` and `translucency`.
+pub struct TranslucentData {
+    pub view: Option<LightView>,
+    pub tables: Vec<LutSummary>,
+    /// The first light's colour × intensity.
+    pub radiance: glam::DVec3,
+    /// Runs of translucent instances in the scene's instance table, for the light_id pass.
+    pub draws: Vec<LightDraw>,
+    pub lut_image: Image,
+    pub sampler: Sampler,
+    pub grid: Buffer,
+    pub records: Buffer,
+    pub instances: Buffer,
+    pub centres: Buffer,
+}
+
+/// Host-side contents of `TranslucentData`'s buffers and image.
+struct Packed {
+    tables: Vec<LutSummary>,
+    atlas: Vec<u8>,
+    extent: vk::Extent2D,
+    grid: Vec<u32>,
+    records: Vec<LutRecord>,
+    instances: Vec<TranslucentInstance>,
+    centres: Vec<[f32; 4]>,
+}
+
+fn translucent_mode(scene: &Scene, instance: usize) -> Option<(u32, ThicknessMode)> {
+    match scene.materials[scene.instances[instance].material].kind {
+        MaterialKind::Translucent { voxel_res, thickness, .. } => Some((voxel_res, thickness)),
+        MaterialKind::Lambert => None,
+    }
+}
+
+fn bake_table(scene: &Scene, mesh: usize, res: u32, limit: u32) -> GpuResult<ThicknessLut> {
+    let m = &scene.meshes[mesh];
+    let options = BakeOptions { max_texture_dim: limit, ..BakeOptions::default() };
+    let none = |_: usize, _: usize| {};
+    let baked = match BakeCache::from_env() {
+        Some(cache) => cache.get_or_bake(&m.mesh, res, &options, &none).map(|c| {
+            log::info!("thickness LUT of mesh \"{}\" at {res}³: {:?} in {:.2} s", m.name, c.outcome, c.seconds);
+            c.lut
+        }),
+        None => bake(&m.mesh, res, &options, &none).map(|(lut, _)| lut),
+    };
+    baked.map_err(|e| GpuError::Limit { what: format!("thickness LUT of mesh \"{}\" at {res}³", m.name), message: e.to_string() })
+}
+
+fn pack(scene: &Scene, limit: u32) -> GpuResult<Packed> {
+    let mut keys: Vec<(usize, u32)> = Vec::new();
+    let mut instances = Vec::with_capacity(scene.instances.len().max(1));
+    for (id, inst) in scene.instances.iter().enumerate() {
+        let mode = translucent_mode(scene, id);
+        let lut = match mode {
+            Some((res, ThicknessMode::Lut)) => {
+                let key = (inst.mesh, res);
+                match keys.iter().position(|k| *k == key) {
+                    Some(k) => k as u32,
+                    None => {
+                        keys.push(key);
+                        keys.len() as u32 - 1
+                    }
+                }
+            }
+            _ => NO_LUT,
+        };
+        instances.push(TranslucentInstance {
+            model: mat4_f32(inst.transform.matrix),
+            inverse_model: mat4_f32(inst.transform.inverse),
+            info: [lut, u32::from(mode.is_some()), 0, 0],
+        });
+    }
+    let (mut tables, mut grid, mut records, mut texels) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut centres: Vec<[f32; 4]> = Vec::new();
+    for &(mesh, res) in &keys {
+        let lut = bake_table(scene, mesh, res, limit)?;
+        let n = lut.surface_count() as u64;
+        let pairs = n * (n + 1) / 2;
+        records.push(LutRecord {
+            origin: v4(lut.origin, lut.voxel_size as f32),
+            dims: [lut.dims[0], lut.dims[1], lut.dims[2], n as u32],
+            offsets: [grid.len() as u32, texels.len() as u32, centres.len() as u32, 0],
+        });
+        if texels.len() as u64 + pairs > u32::MAX as u64 {
+            // The image limit below refuses this too; the u32 offsets must not wrap before.
+            return Err(GpuError::Limit {
+                what: "translucency LUT image".into(),
+                message: format!("more than 2³² texels (maxImageDimension2D is {limit})"),
+            });
+        }
+        texels.extend_from_slice(&lut.data[..pairs as usize]);
+        grid.extend_from_slice(&lut.nearest_grid);
+        centres.extend(lut.surface_centres_f32());
+        tables.push(LutSummary {
+            mesh: scene.meshes[mesh].name.clone(),
+            res,
+            surface_voxels: n as u32,
+            table_bytes: pairs,
+            grid_bytes: lut.nearest_grid.len() as u64 * 4,
+        });
+    }
+    let extent = atlas_extent(texels.len() as u64, limit)?;
+    texels.resize(extent.width as usize * extent.height as usize, 0);
+    if instances.is_empty() {
+        let zero = [[0.0; 4]; 4];
+        instances.push(TranslucentInstance { model: zero, inverse_model: zero, info: [NO_LUT, 0, 0, 0] });
+    }
+    if records.is_empty() {
+        records.push(LutRecord::default());
+    }
+    Ok(Packed { tables, atlas: texels, extent, grid, records, instances, centres })
+}
+
+/// One instanced draw of the light_id pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightDraw {
+    pub mesh: usize,
+    /// Slots in the scene's instance table (`gpu_structs::instance_records` order).
+    pub first: u32,
+    pub count: u32,
+    /// The instances' transforms mirror (det < 0): their triangles wind the other way.
+    pub mirrored: bool,
+}
+
+/// Runs of consecutive translucent slots of one mesh and one handedness in the scene's instance
+/// table.
+pub fn draw_runs(scene: &Scene) -> Vec<LightDraw> {
+    let (records, ranges) = instance_records(scene);
+    let mut runs: Vec<LightDraw> = Vec::new();
+    for (mesh, &(first, count)) in ranges.iter().enumerate() {
+        for slot in first..first + count {
+            let id = records[slot as usize].ids[0] as usize;
+            if translucent_mode(scene, id).is_none() {
+                continue;
+            }
+            let mirrored = scene.instances[id].transform.matrix.determinant() < 0.0;
+            match runs.last_mut() {
+                Some(r) if r.mesh == mesh && r.mirrored == mirrored && r.first + r.count == slot => r.count += 1,
+                _ => runs.push(LightDraw { mesh, first: slot, count: 1, mirrored }),
+            }
+        }
+    }
+    runs
+}
+
+fn host_buffer(ctx: &GpuContext, memory: &Memory, name: &str, bytes: &[u8]) -> GpuResult<Buffer> {
+    let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+    let mut buffer = memory.create_buffer(ctx, name, bytes.len() as u64, usage, MemoryLocation::CpuToGpu)?;
+    if let Err(e) = buffer.write(0, bytes) {
+        memory.destroy_buffer(ctx, buffer);
+        return Err(e);
+    }
+    Ok(buffer)
+}
+
+impl TranslucentData {
+    /// Bakes (through the cache) and uploads everything the two passes read.
+    pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
+        let limit = ctx.limits.max_image_dimension2_d;
+        let packed = pack(scene, limit)?;
+        let mut buffers: Vec<Buffer> = Vec::new();
+        let made = (|| {
+            for (name, bytes) in [
+                ("translucency nearest grids", bytemuck::cast_slice::<u32, u8>(&packed.grid)),
+                ("translucency lut records", bytemuck::cast_slice(&packed.records)),
+                ("translucency instances", bytemuck::cast_slice(&packed.instances)),
+                ("translucency centres", bytemuck::cast_slice(&packed.centres)),
+            ] {
+                buffers.push(host_buffer(ctx, memory, name, bytes)?);
+            }
+            let format = vk::Format::R8_UNORM;
+            let image = upload_image(ctx, memory, "translucency lut", packed.extent, format, 1, &packed.atlas)?;
+            match Sampler::nearest(ctx, "translucency lut sampler") {
+                Ok(s) => Ok((image, s)),
+                Err(e) => {
+                    memory.destroy_image(ctx, image);
+                    Err(e)
+                }
+            }
+        })();
+        let (lut_image, sampler) = match made {
+            Ok(x) => x,
+            Err(e) => {
+                buffers.into_iter().for_each(|b| memory.destroy_buffer(ctx, b));
+                return Err(e);
+            }
+        };
+        let centres = buffers.pop().expect("four buffers");
+        let instances = buffers.pop().expect("four buffers");
+        let records = buffers.pop().expect("four buffers");
+        let grid = buffers.pop().expect("four buffers");
+        let (table_bytes, grid_bytes): (u64, u64) =
+            packed.tables.iter().fold((0, 0), |(t, g), s| (t + s.table_bytes, g + s.grid_bytes));
+        log::info!(
+            "translucency: {} tables, LUT image {}x{} R8_UNORM ({} bytes, {table_bytes} used), grids {grid_bytes} bytes",
+            packed.tables.len(),
+            packed.extent.width,
+            packed.extent.height,
+            packed.atlas.len()
+        );
+        let radiance = scene.lights.first().map_or(glam::DVec3::ZERO, |l| l.color * l.intensity);
+        Ok(TranslucentData {
+            view: LightView::fit(scene),
+            tables: packed.tables,
+            radiance,
+            draws: draw_runs(scene),
+            lut_image,
+            sampler,
+            grid,
+            records,
+            instances,
+            centres,
+        })
+    }
+
+    /// The light view's push constants (a unit view when the scene has no light: nothing is drawn).
+    pub fn view_data(&self) -> LightViewData {
+        self.view.as_ref().map(LightViewData::new).unwrap_or(LightViewData {
+            centre: [0.0, 0.0, 0.0, 1.0],
+            right: [1.0, 0.0, 0.0, 0.0],
+            up: [0.0, 1.0, 0.0, 0.0],
+            dir: [0.0, 0.0, 1.0, 0.0],
+        })
+    }
+
+    fn destroy(self, ctx: &GpuContext, memory: &Memory) {
+        self.sampler.destroy(ctx);
+        memory.destroy_image(ctx, self.lut_image);
+        memory.destroy_buffer(ctx, self.grid);
+        memory.destroy_buffer(ctx, self.records);
+        memory.destroy_buffer(ctx, self.instances);
+        memory.destroy_buffer(ctx, self.centres);
+    }
+}
+
+/// The data of `slot`, made on first use: `light_id` and `translucency` share one bake and upload.
+pub fn shared_data(
+    slot: &mut Option<Arc<TranslucentData>>,
+    ctx: &GpuContext,
+    memory: &Memory,
+    scene: &Scene,
+) -> GpuResult<Arc<TranslucentData>> {
+    if let Some(data) = slot {
+        return Ok(data.clone());
+    }
+    let data = Arc::new(TranslucentData::new(ctx, memory, scene)?);
+    *slot = Some(data.clone());
+    Ok(data)
+}
+
+/// Drops one holder of the data; the last one frees it (after the frames using it finished).
+pub fn release(data: Option<Arc<TranslucentData>>, ctx: &GpuContext, memory: &Memory) {
+    if let Some(last) = data.and_then(Arc::into_inner) {
+        last.destroy(ctx, memory);
+    }
+}
+
+/// Whether the scene needs the light_id and translucency passes: an instance is translucent.
+pub fn needed(scene: &Scene) -> bool {
+    (0..scene.instances.len()).any(|i| translucent_mode(scene, i).is_some())
+}
+
+pub struct TranslucencyPass {
+    pipeline: Pipeline,
+    set: vk::DescriptorSet,
+    data: Option<Arc<TranslucentData>>,
+    params: Option<Buffer>,
+}
+
+impl TranslucencyPass {
+    pub fn new(
+        ctx: &GpuContext,
+        memory: &Memory,
+        compiler: &mut ShaderCompiler,
+        data: Arc<TranslucentData>,
+    ) -> GpuResult<Self> {
+        let made = (|| {
+            let spirv = compiler.compile("translucency.comp", &[])?;
+            let c = vk::ShaderStageFlags::COMPUTE;
+            use vk::DescriptorType as D;
+            let types = [
+                D::UNIFORM_BUFFER,
+                D::STORAGE_IMAGE,
+                D::STORAGE_IMAGE,
+                D::STORAGE_IMAGE,
+                D::STORAGE_IMAGE,
+                D::STORAGE_IMAGE,
+                D::STORAGE_IMAGE,
+                D::COMBINED_IMAGE_SAMPLER,
+                D::STORAGE_BUFFER,
+                D::STORAGE_BUFFER,
+                D::STORAGE_BUFFER,
+                D::STORAGE_BUFFER,
+                D::STORAGE_BUFFER,
+            ];
+            let bindings: Vec<_> = types.iter().enumerate().map(|(i, &t)| binding(i as u32, t, c)).collect();
+            let pipeline = create_compute_pipeline(ctx, "translucency", &spirv, &bindings, 0)?;
+            let size = std::mem::size_of::<TranslucencyParams>() as u64;
+            let usage = vk::BufferUsageFlags::UNIFORM_BUFFER;
+            match memory.create_buffer(ctx, "translucency params", size, usage, MemoryLocation::CpuToGpu) {
+                Ok(params) => Ok((pipeline, params)),
+                Err(e) => {
+                    pipeline.destroy(ctx);
+                    Err(e)
+                }
+            }
+        })();
+        match made {
+            Ok((pipeline, params)) => {
+                Ok(TranslucencyPass {
+                pipeline,
+                set: vk::DescriptorSet::null(),
+                data: Some(data),
+                params: Some(params),
+            })
+            }
+            Err(e) => {
+                release(Some(data), ctx, memory);
+                Err(e)
+            }
+        }
+    }
+}
+
+impl Pass for TranslucencyPass {
+    fn name(&self) -> &'static str {
+        "translucency"
+    }
+
+    fn prepare(&mut self, scene: &Scene, _: f64, extent: vk::Extent2D) -> GpuResult<()> {
+        let (Some(data), Some(buffer)) = (&self.data, &mut self.params) else { return Ok(()) };
+        let cam = &scene.camera;
+        let b = cam.basis();
+        let tan_half = (cam.fov_y_deg.to_radians() * 0.5).tan();
+        let aspect = extent.width as f64 / extent.height as f64;
+        let params = TranslucencyParams {
+            right: v4(b.right * (tan_half * aspect), 0.0),
+            up: v4(b.up * tan_half, 0.0),
+            forward: v4(b.forward, 0.0),
+            camera: v4(cam.position, 1.0),
+            radiance: v4(data.radiance, if data.view.is_some() { 1.0 } else { 0.0 }),
+            view: data.view_data(),
+            dims: [extent.width, extent.height, LIGHT_MAP_SIZE, scene.instances.len() as u32],
+            lut: [data.lut_image.extent.width, 0, 0, 0],
+        };
+        buffer.write(0, bytemuck::bytes_of(&params))
+    }
+
+    fn uses(&self) -> Vec<(Target, ImageAccess)> {
+        vec![
+            (Target::Ids, ImageAccess::COMPUTE_READ),
+            (Target::Distance, ImageAccess::COMPUTE_READ),
+            (Target::Hdr, ImageAccess::COMPUTE_READ_WRITE),
+            (Target::LightIds, ImageAccess::COMPUTE_READ),
+            (Target::LightZ, ImageAccess::COMPUTE_READ),
+            (Target::Thickness, ImageAccess::COMPUTE_WRITE),
+        ]
+    }
+
+    fn bind(
+        &mut self,
+        ctx: &GpuContext,
+        pool: &DescriptorPool,
+        scene_gpu: &SceneGpu,
+        targets: &Targets,
+    ) -> GpuResult<()> {
+        let (Some(data), Some(params)) = (&self.data, &self.params) else { return Ok(()) };
+        self.set = pool.allocate(ctx, self.pipeline.set_layout, "translucency set")?;
+        let view = |t: Target| Bound::StorageImage(targets.image(t).view);
+        write_set(
+            ctx,
+            self.set,
+            &[
+                (0, Bound::Uniform(params.raw)),
+                (1, view(Target::Ids)),
+                (2, view(Target::Distance)),
+                (3, view(Target::Hdr)),
+                (4, view(Target::LightIds)),
+                (5, view(Target::LightZ)),
+                (6, view(Target::Thickness)),
+                (7, Bound::Sampled(data.lut_image.view, data.sampler.raw)),
+                (8, Bound::Storage(data.grid.raw)),
+                (9, Bound::Storage(data.records.raw)),
+                (10, Bound::Storage(data.instances.raw)),
+                (11, Bound::Storage(scene_gpu.materials.raw)),
+                (12, Bound::Storage(data.centres.raw)),
+            ],
+        );
+        Ok(())
+    }
+
+    fn record(&self, inputs: &PassInputs) {
+        let extent = inputs.targets.extent;
+        inputs.rec.bind_pipeline(&self.pipeline, self.set);
+        inputs.rec.dispatch_2d(extent.width, extent.height, (8, 8));
+    }
+
+    fn destroy(&mut self, ctx: &GpuContext, memory: &Memory) {
+        self.pipeline.destroy(ctx);
+        if let Some(params) = self.params.take() {
+            memory.destroy_buffer(ctx, params);
+        }
+        release(self.data.take(), ctx, memory);
+    }
+}
