@@ -4,7 +4,6 @@
 #include "common/frame.glsl"
 
 layout(set = 0, binding = 1, std430) readonly buffer Grid { uint grid[]; };
-layout(set = 0, binding = 4, std430) readonly buffer Centres { vec4 centres[]; };
 #define HADOU_TRANSLUCENCY_GRID
 #include "common/translucency.glsl"
 
@@ -24,10 +23,8 @@ layout(location = 0) out uvec2 out_ids;
 layout(location = 1) out float out_z;
 
 void main() {
-    TranslucentInstance inst = translucent[v_instance];
-    uint lut = inst.info.x;
-    uint voxel = lut == NO_LUT ? NO_LUT
-                               : surface_voxel_near_line(luts[lut], mat3(inst.model), v_object, push.view.dir.xyz);
+    uint lut = translucent[v_instance].info.x;
+    uint voxel = lut == NO_LUT ? NO_LUT : surface_voxel_at(luts[lut], v_object);
     out_ids = uvec2(v_instance + 1u, voxel);
     out_z = light_project(push.view, v_world).z;
 }

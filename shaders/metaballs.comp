@@ -117,8 +117,8 @@ void main() {
         bool lone_bound = (run.w & RUN_LONE_BOUND) != 0u;
         float cap = FLT_MAX;  // object space: balls entering later are left out of this round
         // Each round casts [from, stop): a miss moves `from` to the entry of the first ball left
-        // out (past at least one more ball of the run), a pile-up narrows `cap` (halving a
-        // window of at most 2^24 floats); the guard only bounds what cannot happen.
+        // out (past at least one more ball of the run); a pile-up halves the window below `cap`.
+        // The guard bounds pathological cases, and counts them.
         for (uint round = 0u; subgroupAny(live); ++round) {
             if (round > 2u * run.z + 64u) {
                 if (live) dropped += 1u;

@@ -14,6 +14,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 8, std430) readonly buffer Grid { uint grid[]; };
 layout(set = 0, binding = 12, std430) readonly buffer Centres { vec4 centres[]; };
 #define HADOU_TRANSLUCENCY_GRID
+#define HADOU_TRANSLUCENCY_CENTRES
 #include "common/translucency.glsl"
 
 // Keep in sync with TranslucencyParams in src/passes/translucency.rs.
@@ -75,15 +76,23 @@ float thickness_at(vec3 P, uint instance, uint mode) {
     }
     float tsm = max(lp.z - imageLoad(light_z, t).r, 0.0);
     TranslucentInstance ti = translucent[instance];
-    if (mode == THICKNESS_TSM || ti.info.x == NO_LUT) return tsm;
+    if (mode == THICKNESS_TSM || ti.info.x == NO_LUT || !(tsm > 0.0)) return tsm;
+    // effects::translucency::lut_thickness: the path from the light's entry a (on P's own light
+    // ray) to b = P, less the gaps the table knows between the surface voxels at its ends.
     LutRecord r = luts[ti.info.x];
-    uint i = surface_voxel_near_line(r, mat3(ti.model), (ti.inverse_model * vec4(P, 1.0)).xyz, params.view.dir.xyz);
-    uint j = imageLoad(light_ids, t).y;
-    if (i >= r.dims.w || j >= r.dims.w) return tsm;
-    // The gaps the table knows, (1 - f)·|M(c_j - c_i)|, taken off the path: its ends lie on the
-    // surface, so the rest is material.
+    vec3 l = params.view.dir.xyz;
+    vec3 b = (ti.inverse_model * vec4(P, 1.0)).xyz;
+    vec3 a = (ti.inverse_model * vec4(P - l * tsm, 1.0)).xyz;
+    float len = length(a - b);
+    if (!(len > 0.0)) return tsm;
+    vec3 inward = (a - b) / len;
+    mat3 model = mat3(ti.model);
+    // The light map's voxel is the lookup at the texel's entry point: the entry end's first candidate.
+    uint j0 = imageLoad(light_ids, t).y;
+    uint i = path_end_voxel(r, model, b, inward, 0.5 * len, l, NO_LUT);
+    uint j = path_end_voxel(r, model, a, -inward, 0.5 * len, l, j0 < r.dims.w ? j0 : NO_LUT);
     float f = lut_fraction(r, i, j);
-    vec3 span = mat3(ti.model) * (centres[r.offsets.z + j].xyz - centres[r.offsets.z + i].xyz);
+    vec3 span = model * (centres[r.offsets.z + j].xyz - centres[r.offsets.z + i].xyz);
     return clamp(tsm - (1.0 - f) * length(span), 0.0, tsm);
 }
 

@@ -36,8 +36,7 @@ vec3 light_project(LightViewData v, vec3 p) {
 }
 
 #ifdef HADOU_TRANSLUCENCY_GRID
-// Needs `grid` (uint[]) and `centres` (vec4[]) declared before this file is included with
-// HADOU_TRANSLUCENCY_GRID.
+// Needs `grid` (uint[]) declared before this file is included with HADOU_TRANSLUCENCY_GRID.
 
 // The (clamped) voxel containing object point p.
 ivec3 voxel_of(LutRecord r, vec3 p) {
@@ -47,28 +46,36 @@ ivec3 voxel_of(LutRecord r, vec3 p) {
     return ivec3(clamp(g, vec3(0.0), vec3(r.dims.xyz - 1u)));
 }
 
-// effects::translucency::surface_voxel_near_line: among the nearest-grid entries of the 27
-// voxels around p's voxel, the surface voxel whose centre lies nearest (squared, first in z, y, x
-// order on a tie) to the world line through object point p along world direction l.
-uint surface_voxel_near_line(LutRecord r, mat3 model, vec3 p, vec3 l) {
+// The nearest grid at the (clamped) voxel containing object point p (ThicknessLut::surface_voxel_at).
+uint surface_voxel_at(LutRecord r, vec3 p) {
     ivec3 v = voxel_of(r, p);
-    ivec3 dims = ivec3(r.dims.xyz);
+    return grid[r.offsets.x + uint(v.x + int(r.dims.x) * (v.y + int(r.dims.y) * v.z))];
+}
+#endif
+
+#ifdef HADOU_TRANSLUCENCY_CENTRES
+// Also needs `centres` (vec4[]) declared before the include.
+
+// effects::translucency::END_SHIFTS, in voxel edges.
+const float END_SHIFTS[4] = float[4](0.0, 0.5, 1.0, 1.5);
+
+// effects::translucency::path_end_voxel: the nearest-grid lookups at object point p moved
+// END_SHIFTS voxels along `inward` (at most half_len), keeping the surface voxel whose centre lies
+// nearest, in world space (model: the instance's linear part), to the line through p along the
+// world unit direction l. `first`: the lookup at p itself when known (else NO_LUT).
+uint path_end_voxel(LutRecord r, mat3 model, vec3 p, vec3 inward, float half_len, vec3 l, uint first) {
     uint best = NO_LUT;
     float best_d2 = 0.0;
-    for (int dz = -1; dz <= 1; ++dz) {
-        for (int dy = -1; dy <= 1; ++dy) {
-            for (int dx = -1; dx <= 1; ++dx) {
-                ivec3 q = v + ivec3(dx, dy, dz);
-                if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
-                uint id = grid[r.offsets.x + uint(q.x + dims.x * (q.y + dims.y * q.z))];
-                vec3 w = model * (centres[r.offsets.z + id].xyz - p);
-                vec3 off = w - l * dot(w, l);
-                float d2 = dot(off, off);
-                if (best == NO_LUT || d2 < best_d2) {
-                    best = id;
-                    best_d2 = d2;
-                }
-            }
+    for (int k = 0; k < 4; ++k) {
+        uint id = (k == 0 && first != NO_LUT)
+            ? first
+            : surface_voxel_at(r, p + inward * min(END_SHIFTS[k] * r.origin.w, half_len));
+        vec3 w = model * (centres[r.offsets.z + id].xyz - p);
+        vec3 off = w - l * dot(w, l);
+        float d2 = dot(off, off);
+        if (best == NO_LUT || d2 < best_d2) {
+            best = id;
+            best_d2 = d2;
         }
     }
     return best;

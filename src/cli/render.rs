@@ -19,7 +19,7 @@ pub struct RenderArgs {
     /// Scene time in seconds.
     #[arg(long, default_value_t = 0.0)]
     time: f64,
-    /// AOV to write as single- or multi-channel f32 OpenEXR: NAME=FILE.exr (depth, hdr, normal).
+    /// AOV to write as f32 OpenEXR: NAME=FILE.exr (depth, hdr, normal, energy, thickness).
     #[arg(long = "aov", value_name = "NAME=FILE.exr")]
     aovs: Vec<String>,
 }

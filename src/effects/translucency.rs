@@ -88,34 +88,34 @@ impl LightView {
     }
 }
 
-/// The surface voxel for an end of a light path: among the nearest-grid entries of the 27 voxels
-/// around the (clamped) voxel of object point `p`, the one whose centre lies nearest to the world
-/// line through p along `dir` (the light's world direction), by squared distance, the first in
-/// z, y, x order on a tie. Nearest to the line rather than to p: the table's segment then runs
-/// beside the light's path instead of across it (an end moved along the path changes nothing
-/// below, one moved sideways changes the gaps it crosses). `None` for a non-finite point.
-pub fn surface_voxel_near_line(lut: &ThicknessLut, m: &Transform, p: DVec3, dir: DVec3) -> Option<u32> {
-    if !p.is_finite() {
-        return None;
-    }
-    let v = lut.voxel_of(p);
+/// Where the lookups for an end of a light path are made, in voxel edges along the path into the
+/// material (each clamped to half the path, so the two ends never swap sides).
+pub const END_SHIFTS: [f64; 4] = [0.0, 0.5, 1.0, 1.5];
+
+/// The surface voxel for the end `p` (object space) of a light path of an instance with transform
+/// `m`: the nearest-grid lookups (`ThicknessLut::surface_voxel_at`) at p moved `END_SHIFTS` voxels
+/// along `inward` (the object-space unit direction into the material, along the path; at most
+/// `half` object units), keeping the one whose centre lies nearest, in world space, to the path's
+/// line through p along the world unit direction `dir` (the first one on a tie). The plain lookup
+/// at p picks the surface voxel nearest p's voxel centre, up to ~1.3 voxels beside the path; the
+/// table's segment between two such centres then crosses cavity rims and thin walls the path does
+/// not (or the reverse). Looking a little deeper along the path finds centres beside it.
+pub fn path_end_voxel(
+    lut: &ThicknessLut,
+    m: &Transform,
+    p: DVec3,
+    inward: DVec3,
+    half: f64,
+    dir: DVec3,
+) -> Option<u32> {
     let mut best: Option<(f64, u32)> = None;
-    for dz in -1i64..=1 {
-        for dy in -1i64..=1 {
-            for dx in -1i64..=1 {
-                let q = [v[0] as i64 + dx, v[1] as i64 + dy, v[2] as i64 + dz];
-                if (0..3).any(|a| q[a] < 0 || q[a] >= lut.dims[a] as i64) {
-                    continue;
-                }
-                let (nx, ny) = (lut.dims[0] as usize, lut.dims[1] as usize);
-                let id = lut.nearest_grid[q[0] as usize + nx * (q[1] as usize + ny * q[2] as usize)];
-                let w = m.matrix.transform_vector3(lut.centre(id) - p);
-                let off = w - dir * w.dot(dir);
-                let d2 = off.dot(off);
-                if best.is_none_or(|(b, _)| d2 < b) {
-                    best = Some((d2, id));
-                }
-            }
+    for k in END_SHIFTS {
+        let id = lut.surface_voxel_at(p + inward * (k * lut.voxel_size).min(half))?;
+        let w = m.matrix.transform_vector3(lut.centre(id) - p);
+        let off = w - dir * w.dot(dir);
+        let d2 = off.dot(off);
+        if best.is_none_or(|(b, _)| d2 < b) {
+            best = Some((d2, id));
         }
     }
     best.map(|(_, id)| id)
@@ -124,15 +124,19 @@ pub fn surface_voxel_near_line(lut: &ThicknessLut, m: &Transform, p: DVec3, dir:
 /// The LUT thickness between the light's entry point `a` and the shaded point `b` (object space)
 /// of an instance with transform `m`, as the translucency shader computes it: the path's world
 /// length minus the gaps the table knows, (1 − f(i, j))·|M(c_j − c_i)|, clamped to [0, |M(b − a)|],
-/// with i, j the `surface_voxel_near_line` of b and a along the path. The ends lie on the surface,
-/// so what the centre segment does not cover near them is material: unlike f·|M(b − a)|
-/// (`world_thickness_between`), a thin wall keeps its part between the surface and the voxel
-/// centre. `None` for a non-finite point.
+/// with i, j the `path_end_voxel`s of b and a. The ends lie on the surface, so what the centre
+/// segment does not cover near them is material: unlike f·|M(b − a)| (`world_thickness_between`),
+/// a thin wall keeps its part between the surface and the voxel centre. `None` for a non-finite
+/// point; 0 for a = b.
 pub fn lut_thickness(lut: &ThicknessLut, m: &Transform, a: DVec3, b: DVec3) -> Option<f64> {
-    let dir = (m.transform_point(a) - m.transform_point(b)).normalize_or_zero();
-    let i = surface_voxel_near_line(lut, m, b, dir)?;
-    let j = surface_voxel_near_line(lut, m, a, dir)?;
+    if !(a.is_finite() && b.is_finite()) {
+        return None;
+    }
     let path = (m.transform_point(b) - m.transform_point(a)).length();
+    let Some(inward) = (a - b).try_normalize().filter(|_| path > 0.0) else { return Some(0.0) };
+    let (half, dir) = (0.5 * (a - b).length(), (m.transform_point(a) - m.transform_point(b)) / path);
+    let i = path_end_voxel(lut, m, b, inward, half, dir)?;
+    let j = path_end_voxel(lut, m, a, -inward, half, dir)?;
     let span = (m.transform_point(lut.centre(j)) - m.transform_point(lut.centre(i))).length();
     Some((path - (1.0 - lut.fraction(i, j)) * span).clamp(0.0, path))
 }
@@ -175,6 +179,40 @@ mod tests {
         assert!(w.right.dot(w.dir).abs() < 1e-15 && (w.up.length() - 1.0).abs() < 1e-15);
         assert!(LightView::around(DVec3::ZERO, &pts).is_none());
         assert!(LightView::around(dir, &[]).is_none());
+    }
+
+    /// On a box every segment between two surface points is inside: the LUT thickness is the
+    /// path's length (f = 1, whatever voxels the ends pick), under any transform; and it shrinks
+    /// by about the cavity chord through the cavity cube.
+    #[test]
+    fn lut_thickness_is_the_path_on_a_box_and_leaves_the_cavity_out() {
+        use crate::effects::thickness_lut::{bake, BakeOptions};
+        use crate::scene::procedural;
+        use crate::scene::transform::TransformOp;
+        let options = BakeOptions { threads: 1, ..BakeOptions::default() };
+        let (lut, _) = bake(&procedural::cube(2.0).unwrap(), 8, &options, &|_, _| {}).unwrap();
+        let m = Transform::from_ops(&[
+            TransformOp::Scale(DVec3::new(1.5, 0.7, 1.0)),
+            TransformOp::Rotate { angle_deg: 30.0, axis: DVec3::new(1.0, 2.0, 0.5) },
+        ])
+        .unwrap();
+        for (a, b) in [
+            (DVec3::new(0.3, -0.2, -1.0), DVec3::new(-0.1, 0.4, 1.0)),
+            (DVec3::new(-1.0, 0.9, 0.0), DVec3::new(1.0, -0.95, 0.3)),
+            (DVec3::new(0.2, 0.2, 1.0), DVec3::new(0.25, 0.2, 1.0)),
+        ] {
+            let path = (m.transform_point(b) - m.transform_point(a)).length();
+            assert!((lut_thickness(&lut, &m, a, b).unwrap() - path).abs() < 1e-12);
+        }
+        assert_eq!(lut_thickness(&lut, &m, DVec3::ZERO, DVec3::ZERO), Some(0.0));
+        assert_eq!(lut_thickness(&lut, &m, DVec3::NAN, DVec3::ZERO), None);
+        // Straight through the centre of a cube with a cavity of radius 0.6: the path is 2 long,
+        // the table's segment crosses the whole (tessellated) cavity.
+        let (hollow, _) =
+            bake(&procedural::cavity_cube(2.0, 0.6, 32, 16).unwrap(), 25, &options, &|_, _| {}).unwrap();
+        let (a, b) = (DVec3::new(0.013, 0.011, -1.0), DVec3::new(0.013, 0.011, 1.0));
+        let d = lut_thickness(&hollow, &Transform::IDENTITY, a, b).unwrap();
+        assert!((d - (2.0 - 1.2)).abs() < 2.0 * hollow.voxel_size, "{d}");
     }
 
     #[test]

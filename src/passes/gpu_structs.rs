@@ -119,7 +119,9 @@ pub fn material_records(scene: &Scene) -> Vec<MaterialData> {
     let record = |m: &crate::scene::Material| {
         let albedo = vec4_f32(m.albedo, 1.0);
         match m.kind {
-            MaterialKind::Lambert => MaterialData { albedo, kind: [MATERIAL_LAMBERT, 0, 0, 0], sigma: [0.0; 4] },
+            MaterialKind::Lambert => {
+                MaterialData { albedo, kind: [MATERIAL_LAMBERT, 0, 0, 0], sigma: [0.0; 4] }
+            }
             MaterialKind::Translucent { sigma, thickness, .. } => {
                 let mode = match thickness {
                     ThicknessMode::Lut => THICKNESS_LUT,

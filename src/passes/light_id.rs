@@ -4,14 +4,17 @@
 //! not change with the output resolution):
 //! - `light_ids` (RG32UI): (instance id + 1, surface voxel) of the first translucent surface the
 //!   light reaches; the voxel is the nearest-grid lookup at the fragment's object-space position
-//!   (`ThicknessLut::surface_voxel_at`), `NO_LUT` for instances drawn with `thickness = "tsm"`;
-//!   (0, 0) where the light crosses no translucent instance;
+//!   (`ThicknessLut::surface_voxel_at`; the translucency pass takes it as the first candidate for
+//!   the path's entry end), `NO_LUT` for instances drawn with `thickness = "tsm"`; (0, 0) where
+//!   the light crosses no translucent instance;
 //! - `light_z` (R32F): that surface's light-space distance z = (p − C)·l + R (TSM's depth);
 //! - `light_depth` (D32): the pass's own depth test (LESS, cleared to 1).
 //!
 //! Only translucent instances are drawn (opaque ones do not shadow the light), one draw per run of
-//! consecutive translucent slots in the scene's instance table. At 1024² the maps take 16 MiB
-//! (8 + 4 + 4 bytes a texel). The `translucency` pass reads them.
+//! consecutive translucent slots in the scene's instance table, with the faces turned away from
+//! the light culled (translucent meshes are closed and outward-facing: the first surface along a
+//! light ray faces the light; mirrored instances are drawn with the opposite culling). At 1024²
+//! the maps take 16 MiB (8 + 4 + 4 bytes a texel). The `translucency` pass reads them.
 
 use std::sync::Arc;
 
@@ -47,13 +50,14 @@ impl LightIdPass {
         compiler: &mut ShaderCompiler,
         data: Arc<TranslucentData>,
     ) -> GpuResult<Self> {
-        let pipelines = Self::pipeline(ctx, compiler, false).and_then(|p| match Self::pipeline(ctx, compiler, true) {
-            Ok(m) => Ok((p, m)),
-            Err(e) => {
-                p.destroy(ctx);
-                Err(e)
-            }
-        });
+        let pipelines =
+            Self::pipeline(ctx, compiler, false).and_then(|p| match Self::pipeline(ctx, compiler, true) {
+                Ok(m) => Ok((p, m)),
+                Err(e) => {
+                    p.destroy(ctx);
+                    Err(e)
+                }
+            });
         match pipelines {
             Ok((pipeline, mirrored)) => {
                 let view = data.view_data();
@@ -76,7 +80,6 @@ impl LightIdPass {
             binding(1, vk::DescriptorType::STORAGE_BUFFER, frag),
             binding(2, vk::DescriptorType::STORAGE_BUFFER, frag),
             binding(3, vk::DescriptorType::STORAGE_BUFFER, frag),
-            binding(4, vk::DescriptorType::STORAGE_BUFFER, frag),
         ];
         // The scene's vertex buffers (position, normal); only the position is read.
         let vertex_bindings = [vk::VertexInputBindingDescription::default()
@@ -139,7 +142,6 @@ impl Pass for LightIdPass {
                 (1, Bound::Storage(data.grid.raw)),
                 (2, Bound::Storage(data.records.raw)),
                 (3, Bound::Storage(data.instances.raw)),
-                (4, Bound::Storage(data.centres.raw)),
             ],
         );
         Ok(())

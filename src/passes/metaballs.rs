@@ -91,7 +91,7 @@ pub fn sphere_tiles(camera: &Camera, extent: vk::Extent2D, centre: DVec3, radius
     // Pad for the f32 arithmetic of the shader (positions, transforms, pixel rays).
     let r = radius * (1.0 + 1e-5) + 1e-6 * (v.length() + radius);
     let z = v.dot(b.forward);
-    if !(z + r >= camera.near * (1.0 - 1e-6)) || z - r > camera.far * (1.0 + 1e-6) {
+    if !z.is_finite() || z + r < camera.near * (1.0 - 1e-6) || z - r > camera.far * (1.0 + 1e-6) {
         return None; // wholly nearer than the near plane (or behind the camera), or beyond far
     }
     if z - r <= camera.near {
@@ -613,5 +613,62 @@ mod tests {
         let centre = lists.runs(3, 1);
         assert_eq!(centre.iter().map(|r| r.0).collect::<Vec<_>>(), vec![0, 1]);
         assert!(!lists.entries.contains(&3));
+        // Only tiles with balls have headers, each naming its tile.
+        let with_runs = (0..28).filter(|t| !lists.runs(t % 7, t / 7).is_empty()).count();
+        assert_eq!(lists.active as usize, with_runs);
+        assert!(lists.tiles[..with_runs].iter().all(|h| h[1] > 0 && h[2] < 7 && h[3] < 4));
+    }
+
+    /// Within a run the entries follow the keys, and the flags reach the runs.
+    #[test]
+    fn runs_are_sorted_by_key_and_carry_flags() {
+        let cam = camera();
+        let bounds: Vec<(DVec3, f64)> =
+            (0..12).map(|i| (DVec3::new(0.1 * i as f64, 0.0, -(i as f64)), 1.0)).collect();
+        let keys: Vec<f64> = (0..12).map(|i| ((i * 7) % 12) as f64).collect();
+        let lists =
+            bin_balls(&cam, EXTENT, &[GroupBins { bounds, keys: keys.clone(), flags: RUN_LONE_BOUND }]);
+        let (mut checked, runs) = (0, &lists.tiles[lists.active as usize..]);
+        for run in runs {
+            assert_eq!(run[3], RUN_LONE_BOUND);
+            let list = &lists.entries[run[1] as usize..(run[1] + run[2]) as usize];
+            assert!(list.windows(2).all(|w| keys[w[0] as usize] <= keys[w[1] as usize]), "{list:?}");
+            checked += list.len();
+        }
+        assert!(checked >= 12);
+    }
+
+    /// The keys bound every ray's entry into the support from below; flags need q ≥ 0 and a near
+    /// plane clear of every support.
+    #[test]
+    fn group_bins_keys_and_flags() {
+        use crate::effects::metaballs::{Ball, Kernel};
+        use crate::scene::transform::{Transform, TransformOp};
+        let cam = camera();
+        let transform = Transform::from_ops(&[
+            TransformOp::Scale(DVec3::new(1.5, 0.7, 1.0)),
+            TransformOp::Translate(DVec3::new(0.5, 0.0, 1.0)),
+        ])
+        .unwrap();
+        let mut group = MetaballGroupParams {
+            threshold: 0.5,
+            kernel: Kernel::Wyvill6,
+            balls: vec![
+                Ball { centre: DVec3::new(0.0, 0.0, 0.0), radius: 1.0, q: 1.0 },
+                Ball { centre: DVec3::new(1.0, 1.0, -2.0), radius: 0.5, q: 0.7 },
+            ],
+            transform,
+        };
+        let bins = GroupBins::new(&group, &cam, EXTENT);
+        assert_eq!(bins.flags, RUN_LONE_BOUND);
+        let o = transform.inverse.transform_point3(cam.position);
+        for (b, key) in group.balls.iter().zip(&bins.keys) {
+            assert!((key - ((b.centre - o).length() - b.radius)).abs() < 1e-12);
+        }
+        group.balls[1].q = -0.2;
+        assert_eq!(GroupBins::new(&group, &cam, EXTENT).flags, 0);
+        group.balls[1].q = 1.0;
+        group.balls[1].centre = transform.inverse.transform_point3(cam.position + DVec3::new(0.0, 0.0, -0.3));
+        assert_eq!(GroupBins::new(&group, &cam, EXTENT).flags, 0, "a support reaching the near plane");
     }
 }
