@@ -46,11 +46,18 @@ fn measure(runtime: &mut Runtime, scene: &Scene, size: (u32, u32), frames: usize
     let energy = &frame.aov(Aov::Energy).unwrap().data;
     let depth = &frame.aov(Aov::Depth).unwrap().data;
     let refs = reference(scene, depth, size.0, size.1, time);
-    let mut rel: Vec<f64> =
-        energy.iter().zip(&refs).map(|(&g, &r)| if r > 0.0 { (g as f64 - r).abs() / r } else { g.abs() as f64 }).collect();
+    let mut rel: Vec<f64> = energy
+        .iter()
+        .zip(&refs)
+        .map(|(&g, &r)| if r > 0.0 { (g as f64 - r).abs() / r } else { g.abs() as f64 })
+        .collect();
     rel.sort_by(|a, b| a.total_cmp(b));
     let p99 = rel[((rel.len() as f64 * 0.99).ceil() as usize).clamp(1, rel.len()) - 1];
-    Measured { p50_ms: Summary::of(&times).map(|s| s.p50).unwrap_or(f64::NAN), max_rel: rel[rel.len() - 1], p99_rel: p99 }
+    Measured {
+        p50_ms: Summary::of(&times).map(|s| s.p50).unwrap_or(f64::NAN),
+        max_rel: rel[rel.len() - 1],
+        p99_rel: p99,
+    }
 }
 
 fn with_method(scene: &Scene, method: WaveMethod) -> Scene {
@@ -60,7 +67,8 @@ fn with_method(scene: &Scene, method: WaveMethod) -> Scene {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let frames: usize = std::env::args().skip_while(|a| a != "--frames").nth(1).and_then(|v| v.parse().ok()).unwrap_or(30);
+    let frames: usize =
+        std::env::args().skip_while(|a| a != "--frames").nth(1).and_then(|v| v.parse().ok()).unwrap_or(30);
     let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
     let info = runtime.device_info().clone();
     println!("device: {} ({}), {frames} frames per row after 3 warm-up\n", info.name, info.driver);
@@ -74,7 +82,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let b = measure(&mut runtime, &occluded, size, frames, 1.0);
         println!(
             "| {}×{} | {:.3} | {:.3} | {:.1e} | {:.1e} |",
-            size.0, size.1, a.p50_ms, b.p50_ms, a.max_rel.max(b.max_rel), a.p99_rel.max(b.p99_rel)
+            size.0,
+            size.1,
+            a.p50_ms,
+            b.p50_ms,
+            a.max_rel.max(b.max_rel),
+            a.p99_rel.max(b.p99_rel)
         );
     }
 

@@ -14,7 +14,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("| balls | size | metaballs ms (p50 of 5) | hit pixels | clip steps per hit | max | dropped |");
     println!("|---:|---|---:|---:|---:|---:|---:|");
     for count in [16, 256, 4096, 16384] {
-        let scene = hadou::scene::parse_scene(&text.replace("count = 4096", &format!("count = {count}")), path)?;
+        let scene =
+            hadou::scene::parse_scene(&text.replace("count = 4096", &format!("count = {count}")), path)?;
         for size in [256u32, 512] {
             rt.load_scene(scene.clone())?;
             let mut req = FrameRequest::new(size, size);

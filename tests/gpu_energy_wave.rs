@@ -34,7 +34,11 @@ fn energy_errors(scene: &Scene, w: u32, h: u32, time: f64) -> Vec<f64> {
             let (o, u) = cam.pixel_ray(x, y, w, h);
             let l = (depth[i] as f64).min(cam.far);
             let reference: f64 = waves.iter().map(|p| line_integral(p, o, u, l)).sum();
-            errors.push(if reference > 0.0 { (gpu as f64 - reference).abs() / reference } else { gpu as f64 });
+            errors.push(if reference > 0.0 {
+                (gpu as f64 - reference).abs() / reference
+            } else {
+                gpu as f64
+            });
         }
     }
     errors
@@ -146,7 +150,11 @@ fn opaque_plane_clips_the_integral() {
 /// inside the beam stay finite.
 #[test]
 fn extreme_cameras_stay_finite() {
-    for (camera, look) in [([0.0, 0.0, 1e5], [0.0, 0.0, 0.0]), ([-50.0, 0.0, 0.0], [10.0, 0.0, 0.0]), ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])] {
+    for (camera, look) in [
+        ([0.0, 0.0, 1e5], [0.0, 0.0, 0.0]),
+        ([-50.0, 0.0, 0.0], [10.0, 0.0, 0.0]),
+        ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+    ] {
         let scene = common::parse(&format!(
             r#"
             [camera]
@@ -169,7 +177,10 @@ fn extreme_cameras_stay_finite() {
         common::assert_clean(&rt);
         for aov in [Aov::Energy, Aov::Hdr] {
             let data = &frame.aov(aov).unwrap().data;
-            assert!(data.iter().all(|v| v.is_finite() && *v >= 0.0), "camera {camera:?}: {aov:?} has NaN/Inf/negative");
+            assert!(
+                data.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "camera {camera:?}: {aov:?} has NaN/Inf/negative"
+            );
         }
     }
 }
@@ -256,7 +267,11 @@ fn hard_rays_on_the_gpu_match_f64_on_the_same_inputs() {
         let side = w.direction.cross(DVec3::Y).normalize();
         let mut add = |name: &str, camera: DVec3, u: DVec3, l: f64| {
             let g = gpu_wave(&w, camera);
-            cases.push((format!("{name} (finite {finite}, core {core})"), g, ProbeRay { u: f3(u), l: l as f32 }));
+            cases.push((
+                format!("{name} (finite {finite}, core {core})"),
+                g,
+                ProbeRay { u: f3(u), l: l as f32 },
+            ));
         };
         for k in 1..=7 {
             let o = w.origin + DVec3::new(0.3, 0.9, -0.2).normalize() * 1e3;
@@ -272,7 +287,12 @@ fn hard_rays_on_the_gpu_match_f64_on_the_same_inputs() {
         }
         let o = w.origin + side * 100.0;
         add("in the plane I", o, -side, 200.0);
-        add("inside the beam", w.origin + w.direction * 10.0 + side * 1e-2, DVec3::new(0.1, 0.8, 0.3).normalize(), 10.0);
+        add(
+            "inside the beam",
+            w.origin + w.direction * 10.0 + side * 1e-2,
+            DVec3::new(0.1, 0.8, 0.3).normalize(),
+            10.0,
+        );
         add("1e5 from M", w.origin + DVec3::new(0.0, 0.6, 0.8) * 1e5, DVec3::new(0.0, -0.6, -0.8), 2e5);
         add("L = 0", w.origin + side * 3.0, -side, 0.0);
         let o = w.origin + DVec3::new(-7.0, 2.0, 1.0);
