@@ -2,6 +2,7 @@
 // energy_wave: per pixel, H = ∫₀ᴸ E(O + s·u) ds for each wave, L = the view distance to the first
 // surface (or the camera's far distance). Adds colour × intensity × H to HDR, writes Σ H to energy.
 // CPU twins: src/effects/energy_wave.rs (f64), src/effects/energy_wave_f32.rs (this arithmetic).
+#include "common/camera.glsl"
 #include "common/energy_wave.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -56,9 +57,7 @@ void main() {
     bool inside = p.x < params.dims.x && p.y < params.dims.y;
     ivec2 pix = ivec2(min(p, params.dims.xy - 1u));
     // The ray through the pixel centre, as Camera::pixel_ray builds it.
-    float ndc_x = 2.0 * (float(pix.x) + 0.5) / float(params.dims.x) - 1.0;
-    float ndc_y = 1.0 - 2.0 * (float(pix.y) + 0.5) / float(params.dims.y);
-    vec3 u = normalize(params.forward.xyz + ndc_x * params.right.xyz + ndc_y * params.up.xyz);
+    vec3 u = camera_pixel_ray(pix, params.dims.xy, params.right.xyz, params.up.xyz, params.forward.xyz);
     float L = min(imageLoad(distance_image, pix).r, params.far.x);
     L = max(L, 0.0);
 

@@ -17,6 +17,7 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_vote : require
+#include "common/camera.glsl"
 #include "common/frame.glsl"
 #include "common/metaballs.glsl"
 
@@ -89,9 +90,7 @@ void main() {
     MetaHit best;
     uint best_group = 0u;
     // The ray through the pixel centre, as Camera::pixel_ray and energy_wave.comp build it.
-    float ndc_x = 2.0 * (float(p.x) + 0.5) / float(params.dims.x) - 1.0;
-    float ndc_y = 1.0 - 2.0 * (float(p.y) + 0.5) / float(params.dims.y);
-    vec3 u = normalize(params.forward.xyz + ndc_x * params.right.xyz + ndc_y * params.up.xyz);
+    vec3 u = camera_pixel_ray(p, params.dims.xy, params.right.xyz, params.up.xyz, params.forward.xyz);
     vec3 origin = frame.camera_pos.xyz;
     // t_max: the raster's distance (+inf where nothing was hit), at most the far distance;
     // t_min: the near plane, measured along this ray.

@@ -7,6 +7,7 @@
 //        and the surface voxel j where the light enters (from the light_id map); entry lies on
 //        P's own light ray, so |M(b - a)| = z(P) - z(entry).
 // Fallbacks are documented in src/passes/translucency.rs. CPU twin: src/effects/translucency.rs.
+#include "common/camera.glsl"
 #include "common/frame.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -107,9 +108,7 @@ void main() {
         MaterialData mat = materials[ids.y];
         if (mat.kind.x == MATERIAL_TRANSLUCENT && translucent[instance].info.y != 0u) {
             // The pixel ray as Camera::pixel_ray builds it, to the raster's distance.
-            float ndc_x = 2.0 * (float(p.x) + 0.5) / float(params.dims.x) - 1.0;
-            float ndc_y = 1.0 - 2.0 * (float(p.y) + 0.5) / float(params.dims.y);
-            vec3 u = normalize(params.forward.xyz + ndc_x * params.right.xyz + ndc_y * params.up.xyz);
+            vec3 u = camera_pixel_ray(p, params.dims.xy, params.right.xyz, params.up.xyz, params.forward.xyz);
             vec3 P = params.camera.xyz + u * imageLoad(distance_image, ivec2(p)).r;
             d = thickness_at(P, instance, mat.kind.y);
             vec3 light = params.radiance.rgb * mat.albedo.rgb * exp(-mat.sigma.rgb * d);

@@ -10,6 +10,7 @@ use super::error::{GpuError, GpuResult};
 /// Every shader file hadou ships, by its path under `shaders/`.
 pub const EMBEDDED: &[(&str, &str)] = &[
     ("common/frame.glsl", include_str!("../../shaders/common/frame.glsl")),
+    ("common/camera.glsl", include_str!("../../shaders/common/camera.glsl")),
     ("common/energy_wave.glsl", include_str!("../../shaders/common/energy_wave.glsl")),
     ("energy_wave.comp", include_str!("../../shaders/energy_wave.comp")),
     ("energy_probe.comp", include_str!("../../shaders/energy_probe.comp")),

@@ -51,14 +51,11 @@ const _: () = {
 impl RayParams {
     pub fn new(scene: &Scene, extent: vk::Extent2D, wave_count: u32) -> Self {
         let cam = &scene.camera;
-        let b = cam.basis();
-        let tan_half = (cam.fov_y_deg.to_radians() * 0.5).tan();
-        let aspect = extent.width as f64 / extent.height as f64;
-        let v = |d: glam::DVec3| [d.x as f32, d.y as f32, d.z as f32, 0.0];
+        let [right, up, forward] = cam.ray_frame(extent.width, extent.height).to_f32();
         RayParams {
-            right: v(b.right * (tan_half * aspect)),
-            up: v(b.up * tan_half),
-            forward: v(b.forward),
+            right,
+            up,
+            forward,
             dims: [extent.width, extent.height, wave_count, 0],
             far: [cam.far as f32, 0.0, 0.0, 0.0],
         }

@@ -66,14 +66,12 @@ const STAT_COUNT: usize = 4;
 impl MetaballParams {
     pub fn new(scene: &Scene, extent: vk::Extent2D) -> Self {
         let cam = &scene.camera;
-        let b = cam.basis();
-        let tan_half = (cam.fov_y_deg.to_radians() * 0.5).tan();
-        let aspect = extent.width as f64 / extent.height as f64;
-        let v = |d: DVec3, w: f64| [d.x as f32, d.y as f32, d.z as f32, w as f32];
+        let [right, up, mut forward] = cam.ray_frame(extent.width, extent.height).to_f32();
+        forward[3] = cam.near as f32;
         MetaballParams {
-            right: v(b.right * (tan_half * aspect), 0.0),
-            up: v(b.up * tan_half, 0.0),
-            forward: v(b.forward, cam.near),
+            right,
+            up,
+            forward,
             dims: [extent.width, extent.height, 0, scene.instances.len() as u32],
             range: [cam.far as f32, 0.0, 0.0, 0.0],
         }

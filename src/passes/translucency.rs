@@ -537,13 +537,11 @@ impl Pass for TranslucencyPass {
     fn prepare(&mut self, scene: &Scene, _: f64, extent: vk::Extent2D) -> GpuResult<()> {
         let (Some(data), Some(buffer)) = (&self.data, &mut self.params) else { return Ok(()) };
         let cam = &scene.camera;
-        let b = cam.basis();
-        let tan_half = (cam.fov_y_deg.to_radians() * 0.5).tan();
-        let aspect = extent.width as f64 / extent.height as f64;
+        let [right, up, forward] = cam.ray_frame(extent.width, extent.height).to_f32();
         let params = TranslucencyParams {
-            right: v4(b.right * (tan_half * aspect), 0.0),
-            up: v4(b.up * tan_half, 0.0),
-            forward: v4(b.forward, 0.0),
+            right,
+            up,
+            forward,
             camera: v4(cam.position, 1.0),
             radiance: v4(data.radiance, if data.view.is_some() { 1.0 } else { 0.0 }),
             view: data.view_data(),

@@ -23,6 +23,21 @@ pub struct CameraBasis {
     pub forward: DVec3,
 }
 
+/// Camera vectors scaled for pixel rays: `right` by tan(fov/2)·aspect, `up` by tan(fov/2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayFrame {
+    pub right: DVec3,
+    pub up: DVec3,
+    pub forward: DVec3,
+}
+
+impl RayFrame {
+    /// As f32 vec4s (w = 0) for push constants: right, up, forward.
+    pub fn to_f32(&self) -> [[f32; 4]; 3] {
+        [self.right, self.up, self.forward].map(|v| [v.x as f32, v.y as f32, v.z as f32, 0.0])
+    }
+}
+
 impl Camera {
     pub const DEFAULT_FAR: f64 = 1000.0;
 
@@ -31,6 +46,15 @@ impl Camera {
         let right = forward.cross(self.up).normalize();
         let up = right.cross(forward);
         CameraBasis { right, up, forward }
+    }
+
+    /// The vectors compute passes build pixel rays from: the unnormalized direction through image
+    /// point (ndc_x, ndc_y) is `forward + ndc_x·right + ndc_y·up` (shaders/common/camera.glsl).
+    pub fn ray_frame(&self, width: u32, height: u32) -> RayFrame {
+        let b = self.basis();
+        let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
+        let aspect = width as f64 / height as f64;
+        RayFrame { right: b.right * (tan_half * aspect), up: b.up * tan_half, forward: b.forward }
     }
 
     /// World-space unit ray through the centre of pixel (x, y) of a width × height image.
@@ -113,6 +137,19 @@ mod tests {
         assert!((near_clip.z / near_clip.w - 1.0).abs() < 1e-12);
         let far_clip = vp * (c.position + c.basis().forward * c.far).extend(1.0);
         assert!((far_clip.z / far_clip.w).abs() < 1e-12);
+    }
+
+    /// The ray frame the compute passes use gives the same rays as pixel_ray.
+    #[test]
+    fn ray_frame_matches_pixel_rays() {
+        let c = cam();
+        let f = c.ray_frame(64, 48);
+        for &(x, y) in &[(0u32, 0u32), (63, 47), (10, 30)] {
+            let ndc_x = 2.0 * (x as f64 + 0.5) / 64.0 - 1.0;
+            let ndc_y = 1.0 - 2.0 * (y as f64 + 0.5) / 48.0;
+            let d = (f.forward + f.right * ndc_x + f.up * ndc_y).normalize();
+            assert!((d - c.pixel_ray(x, y, 64, 48).1).length() < 1e-15);
+        }
     }
 
     #[test]
