@@ -7,21 +7,10 @@ use glam::DVec3;
 use hadou::effects::raycast::MeshBvh;
 use hadou::effects::thickness_lut::{bake, BakeOptions};
 use hadou::scene::procedural;
+use hadou::testing::Rng;
 
 fn options() -> BakeOptions {
     BakeOptions { threads: 2, ..BakeOptions::default() }
-}
-
-/// A small deterministic generator (xorshift64*).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-    }
 }
 
 // ---------------------------------------------------------------------------------------------

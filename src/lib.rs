@@ -11,6 +11,8 @@ pub mod runtime;
 pub mod scene;
 pub mod scene_gpu;
 pub mod targets;
+#[doc(hidden)]
+pub mod testing;
 
 pub use aov::{Aov, AovImage};
 pub use frame::{FrameStats, PassTiming};

@@ -11,6 +11,7 @@
 //!
 //! Run with `--nocapture` to see the table of worst errors per case.
 
+use hadou::testing::Rng;
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 
@@ -25,37 +26,6 @@ use proptest::prelude::*;
 const EVERY_CASE: f64 = 1e-4;
 const BULK: f64 = 1e-5;
 const HARD: f64 = BULK;
-
-/// xorshift64*: deterministic random numbers.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next()
-    }
-    fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = DVec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
-            if v.length_squared() > 0.01 && v.length_squared() <= 1.0 {
-                return v.normalize();
-            }
-        }
-    }
-    /// A unit vector perpendicular to `d`.
-    fn perp(&mut self, d: DVec3) -> DVec3 {
-        let n = self.unit();
-        (n - n.dot(d) * d).normalize()
-    }
-    fn pick<T: Copy>(&mut self, xs: &[T]) -> T {
-        xs[((self.next() * xs.len() as f64) as usize).min(xs.len() - 1)]
-    }
-}
 
 fn f32x3(v: DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]

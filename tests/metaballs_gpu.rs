@@ -18,6 +18,7 @@ use hadou::gpu::memory::Memory;
 use hadou::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool};
 use hadou::gpu::{vk, ContextOptions, GpuContext};
 use hadou::scene::transform::{Transform, TransformOp};
+use hadou::testing::Rng;
 
 const PROBE: &str = r#"#version 460
 // metaballs probe: one ray per invocation through metaball_cast (tests/metaballs_gpu.rs).
@@ -182,32 +183,6 @@ fn run_probe(
         ctx.validation_messages().join("\n")
     );
     out
-}
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next()
-    }
-    fn vec(&mut self, a: f64, b: f64) -> DVec3 {
-        DVec3::new(self.range(a, b), self.range(a, b), self.range(a, b))
-    }
-    fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = self.vec(-1.0, 1.0);
-            let l = v.length();
-            if l > 0.1 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
 }
 
 fn random_group(rng: &mut Rng) -> MetaballGroupParams {

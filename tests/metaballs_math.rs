@@ -8,33 +8,7 @@ use hadou::effects::metaballs::{
 };
 use hadou::effects::metaballs_f32::{tangency, PackedGroup, MB_OVERFLOW};
 use hadou::scene::transform::{Transform, TransformOp};
-
-/// xorshift64*: deterministic, no dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next()
-    }
-    fn vec(&mut self, a: f64, b: f64) -> DVec3 {
-        DVec3::new(self.range(a, b), self.range(a, b), self.range(a, b))
-    }
-    fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = self.vec(-1.0, 1.0);
-            let l = v.length();
-            if l > 0.1 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
-}
+use hadou::testing::Rng;
 
 fn ball(centre: DVec3, radius: f64, q: f64) -> Ball {
     Ball { centre, radius, q }

@@ -24,6 +24,7 @@
 //! often). A wrong answer that counts the cavity (TSM) is off by the cavity chord (0.96 for the
 //! instance below), outside the bound 2·2.6·h·1.5 = 0.62 at 25³; the tests assert that too.
 
+use hadou::testing::Rng;
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -55,30 +56,18 @@ fn baked(mesh: &Mesh, res: u32) -> ThicknessLut {
 /// The per-end bound e of the module documentation, in voxels.
 const END_OFFSET_VOXELS: f64 = 0.866_025_403_784_438_6 + 1.732_050_807_568_877_2;
 
-/// A small deterministic generator (xorshift64*).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+/// A uniformly distributed point on the mesh surface (area-weighted triangle, uniform inside)
+/// and the unit normal of the triangle it lies on.
+fn surface_point_on(rng: &mut Rng, mesh: &Mesh, areas: &[f64]) -> (DVec3, DVec3) {
+    let total = areas.last().copied().unwrap_or(0.0);
+    let x = rng.next() * total;
+    let t = areas.partition_point(|&a| a < x).min(areas.len() - 1);
+    let [a, b, c] = mesh.triangle(t).map(|i| mesh.position(i));
+    let (mut u, mut v) = (rng.next(), rng.next());
+    if u + v > 1.0 {
+        (u, v) = (1.0 - u, 1.0 - v);
     }
-
-    /// A uniformly distributed point on the mesh surface (area-weighted triangle, uniform inside)
-    /// and the unit normal of the triangle it lies on.
-    fn surface_point_on(&mut self, mesh: &Mesh, areas: &[f64]) -> (DVec3, DVec3) {
-        let total = areas.last().copied().unwrap_or(0.0);
-        let x = self.next() * total;
-        let t = areas.partition_point(|&a| a < x).min(areas.len() - 1);
-        let [a, b, c] = mesh.triangle(t).map(|i| mesh.position(i));
-        let (mut u, mut v) = (self.next(), self.next());
-        if u + v > 1.0 {
-            (u, v) = (1.0 - u, 1.0 - v);
-        }
-        (a + (b - a) * u + (c - a) * v, (b - a).cross(c - a).normalize())
-    }
+    (a + (b - a) * u + (c - a) * v, (b - a).cross(c - a).normalize())
 }
 
 /// Cumulative triangle areas.
@@ -250,7 +239,7 @@ fn lut_thickness_within_the_derived_bound_for_random_pairs() {
         let (mut within, mut total) = (0, 0);
         for _ in 0..2000 {
             let ((a, na), (b, nb)) =
-                (rng.surface_point_on(&mesh, &areas), rng.surface_point_on(&mesh, &areas));
+                (surface_point_on(&mut rng, &mesh, &areas), surface_point_on(&mut rng, &mesh, &areas));
             let (i, j) = (lut.surface_voxel_at(a).unwrap(), lut.surface_voxel_at(b).unwrap());
             worst_end = worst_end.max(lut.centre(i).distance(a)).max(lut.centre(j).distance(b));
             if convex && na.dot(nb) > 1.0 - 1e-9 {

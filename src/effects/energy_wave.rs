@@ -517,27 +517,7 @@ pub fn raymarch(w: &WaveParams, origin: DVec3, u: DVec3, l: f64, steps: u32, off
 mod tests {
     use super::*;
 
-    /// xorshift64*: deterministic random numbers without a dependency.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn range(&mut self, a: f64, b: f64) -> f64 {
-            a + (b - a) * self.next()
-        }
-        fn unit(&mut self) -> DVec3 {
-            loop {
-                let v = DVec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
-                if v.length_squared() > 0.01 && v.length_squared() <= 1.0 {
-                    return v.normalize();
-                }
-            }
-        }
-    }
+    use crate::testing::Rng;
 
     fn wave(rng: &mut Rng) -> WaveParams {
         WaveParams {
