@@ -1,6 +1,8 @@
 #version 460
 // translucency (seed 003): for each pixel whose surface is a translucent instance, the thickness d
-// of material the light crossed to reach it, and HDR += L · albedo · exp(-σ·d) per channel.
+// of material the light crossed to reach it, and HDR += w · L · albedo · exp(-σ·d) per channel,
+// w = max(n·l, 0) the exit weight (effects::translucency::exit_weight: no transmitted light on
+// faces the light reaches directly, whose light the raster's Lambert term already counts).
 //   TSM: d = z(P) - z(entry), the light-space distances of the shaded point P and of the first
 //        surface the light reaches on the same instance (cavities and gaps count as material).
 //   LUT: d = f(i, j) · |P - entry|: f the baked inside fraction between the surface voxel i at P
@@ -41,6 +43,7 @@ layout(set = 0, binding = 7) uniform sampler2D lut_image;
 layout(set = 0, binding = 9, std430) readonly buffer Luts { LutRecord luts[]; };
 layout(set = 0, binding = 10, std430) readonly buffer Translucent { TranslucentInstance translucent[]; };
 layout(set = 0, binding = 11, std430) readonly buffer Materials { MaterialData materials[]; };
+layout(set = 0, binding = 13, rgba16f) uniform readonly image2D normal_image;
 
 const float HALF_MAX = 65504.0;
 
@@ -111,7 +114,8 @@ void main() {
             vec3 u = camera_pixel_ray(p, params.dims.xy, params.right.xyz, params.up.xyz, params.forward.xyz);
             vec3 P = params.camera.xyz + u * imageLoad(distance_image, ivec2(p)).r;
             d = thickness_at(P, instance, mat.kind.y);
-            vec3 light = params.radiance.rgb * mat.albedo.rgb * exp(-mat.sigma.rgb * d);
+            float w = max(dot(imageLoad(normal_image, ivec2(p)).xyz, params.view.dir.xyz), 0.0);
+            vec3 light = w * params.radiance.rgb * mat.albedo.rgb * exp(-mat.sigma.rgb * d);
             vec4 c = imageLoad(hdr, ivec2(p));
             imageStore(hdr, ivec2(p), vec4(min(c.rgb + light, vec3(HALF_MAX)), c.a));
         }

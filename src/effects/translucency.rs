@@ -12,8 +12,14 @@
 //! leaves). Texel (⌊(x + 1)/2·S⌋, ⌊(y + 1)/2·S⌋) of an S² map holds what the rasterizer sampled at
 //! its centre (Vulkan: NDC y = −1 is row 0).
 //!
-//! **Colour.** colour = surface + L·albedo·exp(−σ·d) per RGB channel (seed 003, eq. 2): `surface` is
-//! the raster's Lambert + ambient, L the first light's colour × intensity, d the thickness.
+//! **Colour.** colour = surface + w·L·albedo·exp(−σ·d) per RGB channel (seed 003, eq. 2): `surface`
+//! is the raster's Lambert + ambient, L the first light's colour × intensity, d the thickness, and
+//! w = max(n·l, 0) the exit weight (`exit_weight`). The seed's eq. 2 alone gives I_out = I_in on a
+//! face the light reaches directly (d = 0 there), which adds the light a second time on top of the
+//! Lambert term that already counts it: a lit jade cube renders white. The weight is 0 on every face
+//! turned toward the light and 1 on a face the light leaves through head-on; for a slab it is the
+//! cosine of the light at the opposite, entry face (whose normal is −n), i.e. Lambert's law for the
+//! light that got in, and it fades to 0 at the light's terminator, where the Lambert term does too.
 
 use glam::{DVec2, DVec3};
 
@@ -149,9 +155,16 @@ pub fn transmitted(radiance: DVec3, albedo: DVec3, sigma: DVec3, d: f64) -> DVec
     radiance * albedo * transmittance(sigma, d)
 }
 
-/// What the translucency pass writes to HDR: the surface term plus the transmitted light.
-pub fn translucent_colour(surface: DVec3, radiance: DVec3, albedo: DVec3, sigma: DVec3, d: f64) -> DVec3 {
-    surface + transmitted(radiance, albedo, sigma, d)
+/// The exit weight max(n·l, 0): n the unit normal of the shaded surface (turned toward the camera,
+/// as the G-buffer holds it), l the unit direction the light travels. See the module documentation.
+pub fn exit_weight(normal: DVec3, light_dir: DVec3) -> f64 {
+    normal.dot(light_dir).max(0.0)
+}
+
+/// What the translucency pass writes to HDR: the surface term plus the transmitted light weighted by
+/// the exit weight `w` (`exit_weight`).
+pub fn translucent_colour(surface: DVec3, radiance: DVec3, albedo: DVec3, sigma: DVec3, d: f64, w: f64) -> DVec3 {
+    surface + w * transmitted(radiance, albedo, sigma, d)
 }
 
 #[cfg(test)]
@@ -218,10 +231,22 @@ mod tests {
     #[test]
     fn colour_is_surface_plus_attenuated_light() {
         let (l, a, s) = (DVec3::splat(2.0), DVec3::new(0.5, 1.0, 0.25), DVec3::new(1.0, 2.0, 0.0));
-        let c = translucent_colour(DVec3::splat(0.1), l, a, s, 0.5);
+        let c = translucent_colour(DVec3::splat(0.1), l, a, s, 0.5, 1.0);
         assert!((c.x - (0.1 + 1.0 * (-0.5f64).exp())).abs() < 1e-15);
         assert!((c.y - (0.1 + 2.0 * (-1.0f64).exp())).abs() < 1e-15);
         assert!((c.z - 0.6).abs() < 1e-15);
         assert_eq!(transmitted(l, a, s, f64::INFINITY), DVec3::ZERO);
+        let half = translucent_colour(DVec3::ZERO, l, a, s, 0.5, 0.5);
+        assert!((half.z - 0.25).abs() < 1e-15);
+    }
+
+    #[test]
+    fn exit_weight_is_zero_on_lit_faces_and_one_head_on() {
+        let l = DVec3::new(0.0, 0.0, 1.0);
+        assert_eq!(exit_weight(DVec3::Z, l), 1.0);
+        assert_eq!(exit_weight(-DVec3::Z, l), 0.0);
+        assert_eq!(exit_weight(DVec3::X, l), 0.0);
+        let n = DVec3::new(0.0, 0.6, 0.8);
+        assert!((exit_weight(n, l) - 0.8).abs() < 1e-15);
     }
 }

@@ -1,7 +1,8 @@
 //! translucency (seed 003): for each pixel whose surface is a translucent instance, the world
 //! thickness d of material the light of the scene's first directional light crossed to reach it,
-//! written to the `thickness` target (+inf elsewhere), and HDR += L·albedo·exp(−σ·d) per channel on
-//! top of the raster's Lambert (L: the light's colour × intensity). Runs after the raster, the
+//! written to the `thickness` target (+inf elsewhere), and HDR += w·L·albedo·exp(−σ·d) per channel
+//! on top of the raster's Lambert (L: the light's colour × intensity; w = max(n·l, 0) with n the
+//! G-buffer normal, `effects::translucency::exit_weight`). Runs after the raster, the
 //! `light_id` pass and the metaballs, before the energy wave. CPU twin: `effects::translucency`.
 //!
 //! # Per pixel
@@ -26,8 +27,9 @@
 //!   centres lie up to a voxel below the surface and ~1.3 voxels beside the path, so the table's
 //!   segment misses part of a thin wall (the bottle's glass is 1.4 voxels thick) and crosses
 //!   cavity rims the path does not. Measured on the seed's objects under rotated, non-uniformly
-//!   scaled instances (tests/gpu_translucency.rs, `thickness_error_breakdown`), p95 of the error
-//!   in voxels: bottle 2.0 → 0.69, cavity cube 1.26 → 0.86.
+//!   scaled instances when this method was chosen (the scenes of tests/gpu_translucency.rs; the
+//!   plain-lookup variant is no longer built), p95 of the error in voxels: bottle 2.0 → 0.69,
+//!   cavity cube 1.26 → 0.86.
 //!
 //! **Fallbacks** (no texel of P's instance in the 3×3 block): when texel t holds another instance,
 //! the light crossed that one first: d = max(z(P) − z(t), 0), TSM's distance from its surface (the
@@ -501,6 +503,7 @@ impl TranslucencyPass {
                 D::STORAGE_BUFFER,
                 D::STORAGE_BUFFER,
                 D::STORAGE_BUFFER,
+                D::STORAGE_IMAGE,
             ];
             let bindings: Vec<_> = types.iter().enumerate().map(|(i, &t)| binding(i as u32, t, c)).collect();
             let pipeline = create_compute_pipeline(ctx, "translucency", &spirv, &bindings, 0)?;
@@ -555,6 +558,7 @@ impl Pass for TranslucencyPass {
         vec![
             (Target::Ids, ImageAccess::COMPUTE_READ),
             (Target::Distance, ImageAccess::COMPUTE_READ),
+            (Target::Normal, ImageAccess::COMPUTE_READ),
             (Target::Hdr, ImageAccess::COMPUTE_READ_WRITE),
             (Target::LightIds, ImageAccess::COMPUTE_READ),
             (Target::LightZ, ImageAccess::COMPUTE_READ),
@@ -589,6 +593,7 @@ impl Pass for TranslucencyPass {
                 (10, Bound::Storage(data.instances.raw)),
                 (11, Bound::Storage(scene_gpu.materials.raw)),
                 (12, Bound::Storage(data.centres.raw)),
+                (13, view(Target::Normal)),
             ],
         );
         Ok(())
