@@ -20,7 +20,7 @@
 //!   |d_LUT − d_exact| ≤ 2·e·s + q·|M(c_j − c_i)|,   s = the largest stretch of M.
 //!
 //! A segment grazing a surface is the exception: there a small move of its ends can add or remove
-//! a long stretch of material (the seed's discretization error; `measure_bottle_bakes` reports how
+//! a long stretch of material (the seed's discretization error; `examples/bake_measure.rs` reports how
 //! often). A wrong answer that counts the cavity (TSM) is off by the cavity chord (0.96 for the
 //! instance below), outside the bound 2·2.6·h·1.5 = 0.62 at 25³; the tests assert that too.
 

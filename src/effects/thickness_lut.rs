@@ -20,7 +20,7 @@
 //! square, would be about twice that at the same N). And the u8 step is far below the
 //! voxelization error: the ends of a light path move to voxel centres up to ~2.6 voxels away, and
 //! on the bottle's light paths the thickness is off by ~2 voxels at the 95th percentile
-//! (`tests/translucency_bake.rs`, `measure_bottle_bakes`), against 0.2 % of the length for u8.
+//! (`cargo run --release --example bake_measure`), against 0.2 % of the length for u8.
 //!
 //! # GPU layout (mirrored in GLSL; keep in sync)
 //!
@@ -272,7 +272,7 @@ impl ThicknessLut {
     /// The variant that scales the fraction by the actual segment: f(i, j) · |M·b − M·a|. Exact
     /// for any pair on a convex solid (where `world_thickness` is short by up to the two ends'
     /// offsets), and about 10 % smaller at the 95th percentile on the bottle's light paths
-    /// (`tests/translucency_bake.rs`, `measure_bottle_bakes`); the shader knows a and b anyway.
+    /// (`cargo run --release --example bake_measure`); the shader knows a and b anyway.
     pub fn world_thickness_between(
         &self,
         m: &crate::scene::transform::Transform,
