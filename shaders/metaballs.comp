@@ -7,13 +7,17 @@
 // CPU twins src/effects/metaballs.rs (f64) and src/effects/metaballs_f32.rs (its arithmetic).
 //
 // Per group present in the tile, each pixel first gathers its candidates: the balls of the
-// tile's run whose support its ray enters in [from, stop), at most MB_MAX_RAY_BALLS of them.
-// The subgroup (always inside one tile, so sharing the run) walks the run together: each lane
-// loads one ball, a cone test against the subgroup's rays drops the balls no lane can see, and
-// the rest are broadcast to every lane. (On lavapipe a storage-buffer load whose address is not
+// tile's run whose support its ray enters in [from, stop), as support chords in the cast's slots
+// (mb_en … mb_id). The subgroup (always inside one tile, so sharing the run) walks the run
+// together: each lane loads one ball, a cone test against the subgroup's rays drops the balls no
+// lane can see, and the rest are broadcast to every lane. A ball some lane needs takes the next
+// slot for the whole subgroup (slot indices stay uniform: cheap on lavapipe), each lane marking
+// its own in a bit mask; at most MB_MAX_RAY_BALLS slots per round. (On lavapipe a storage-buffer
+// load whose address is not
 // provably uniform is a scalar loop over the lanes; this loads each ball once per subgroup.)
 // The run is sorted by a lower bound of the entry distance, so the walk stops once every lane's
-// `stop` lies before the next ball. metaball_cast then runs on the pixel's candidates only.
+// `stop` lies before the next ball. The cast (mb_clip_slots or mb_trace_slots) then runs on the
+// pixel's chords only, with no second pass over the balls and no sorting.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_vote : require
@@ -41,10 +45,16 @@ layout(set = 0, binding = 9, std430) readonly buffer Entries { uint entries[]; }
 // Keep in sync with the STAT_* indices in src/passes/metaballs.rs.
 layout(set = 0, binding = 10, std430) buffer Stats { uint stats[]; };
 
-// The pixel's candidates (global ball indices) for the current cast.
-uint cand[MB_MAX_RAY_BALLS];
+// Which casts this pipeline holds (the pass defines them from the scene's methods, so a method
+// the scene does not use costs nothing).
+#ifndef MB_WITH_CLIP
+#define MB_WITH_CLIP 1
+#endif
+#ifndef MB_WITH_TRACE
+#define MB_WITH_TRACE 1
+#endif
 #define MB_BALL(i) balls[i]
-#define MB_INDEX(k) cand[k]
+#define MB_INDEX(k) entries[k]
 #include "common/metaballs.glsl"
 
 // Keep in sync with MetaballParams in src/passes/metaballs.rs.
@@ -58,14 +68,18 @@ layout(push_constant) uniform MetaballParams {
 
 #define STAT_DROPPED 0         // pixels whose search could not finish (more than
                                // MB_MAX_RAY_BALLS supports overlap at one point, or
-                               // MB_NOT_CONVERGED): a surface may be missing there
+                               // MB_NOT_CONVERGED: clipping did not converge or sphere
+                               // tracing ran out of steps): a surface may be missing there
 #define STAT_HITS 1            // pixels where a metaball is the nearest surface
-#define STAT_ITERATIONS 2      // Σ Bézier-clipping steps of those hits' casts
+#define STAT_ITERATIONS 2      // Σ Bézier-clipping steps of those hits' casts (sphere
+                               // tracing: march steps)
 #define STAT_MAX_ITERATIONS 3
 
 // Keep in sync with RUN_LONE_BOUND in src/passes/metaballs.rs: all q ≥ 0 and F = 0 on the near
 // plane, so F > T at a point well inside one ball's lone isosurface sphere bounds the first hit.
 #define RUN_LONE_BOUND 1u
+// Keep in sync with RUN_TRACE in src/passes/metaballs.rs: the group is sphere-traced.
+#define RUN_TRACE 2u
 
 const float HALF_MAX = 65504.0;
 const float FLT_MAX = 3.402823466e38;
@@ -125,7 +139,8 @@ void main() {
             }
             float t0 = from * ts;
             float t1 = t_max * ts;
-            int n = 0;
+            uint slots = 0u;  // subgroup-uniform
+            uint mask = 0u;   // this lane's slots
             float limit = min(cap, t1);  // entry of the first ball left out (object space)
             float bound = t1;            // a point inside the surface (RUN_LONE_BOUND)
             float stop = limit;          // min(limit, bound): no ball entering later matters
@@ -172,17 +187,22 @@ void main() {
                         float half_chord = sqrt(max(D, 0.0));
                         float en = tc - half_chord;
                         float ex = tc + half_chord;
-                        if (live && D > 0.0 && ex > t0 && en < stop) {
-                            // Well inside the lone isosurface sphere at t_c: F > T there.
-                            if (lone_bound && tc > t0 && h2 < 0.998 * rr * rr) {
-                                bound = min(bound, tc);
-                                stop = min(stop, bound);
-                            }
-                            if (n < MB_MAX_RAY_BALLS) {
-                                cand[n] = id;
-                                max_en = max(max_en, en);
-                                ++n;
-                            } else {
+                        bool want = live && D > 0.0 && ex > t0 && en < stop;
+                        // Well inside the lone isosurface sphere at t_c: F > T there.
+                        if (want && lone_bound && tc > t0 && h2 < 0.998 * rr * rr) {
+                            bound = min(bound, tc);
+                            stop = min(stop, bound);
+                        }
+                        if (subgroupAny(want)) {
+                            if (slots < uint(MB_MAX_RAY_BALLS)) {
+                                mb_chord_t[slots] = vec2(en, ex);
+                                mb_id[slots] = id;
+                                if (want) {
+                                    mask |= 1u << slots;
+                                    max_en = max(max_en, en);
+                                }
+                                ++slots;
+                            } else if (want) {
                                 limit = min(limit, en);
                                 stop = min(stop, limit);
                             }
@@ -204,7 +224,26 @@ void main() {
                 } else {
                     cap = FLT_MAX;
                     float t_end = stop < t1 ? stop / ts : t_max;
-                    MetaHit h = metaball_cast(origin, u, g, 0u, uint(n), from, t_end);
+                    MetaHit h;
+                    h.normal = -u;
+                    h.t = t_end;
+                    h.flags = 0u;
+                    h.iterations = 0u;
+                    MetaRay mr;
+                    mr.o = o;
+                    mr.d = d;
+                    mr.ts = ts;
+#if MB_WITH_CLIP && MB_WITH_TRACE
+                    if ((run.w & RUN_TRACE) != 0u) {
+                        h = mb_trace_slots(g, mr, u, slots, mask, t0, t_end * ts, h);
+                    } else {
+                        h = mb_clip_slots(g, mr, u, slots, mask, t0, t_end * ts, h);
+                    }
+#elif MB_WITH_TRACE
+                    h = mb_trace_slots(g, mr, u, slots, mask, t0, t_end * ts, h);
+#else
+                    h = mb_clip_slots(g, mr, u, slots, mask, t0, t_end * ts, h);
+#endif
                     if ((h.flags & MB_HIT) != 0u) {
                         best = h;
                         best_group = run.x;
@@ -214,9 +253,9 @@ void main() {
                     } else if ((h.flags & MB_NOT_CONVERGED) != 0u) {
                         dropped += 1u;
                         live = false;
-                    } else if ((h.flags & MB_OVERFLOW) != 0u || cut) {
+                    } else if (cut) {
                         // Go on from where the search stopped.
-                        float next = (h.flags & MB_OVERFLOW) != 0u ? h.t : t_end;
+                        float next = t_end;
                         if (!(next > from)) {
                             dropped += 1u;
                             live = false;

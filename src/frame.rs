@@ -1,13 +1,9 @@
-//! Builds the pass list the scene needs and runs it. Every pass is wrapped the same way:
-//! debug label, barriers, timestamp pair (kajiya's record_pass_cb).
+//! Builds the pass list the scene needs and records it. Every pass is wrapped the same way:
+//! debug label, barriers, timestamp pair (kajiya's record_pass_cb). Recording only: the caller
+//! (the headless `Runtime` or a game embedding `renderer::Renderer`) submits and waits.
 
-use std::time::Instant;
-
-use gpu_allocator::MemoryLocation;
-
-use crate::gpu::barriers::{cmd_barriers, memory_barrier, ImageAccess};
-use crate::gpu::commands::FrameCommands;
-use crate::gpu::memory::{Buffer, Memory};
+use crate::gpu::barriers::cmd_barriers;
+use crate::gpu::memory::Memory;
 use crate::gpu::recorder::Recorder;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::timestamps::TimestampPool;
@@ -136,161 +132,88 @@ pub struct FrameStats {
     pub metaball_clip_steps_max: u64,
 }
 
-pub struct FrameRunner {
-    commands: FrameCommands,
-    timestamps: TimestampPool,
+/// One timestamped stretch of a frame (a pass, the depth import, the composite, the read-back).
+#[derive(Clone, Copy, Debug)]
+pub struct Scope {
+    pub name: &'static str,
+    pub begin: Option<u32>,
+    pub end: Option<u32>,
 }
 
-/// A target copied to a host-visible buffer at the end of the frame.
-pub struct Readback {
-    pub target: Target,
-    pub buffer: Buffer,
+/// Where a frame's timestamps go: `None` when no query pool was free (the frame is then untimed).
+pub type Timestamps<'a> = Option<&'a mut TimestampPool>;
+
+/// Records `body` inside the debug label `name`, after `barriers`, between two timestamps.
+pub fn record_scope(
+    ctx: &GpuContext,
+    cmd: vk::CommandBuffer,
+    timestamps: &mut Timestamps,
+    name: &'static str,
+    barriers: &[vk::ImageMemoryBarrier2],
+    body: impl FnOnce(),
+) -> Scope {
+    ctx.begin_label(cmd, name);
+    cmd_barriers(&ctx.device, cmd, barriers, &[]);
+    let begin = timestamps.as_mut().and_then(|t| t.write(ctx, cmd));
+    body();
+    let end = timestamps.as_mut().and_then(|t| t.write(ctx, cmd));
+    ctx.end_label(cmd);
+    Scope { name, begin, end }
 }
 
-impl FrameRunner {
-    pub fn new(ctx: &GpuContext) -> GpuResult<Self> {
-        let commands = FrameCommands::new(ctx, "frame")?;
-        match TimestampPool::new(ctx, 64) {
-            Ok(timestamps) => Ok(FrameRunner { commands, timestamps }),
-            Err(e) => {
-                commands.destroy(ctx);
-                Err(e)
-            }
-        }
-    }
+/// What recording the scene's passes needs.
+pub struct PassRecording<'a> {
+    pub ctx: &'a GpuContext,
+    pub cmd: vk::CommandBuffer,
+    pub passes: &'a [Box<dyn Pass>],
+    pub targets: &'a mut Targets,
+    pub scene_gpu: &'a SceneGpu,
+    pub scene: &'a Scene,
+    pub time: f64,
+    /// See `PassInputs::embedded` and `PassInputs::depth_imported`.
+    pub embedded: bool,
+    pub depth_imported: bool,
+    /// Passes not to record this frame (e.g. tonemap when the game's colour is the output).
+    pub skip: &'a [&'static str],
+}
 
-    /// Records, submits and waits for one frame; returns its stats and the requested read-backs.
-    #[allow(clippy::too_many_arguments)]
-    pub fn run(
-        &mut self,
-        ctx: &GpuContext,
-        memory: &Memory,
-        passes: &mut [Box<dyn Pass>],
-        targets: &mut Targets,
-        scene_gpu: &SceneGpu,
-        scene: &Scene,
-        time: f64,
-        readback: &[Target],
-    ) -> GpuResult<(FrameStats, Vec<Readback>)> {
-        let frame_start = Instant::now();
-        for pass in passes.iter_mut() {
-            pass.prepare(scene, time, targets.extent)?;
-            pass.prepare_device(ctx, memory)?;
-        }
-        let mut buffers = Vec::new();
-        for &target in readback {
-            let e = targets.extent;
-            let size = e.width as u64 * e.height as u64 * target.texel_bytes();
-            let name = format!("readback {}", target.name());
-            match memory.create_buffer(
-                ctx,
-                &name,
-                size,
-                vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuToCpu,
-            ) {
-                Ok(buffer) => buffers.push(Readback { target, buffer }),
-                Err(e) => {
-                    buffers.into_iter().for_each(|r: Readback| memory.destroy_buffer(ctx, r.buffer));
-                    return Err(e);
-                }
-            }
-        }
-        let result = self.record_and_submit(ctx, passes, targets, scene_gpu, scene, time, &buffers);
-        match result {
-            Ok(mut stats) => {
-                passes.iter().for_each(|p| p.report(&mut stats));
-                stats.cpu_frame_ms = ms(frame_start.elapsed());
-                Ok((stats, buffers))
-            }
-            Err(e) => {
-                buffers.into_iter().for_each(|r| memory.destroy_buffer(ctx, r.buffer));
-                Err(e)
-            }
-        }
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn record_and_submit(
-        &mut self,
-        ctx: &GpuContext,
-        passes: &[Box<dyn Pass>],
-        targets: &mut Targets,
-        scene_gpu: &SceneGpu,
-        scene: &Scene,
-        time: f64,
-        readback: &[Readback],
-    ) -> GpuResult<FrameStats> {
-        let record_start = Instant::now();
-        let cmd = self.commands.cmd;
-        self.commands.begin(ctx)?;
-        self.timestamps.reset(ctx, cmd);
-        targets.discard_all();
-        let rec = Recorder { ctx, cmd };
-        let mut scopes: Vec<(&str, Option<u32>, Option<u32>)> = Vec::new();
-        for pass in passes {
-            let barriers: Vec<_> =
-                pass.uses().into_iter().filter_map(|(t, access)| targets.transition(t, access)).collect();
-            ctx.begin_label(cmd, pass.name());
-            cmd_barriers(&ctx.device, cmd, &barriers, &[]);
-            let begin = self.timestamps.write(ctx, cmd);
-            pass.record(&PassInputs { rec: &rec, targets, scene_gpu, scene, time });
-            let end = self.timestamps.write(ctx, cmd);
-            ctx.end_label(cmd);
-            scopes.push((pass.name(), begin, end));
-        }
-        if !readback.is_empty() {
-            ctx.begin_label(cmd, "readback");
-            let barriers: Vec<_> = readback
-                .iter()
-                .filter_map(|r| targets.transition(r.target, ImageAccess::TRANSFER_SRC))
-                .collect();
-            cmd_barriers(&ctx.device, cmd, &barriers, &[]);
-            let begin = self.timestamps.write(ctx, cmd);
-            for r in readback {
-                rec.copy_image_to_buffer(targets.image(r.target), &r.buffer);
-            }
-            let to_host = memory_barrier(
-                vk::PipelineStageFlags2::COPY,
-                vk::AccessFlags2::TRANSFER_WRITE,
-                vk::PipelineStageFlags2::HOST,
-                vk::AccessFlags2::HOST_READ,
-            );
-            cmd_barriers(&ctx.device, cmd, &[], &[to_host]);
-            let end = self.timestamps.write(ctx, cmd);
-            ctx.end_label(cmd);
-            scopes.push(("readback", begin, end));
-        }
-        let cpu_record_ms = ms(record_start.elapsed());
-        let submit_start = Instant::now();
-        let last_pass = scopes.last().map(|s| s.0).unwrap_or("none");
-        self.commands.submit_and_wait(ctx, last_pass)?;
-        let cpu_submit_wait_ms = ms(submit_start.elapsed());
-        let ticks = self.timestamps.read_ns(ctx)?;
-        let at = |i: Option<u32>| i.and_then(|i| ticks.get(i as usize).copied());
-        let mut stats = FrameStats { cpu_record_ms, cpu_submit_wait_ms, ..Default::default() };
-        let first = ticks.first().copied().unwrap_or(0.0);
-        for (name, begin, end) in &scopes {
-            if let (Some(b), Some(e)) = (at(*begin), at(*end)) {
-                stats.passes.push(PassTiming {
-                    name: name.to_string(),
-                    start_ms: (b - first).max(0.0) / 1e6,
-                    gpu_ms: (e - b).max(0.0) / 1e6,
-                });
-            }
-        }
-        if let Some(last) = ticks.last() {
-            stats.gpu_frame_ms = (last - first).max(0.0) / 1e6;
-        }
-        Ok(stats)
-    }
-
-    pub fn destroy(&self, ctx: &GpuContext) {
-        self.timestamps.destroy(ctx);
-        self.commands.destroy(ctx);
+/// Records every pass of the frame, each as one scope.
+pub fn record_passes(r: PassRecording, timestamps: &mut Timestamps, scopes: &mut Vec<Scope>) {
+    let rec = Recorder { ctx: r.ctx, cmd: r.cmd };
+    for pass in r.passes.iter().filter(|p| !r.skip.contains(&p.name())) {
+        let barriers: Vec<_> =
+            pass.uses().into_iter().filter_map(|(t, access)| r.targets.transition(t, access)).collect();
+        let inputs = PassInputs {
+            rec: &rec,
+            targets: r.targets,
+            scene_gpu: r.scene_gpu,
+            scene: r.scene,
+            time: r.time,
+            embedded: r.embedded,
+            depth_imported: r.depth_imported,
+        };
+        scopes.push(record_scope(r.ctx, r.cmd, timestamps, pass.name(), &barriers, || pass.record(&inputs)));
     }
 }
 
-fn ms(d: std::time::Duration) -> f64 {
+/// Per-scope GPU times from the frame's timestamps (nanoseconds, in write order).
+pub fn pass_timings(scopes: &[Scope], ticks: &[f64]) -> (Vec<PassTiming>, f64) {
+    let at = |i: Option<u32>| i.and_then(|i| ticks.get(i as usize).copied());
+    let first = ticks.first().copied().unwrap_or(0.0);
+    let mut passes = Vec::new();
+    for scope in scopes {
+        if let (Some(b), Some(e)) = (at(scope.begin), at(scope.end)) {
+            passes.push(PassTiming {
+                name: scope.name.to_string(),
+                start_ms: (b - first).max(0.0) / 1e6,
+                gpu_ms: (e - b).max(0.0) / 1e6,
+            });
+        }
+    }
+    let frame_ms = ticks.last().map(|last| (last - first).max(0.0) / 1e6).unwrap_or(0.0);
+    (passes, frame_ms)
+}
+
+pub fn ms(d: std::time::Duration) -> f64 {
     d.as_secs_f64() * 1e3
 }

@@ -6,7 +6,10 @@ pub mod frame;
 pub mod gpu;
 pub mod output;
 pub mod passes;
+pub mod present;
 pub mod profile;
+pub mod renderer;
+pub mod report;
 pub mod runtime;
 pub mod scene;
 pub mod scene_gpu;
@@ -17,6 +20,10 @@ pub mod testing;
 pub use aov::{Aov, AovImage};
 pub use frame::{FrameStats, PassTiming};
 pub use gpu::{DeviceInfo, GpuError, ValidationCounts};
+pub use renderer::{
+    DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameTimings, RecordedFrame, Renderer,
+    WaveUpdate,
+};
 pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};
 
 /// Everything the library can fail with.

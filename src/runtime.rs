@@ -1,17 +1,18 @@
-//! The headless runtime: create it, load a scene, render frames, read back colour and AOVs.
+//! The headless runtime: create it, load a scene, render frames, read back colour and AOVs. A thin
+//! owner around the recording core (`renderer::Renderer`): its own device, one command buffer and
+//! fence, and the read-back.
 
-use std::mem::ManuallyDrop;
+use std::time::Instant;
 
 use crate::aov::{Aov, AovImage};
-use crate::frame::{build_passes, plan, targets_used, FrameRunner, FrameStats, Readback};
-use crate::gpu::memory::Memory;
-use crate::gpu::pipeline::DescriptorPool;
-use crate::gpu::shader::ShaderCompiler;
-use crate::gpu::{vk, ContextOptions, DeviceInfo, GpuContext, GpuError, ValidationCounts};
-use crate::passes::Pass;
+use crate::frame::{ms, FrameStats};
+use crate::gpu::commands::FrameCommands;
+use crate::gpu::{ContextOptions, DeviceInfo, GpuContext, ValidationCounts};
+use crate::renderer::readback::not_read_back;
+use crate::renderer::{AovReadback, FrameInputs, Renderer};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
-use crate::targets::{Target, Targets};
+use crate::targets::Target;
 use crate::Error;
 
 /// How the runtime is created. `RuntimeOptions::from_env()` reads `HADOU_VALIDATION` and `HADOU_DEVICE`.
@@ -66,12 +67,6 @@ impl FrameOutput {
     }
 }
 
-struct Loaded {
-    scene: Scene,
-    gpu: SceneGpu,
-    passes: Vec<Box<dyn Pass>>,
-}
-
 /// The headless runtime. Owns its Vulkan device; frames are rendered one at a time.
 ///
 /// ```
@@ -87,13 +82,8 @@ struct Loaded {
 /// # Ok::<(), hadou::Error>(())
 /// ```
 pub struct Runtime {
-    loaded: Option<Loaded>,
-    targets: Option<Targets>,
-    runner: FrameRunner,
-    pool: DescriptorPool,
-    compiler: ShaderCompiler,
-    memory: ManuallyDrop<Memory>,
-    ctx: GpuContext,
+    commands: FrameCommands,
+    renderer: Renderer,
 }
 
 impl Runtime {
@@ -102,58 +92,54 @@ impl Runtime {
             validation: options.validation,
             device_filter: options.device.clone(),
         })?;
-        let memory = Memory::new(&ctx)?;
-        let compiler = ShaderCompiler::new()?;
-        let pool = DescriptorPool::new(&ctx, "frame descriptors", 32)?;
-        let runner = match FrameRunner::new(&ctx) {
-            Ok(r) => r,
-            Err(e) => {
-                pool.destroy(&ctx);
-                return Err(e.into());
-            }
-        };
-        Ok(Runtime {
-            loaded: None,
-            targets: None,
-            runner,
-            pool,
-            compiler,
-            memory: ManuallyDrop::new(memory),
-            ctx,
-        })
+        Self::with_context(ctx)
+    }
+
+    /// A runtime on a context the caller created, e.g. `GpuContext::new_presenting` for a window
+    /// (`hadou view`). The runtime owns the context from here on.
+    pub fn with_context(ctx: GpuContext) -> Result<Self, Error> {
+        // The renderer first: if the command buffer fails, dropping it frees everything it made.
+        let renderer = Renderer::new(ctx)?;
+        let commands = FrameCommands::new(renderer.context(), "frame")?;
+        Ok(Runtime { commands, renderer })
     }
 
     pub fn device_info(&self) -> &DeviceInfo {
-        &self.ctx.info
+        &self.renderer.context().info
     }
 
     /// Validation errors and warnings counted since creation (zero unless validation is on).
     pub fn validation_counts(&self) -> ValidationCounts {
-        self.ctx.validation_counts()
+        self.renderer.context().validation_counts()
     }
 
     /// The validation log; it outlives the runtime, so it also shows what shutdown reported.
     pub fn validation_log(&self) -> std::sync::Arc<crate::gpu::validation::ValidationLog> {
-        self.ctx.validation_log()
+        self.renderer.context().validation_log()
     }
 
     /// The Vulkan context, for code that records its own commands next to hadou's.
     pub fn context(&self) -> &GpuContext {
-        &self.ctx
+        self.renderer.context()
+    }
+
+    /// The recording core (update API, timings).
+    pub fn renderer(&mut self) -> &mut Renderer {
+        &mut self.renderer
     }
 
     /// The first validation messages received, for test failure output.
     pub fn validation_messages(&self) -> Vec<String> {
-        self.ctx.validation_messages()
+        self.renderer.context().validation_messages()
     }
 
     pub fn scene(&self) -> Option<&Scene> {
-        self.loaded.as_ref().map(|l| &l.scene)
+        self.renderer.scene()
     }
 
     /// The loaded scene's GPU buffers: one vertex/index buffer pair per mesh, and the draws.
     pub fn scene_gpu(&self) -> Option<&SceneGpu> {
-        self.loaded.as_ref().map(|l| &l.gpu)
+        self.renderer.scene_gpu()
     }
 
     /// Evaluates the energy-wave shader code for explicit rays (not pixels): H for every
@@ -164,142 +150,104 @@ impl Runtime {
         rays: &[crate::passes::energy_probe::ProbeRay],
         method: crate::passes::energy_probe::ProbeMethod,
     ) -> Result<Vec<f32>, Error> {
-        let run = crate::passes::energy_probe::run_probe;
-        Ok(run(&self.ctx, &self.memory, &mut self.compiler, waves, rays, method)?)
+        let (ctx, memory, compiler) = self.renderer.parts();
+        Ok(crate::passes::energy_probe::run_probe(ctx, memory, compiler, waves, rays, method)?)
     }
 
     /// The passes the loaded scene runs, in order.
     pub fn pass_names(&self) -> Vec<&'static str> {
-        self.loaded.as_ref().map(|l| l.passes.iter().map(|p| p.name()).collect()).unwrap_or_default()
+        self.renderer.pass_names()
     }
 
     /// Uploads the scene and builds the passes it needs, replacing any scene loaded before.
     pub fn load_scene(&mut self, scene: Scene) -> Result<(), Error> {
-        self.unload();
-        let gpu = SceneGpu::new(&self.ctx, &self.memory, &scene)?;
-        let passes = match build_passes(&self.ctx, &self.memory, &mut self.compiler, &scene, &plan(&scene)) {
-            Ok(p) => p,
-            Err(e) => {
-                gpu.destroy(&self.ctx, &self.memory);
-                return Err(e.into());
-            }
-        };
-        self.loaded = Some(Loaded { scene, gpu, passes });
-        // Descriptors point at the new scene's buffers: rebind on the next frame.
-        if let Some(targets) = self.targets.take() {
-            targets.destroy(&self.ctx, &self.memory);
-        }
-        Ok(())
+        self.renderer.load_scene(scene)
     }
 
-    fn unload(&mut self) {
-        if let Some(old) = self.loaded.take() {
-            let _ = self.ctx.wait_idle();
-            let mut passes = old.passes;
-            passes.iter_mut().for_each(|p| p.destroy(&self.ctx, &self.memory));
-            old.gpu.destroy(&self.ctx, &self.memory);
-        }
-    }
-
-    /// (Re)creates the frame's images when the size changed, and points every pass at them.
-    fn ensure_targets(&mut self, width: u32, height: u32) -> Result<(), Error> {
-        let extent = vk::Extent2D { width, height };
-        if self.targets.as_ref().is_some_and(|t| t.extent == extent) {
-            return Ok(());
-        }
-        if let Some(old) = self.targets.take() {
-            self.ctx.wait_idle()?;
-            old.destroy(&self.ctx, &self.memory);
-        }
-        let wanted = self.loaded.as_ref().map(|l| targets_used(&l.passes)).unwrap_or_default();
-        let targets = Targets::new(&self.ctx, &self.memory, extent, &wanted)?;
-        self.pool.reset(&self.ctx)?;
-        if let Some(loaded) = &mut self.loaded {
-            for pass in &mut loaded.passes {
-                if let Err(e) = pass.bind(&self.ctx, &self.pool, &loaded.gpu, &targets) {
-                    targets.destroy(&self.ctx, &self.memory);
-                    return Err(e.into());
-                }
-            }
-        }
-        self.targets = Some(targets);
-        Ok(())
-    }
-
-    /// Renders one frame and reads back what was requested.
+    /// Renders one frame and reads back what was requested: records through the same core a game
+    /// uses (`Renderer::record_frame`), submits, waits on the fence.
     pub fn render(&mut self, request: &FrameRequest) -> Result<FrameOutput, Error> {
-        let max = self.ctx.limits.max_image_dimension2_d;
+        let frame_start = Instant::now();
+        let max = self.context().limits.max_image_dimension2_d;
         if request.width == 0 || request.height == 0 || request.width > max || request.height > max {
             return Err(Error::InvalidRequest(format!(
                 "frame size {}x{} outside 1..={max} (the device's maxImageDimension2D)",
                 request.width, request.height
             )));
         }
-        if self.loaded.is_none() {
+        if self.renderer.scene().is_none() {
             return Err(Error::InvalidRequest("no scene loaded (call load_scene first)".into()));
         }
-        self.ensure_targets(request.width, request.height)?;
-        let (Some(loaded), Some(targets)) = (&mut self.loaded, &mut self.targets) else {
-            return Err(Error::InvalidRequest("no scene loaded".into()));
-        };
-        loaded.gpu.update_uniforms(&loaded.scene, request.width, request.height)?;
         let mut wanted: Vec<Target> = request.aovs.iter().map(|a| a.target()).collect();
-        if let Some(missing) = wanted.iter().find(|t| !targets.contains(**t)) {
-            return Err(Error::InvalidRequest(format!(
-                "AOV {} is not produced by this scene's passes ({}): e.g. `energy` needs a [[wave]]",
-                missing.name(),
-                loaded.passes.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")
-            )));
-        }
         if request.color {
             wanted.push(Target::Ldr);
         }
-        wanted.sort();
-        wanted.dedup();
-        let (stats, readbacks) = self.runner.run(
-            &self.ctx,
-            &self.memory,
-            &mut loaded.passes,
-            targets,
-            &loaded.gpu,
-            &loaded.scene,
-            request.time,
-            &wanted,
-        )?;
-        let output = collect_output(request, stats, &readbacks);
-        readbacks.into_iter().for_each(|r| self.memory.destroy_buffer(&self.ctx, r.buffer));
-        output
+        if let Some(missing) = wanted.iter().find(|t| !self.renderer.produces(**t)) {
+            return Err(Error::InvalidRequest(format!(
+                "AOV {} is not produced by this scene's passes ({}): e.g. `energy` needs a [[wave]]",
+                missing.name(),
+                self.renderer.pass_names().join(", ")
+            )));
+        }
+        let record_start = Instant::now();
+        self.commands.begin(self.renderer.context())?;
+        let cmd = self.commands.cmd;
+        let inputs = FrameInputs::headless(request.width, request.height, request.time);
+        let recorded = self
+            .renderer
+            .record_frame(cmd, &inputs)
+            .and_then(|frame| self.renderer.record_readback(cmd, &wanted).map(|readback| (frame, readback)));
+        let (frame, readback) = match recorded {
+            Ok(r) => r,
+            Err(e) => {
+                // Close the command buffer so the next frame can reset it; nothing is submitted.
+                let _ = self.commands.end(self.renderer.context());
+                self.renderer.abandon_frame();
+                return Err(e);
+            }
+        };
+        let cpu_record_ms = ms(record_start.elapsed());
+        let submit_start = Instant::now();
+        let last_pass = self.renderer.pass_names().last().copied().unwrap_or("none");
+        if let Err(e) = self.commands.submit_and_wait(self.renderer.context(), last_pass) {
+            self.renderer.release_readback(readback);
+            return Err(e.into());
+        }
+        let cpu_submit_wait_ms = ms(submit_start.elapsed());
+        let mut stats = FrameStats { cpu_record_ms, cpu_submit_wait_ms, ..Default::default() };
+        // The fence signalled, so this frame's timestamps are written: the poll finds them.
+        if let Some(t) = self.renderer.latest_timings()?.filter(|t| t.frame == frame.frame) {
+            stats.passes = t.passes.clone();
+            stats.gpu_frame_ms = t.gpu_frame_ms;
+        }
+        self.renderer.report(&mut stats);
+        let output = collect_output(request, &readback);
+        self.renderer.release_readback(readback);
+        let (color, aovs) = output?;
+        stats.cpu_frame_ms = ms(frame_start.elapsed());
+        Ok(FrameOutput { width: request.width, height: request.height, color, aovs, stats })
     }
 }
 
-fn collect_output(
-    request: &FrameRequest,
-    stats: FrameStats,
-    readbacks: &[Readback],
-) -> Result<FrameOutput, Error> {
-    let bytes = |target: Target| -> Result<&[u8], Error> {
-        readbacks.iter().find(|r| r.target == target).and_then(|r| r.buffer.mapped()).ok_or_else(|| {
-            Error::Gpu(GpuError::Limit { what: target.name().into(), message: "not read back".into() })
-        })
+type Collected = (Option<Vec<u8>>, Vec<(Aov, AovImage)>);
+
+fn collect_output(request: &FrameRequest, readback: &AovReadback) -> Result<Collected, Error> {
+    let color = if request.color {
+        Some(readback.bytes(Target::Ldr).ok_or_else(|| not_read_back(Target::Ldr))?.to_vec())
+    } else {
+        None
     };
-    let color = if request.color { Some(bytes(Target::Ldr)?.to_vec()) } else { None };
     let mut aovs = Vec::new();
     for &aov in &request.aovs {
-        aovs.push((aov, AovImage::decode(aov, request.width, request.height, bytes(aov.target())?)));
+        aovs.push((aov, readback.aov(aov).ok_or_else(|| not_read_back(aov.target()))?));
     }
-    Ok(FrameOutput { width: request.width, height: request.height, color, aovs, stats })
+    Ok((color, aovs))
 }
 
 impl Drop for Runtime {
     fn drop(&mut self) {
-        let _ = self.ctx.wait_idle();
-        self.unload();
-        if let Some(t) = self.targets.take() {
-            t.destroy(&self.ctx, &self.memory);
-        }
-        self.runner.destroy(&self.ctx);
-        self.pool.destroy(&self.ctx);
-        // SAFETY: dropped exactly once, before the context (a field declared after it) is dropped.
-        unsafe { ManuallyDrop::drop(&mut self.memory) };
+        let _ = self.renderer.context().wait_idle();
+        self.commands.destroy(self.renderer.context());
+        // The renderer (declared after) then destroys its resources and the context.
     }
 }

@@ -133,6 +133,13 @@ impl SceneGpu {
         self.uniforms.write(0, bytemuck::bytes_of(&uniforms))
     }
 
+    /// Rewrites the instance table after transforms changed (same instances, same order; the
+    /// previous frame has finished).
+    pub fn upload_instances(&mut self, scene: &Scene) -> GpuResult<()> {
+        let (records, _) = instance_records(scene);
+        self.instances.write(0, at_least_one_word(bytemuck::cast_slice(&records)))
+    }
+
     pub fn destroy(self, ctx: &GpuContext, memory: &Memory) {
         for m in self.meshes {
             memory.destroy_buffer(ctx, m.vertices);

@@ -89,7 +89,13 @@ impl Target {
     fn usage(self) -> vk::ImageUsageFlags {
         let base = vk::ImageUsageFlags::TRANSFER_SRC;
         match self {
-            Target::Depth | Target::LightDepth => {
+            // TRANSFER_DST: an embedded frame copies the game's imported depth into it.
+            Target::Depth => {
+                base | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_DST
+            }
+            Target::LightDepth => {
                 base | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED
             }
             Target::Ldr | Target::Energy | Target::Thickness => base | vk::ImageUsageFlags::STORAGE,

@@ -12,33 +12,18 @@ mod common;
 
 use glam::DVec3;
 use hadou::effects::energy_wave::line_integral;
-use hadou::effects::metaballs::{cast, MetaballGroupParams};
-use hadou::effects::metaballs_f32::tangency;
+use hadou::effects::metaballs::MetaballGroupParams;
+use hadou::effects::metaballs_compare::{
+    compare_metaballs, pixel_reference, MetaballErrorStats, MetaballFrame, PixelReference,
+};
 use hadou::effects::raycast::SceneCaster;
 use hadou::frame::{plan, PassKind};
 use hadou::passes::energy_wave::wave_params;
 use hadou::scene::Scene;
 use hadou::{Aov, FrameOutput, FrameRequest};
 
-/// The nearest metaball hit over all groups (f64), and whether any group's ray is in the
-/// tangency band over [t_min, t_max].
-struct Reference {
-    hit: Option<(f64, DVec3)>,
-    band: bool,
-}
-
-fn reference(groups: &[MetaballGroupParams], o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Reference {
-    let mut hit: Option<(f64, DVec3)> = None;
-    let mut band = false;
-    for g in groups {
-        if let Some(h) = cast(g, o, d, t_min, t_max) {
-            if hit.is_none_or(|(t, _)| h.t < t) {
-                hit = Some((h.t, h.normal));
-            }
-        }
-        band |= tangency(g, o, d, t_min, t_max).in_band();
-    }
-    Reference { hit, band }
+fn reference(groups: &[MetaballGroupParams], o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> PixelReference {
+    pixel_reference(groups, o, d, t_min, t_max)
 }
 
 /// The camera's near plane measured along the pixel ray (the pass's t_min).
@@ -58,79 +43,34 @@ fn render(scene: &Scene, w: u32, h: u32, time: f64, aovs: &[Aov]) -> FrameOutput
 }
 
 /// The same scene without its metaballs: the raster's own distance, the pass's t_max.
-fn raster_distance(scene: &Scene, w: u32, h: u32) -> Vec<f32> {
+fn raster_only(scene: &Scene, w: u32, h: u32) -> FrameOutput {
     let mut bare = scene.clone();
     bare.metaballs.clear();
     bare.waves.clear();
-    render(&bare, w, h, 0.0, &[Aov::Depth]).aov(Aov::Depth).unwrap().data.clone()
+    render(&bare, w, h, 0.0, &[Aov::Depth])
 }
 
 fn groups_at(scene: &Scene, time: f64) -> Vec<MetaballGroupParams> {
     scene.metaballs.iter().map(|g| g.at(time)).collect()
 }
 
-/// Angle in degrees between unit vectors.
-fn angle_deg(a: DVec3, b: DVec3) -> f64 {
-    a.normalize().dot(b.normalize()).clamp(-1.0, 1.0).acos().to_degrees()
-}
-
-#[derive(Debug, Default)]
-struct Comparison {
-    pixels: usize,
-    gpu_hits: usize,
-    ref_hits: usize,
-    band: usize,
-    mismatched: usize,
-    worst_depth: f64,
-    worst_normal_deg: f64,
-}
-
-/// GPU depth/normal vs the f64 reference on every pixel, t_max = the GPU raster's own distance.
-fn compare(scene: &Scene, w: u32, h: u32, time: f64) -> (Comparison, FrameOutput) {
+/// The frame's depth/normal vs the f64 reference on every pixel (`compare_metaballs`), t_max = the
+/// GPU raster's own distance.
+fn compare(scene: &Scene, w: u32, h: u32, time: f64) -> (MetaballErrorStats, FrameOutput) {
     let frame = render(scene, w, h, time, &[Aov::Depth, Aov::Normal, Aov::Hdr]);
-    let raster = raster_distance(scene, w, h);
-    let depth = &frame.aov(Aov::Depth).unwrap().data;
+    let raster = raster_only(scene, w, h);
     let normal = frame.aov(Aov::Normal).unwrap();
-    let hdr = &frame.aov(Aov::Hdr).unwrap().data;
-    assert!(hdr.iter().all(|v| v.is_finite()), "HDR holds NaN/Inf");
+    assert!(frame.aov(Aov::Hdr).unwrap().data.iter().all(|v| v.is_finite()), "HDR holds NaN/Inf");
     assert!(normal.data.iter().all(|v| v.is_finite()), "normal holds NaN/Inf");
-    let groups = groups_at(scene, time);
-    let cam = &scene.camera;
-    let mut c = Comparison { pixels: (w * h) as usize, ..Default::default() };
-    for y in 0..h {
-        for x in 0..w {
-            let i = (y * w + x) as usize;
-            assert!(!depth[i].is_nan(), "depth NaN at ({x}, {y})");
-            let (o, d) = cam.pixel_ray(x, y, w, h);
-            let t_max = (raster[i] as f64).min(cam.far);
-            let r = reference(&groups, o, d, near_along(scene, d), t_max);
-            let gpu_hit = depth[i].to_bits() != raster[i].to_bits();
-            c.gpu_hits += gpu_hit as usize;
-            c.ref_hits += r.hit.is_some() as usize;
-            if r.band {
-                c.band += 1;
-                continue;
-            }
-            if gpu_hit != r.hit.is_some() {
-                c.mismatched += 1;
-                println!(
-                    "mismatch at ({x}, {y}): gpu {} (raster {}), reference {:?}",
-                    depth[i], raster[i], r.hit
-                );
-                continue;
-            }
-            if let Some((t, n)) = r.hit {
-                c.worst_depth = c.worst_depth.max((depth[i] as f64 - t).abs() / t);
-                let n = if n.dot(d) > 0.0 { -n } else { n };
-                let g = DVec3::new(
-                    normal.at(x, y, 0) as f64,
-                    normal.at(x, y, 1) as f64,
-                    normal.at(x, y, 2) as f64,
-                );
-                assert_eq!(normal.at(x, y, 3), 1.0, "normal.w at ({x}, {y})");
-                c.worst_normal_deg = c.worst_normal_deg.max(angle_deg(g, n));
-            }
-        }
+    let aovs = MetaballFrame {
+        depth: frame.aov(Aov::Depth).unwrap(),
+        raster_depth: raster.aov(Aov::Depth).unwrap(),
+        normal: Some(normal),
+    };
+    let c = compare_metaballs(scene, time, aovs).unwrap();
+    assert_eq!(c.nan_depth, 0, "depth NaN");
+    for m in &c.mismatches {
+        println!("mismatch: {m:?}");
     }
     (c, frame)
 }
@@ -140,16 +80,16 @@ fn compare(scene: &Scene, w: u32, h: u32, time: f64) -> (Comparison, FrameOutput
 /// rounded to 11 significant bits (relative error ≤ 2⁻¹¹), which turns a unit vector by at most
 /// √3·2⁻¹¹ rad ≈ 0.05°; the f32 cast's own normal (gradient in f32 at a root accurate to ~1e-6)
 /// adds far less, so 0.5° leaves a factor of ten.
-fn assert_bounds(label: &str, c: &Comparison) {
+fn assert_bounds(label: &str, c: &MetaballErrorStats) {
     println!(
         "{label}: {} px, gpu hits {}, reference hits {}, tangency band {} px, mismatched {}, \
          worst depth {:.2e} rel, worst normal {:.3}°",
-        c.pixels, c.gpu_hits, c.ref_hits, c.band, c.mismatched, c.worst_depth, c.worst_normal_deg
+        c.pixels, c.gpu_hits, c.ref_hits, c.band, c.mismatched, c.depth_max_rel, c.normal_max_deg
     );
     let outside = (c.pixels - c.band) as f64;
     assert!(c.mismatched as f64 <= 1e-4 * outside, "{label}: {} mismatched hits", c.mismatched);
-    assert!(c.worst_depth <= 1e-4, "{label}: depth {:.3e}", c.worst_depth);
-    assert!(c.worst_normal_deg <= 0.5, "{label}: normal {:.3}°", c.worst_normal_deg);
+    assert!(c.depth_max_rel <= 1e-4, "{label}: depth {:.3e}", c.depth_max_rel);
+    assert!(c.normal_max_deg <= 0.5, "{label}: normal {:.3}°", c.normal_max_deg);
 }
 
 #[test]
@@ -568,4 +508,84 @@ fn more_than_32_supports_on_a_ray() {
             assert_eq!(missed, ref_hits, "no cast can sum 40 supports");
         }
     }
+}
+
+/// The sphere-tracing baseline in the pass (every group of assets/scenes/metaballs.toml with
+/// method = "sphere_trace", 64 steps) against the exact f64 reference, where its f64 twin
+/// (`metaballs_trace::trace`) says the method itself gets the exact answer. Left out: band pixels;
+/// pixels where the twin misses the exact answer (runs out of steps, or skips a sliver: hit/miss
+/// or depth beyond 1e-6 differ); pixels within 2⁻¹⁰ of tangency (where a sliver may be skipped,
+/// see metaballs_trace.rs), and pixels whose twin needs more than 56 of the 64 steps (the f32
+/// march rounds differently and may need a few more). Everywhere else the GPU must meet the
+/// Bézier bounds: mismatched hits ≤ 0.01%, depth ≤ 1e-4, normals ≤ 0.5° (the bisection's own error,
+/// ≤ 2⁻²⁶·T/L, is far below).
+#[test]
+fn sphere_tracing_matches_its_f64_twin() {
+    use hadou::effects::metaballs::{CastMethod, MetaballGroupParams};
+    use hadou::effects::metaballs_f32::tangency;
+    use hadou::effects::metaballs_trace::trace;
+    let steps = 64;
+    let mut scene = common::load("assets/scenes/metaballs.toml");
+    scene.metaballs.iter_mut().for_each(|g| g.method = CastMethod::SphereTrace { steps });
+    let (w, h) = (96u32, 96u32);
+    let frame = render(&scene, w, h, 0.0, &[Aov::Depth, Aov::Normal]);
+    let raster = raster_only(&scene, w, h);
+    let depth = &frame.aov(Aov::Depth).unwrap().data;
+    let raster = &raster.aov(Aov::Depth).unwrap().data;
+    let normal = frame.aov(Aov::Normal).unwrap();
+    let groups: Vec<MetaballGroupParams> = groups_at(&scene, 0.0);
+    let cam = &scene.camera;
+    let (mut checked, mut left_out, mut mismatched, mut worst_t, mut worst_n) = (0, 0, 0, 0f64, 0f64);
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            assert!(!depth[i].is_nan());
+            let (o, d) = cam.pixel_ray(x, y, w, h);
+            let (t_min, t_max) = (near_along(&scene, d), (raster[i] as f64).min(cam.far));
+            let r = reference(&groups, o, d, t_min, t_max);
+            let method_limited = groups.iter().any(|g| {
+                let tw = trace(g, o, d, t_min, t_max, steps);
+                let exact = hadou::effects::metaballs::cast(g, o, d, t_min, t_max);
+                let depth_differs = match (tw.hit, exact) {
+                    (Some(a), Some(b)) => (a.t - b.t).abs() > 1e-6 * b.t,
+                    (None, None) => false,
+                    _ => true,
+                };
+                tw.exhausted
+                    || tw.steps > steps - 8
+                    || depth_differs
+                    || tangency(g, o, d, t_min, t_max).margin <= 2f64.powi(-10)
+            });
+            if r.band || method_limited {
+                left_out += 1;
+                continue;
+            }
+            checked += 1;
+            let gpu_hit = depth[i].to_bits() != raster[i].to_bits();
+            if gpu_hit != r.hit.is_some() {
+                mismatched += 1;
+                println!("mismatch at ({x}, {y}): gpu {}, reference {:?}", depth[i], r.hit);
+                continue;
+            }
+            if let Some((t, n)) = r.hit {
+                worst_t = worst_t.max((depth[i] as f64 - t).abs() / t);
+                let n = if n.dot(d) > 0.0 { -n } else { n };
+                let g = DVec3::new(
+                    normal.at(x, y, 0) as f64,
+                    normal.at(x, y, 1) as f64,
+                    normal.at(x, y, 2) as f64,
+                );
+                worst_n = worst_n.max(g.normalize().dot(n).clamp(-1.0, 1.0).acos().to_degrees());
+            }
+        }
+    }
+    println!(
+        "sphere tracing ({steps} steps): {checked} px checked, {left_out} left out, {mismatched} mismatched, \
+         worst depth {worst_t:.2e} rel, worst normal {worst_n:.3}°; {} px ran out of steps",
+        frame.stats.metaball_overflow
+    );
+    assert!(checked > 8000, "{checked}");
+    assert!(mismatched as f64 <= 1e-4 * checked as f64, "{mismatched} mismatched");
+    assert!(worst_t <= 1e-4 && worst_n <= 0.5, "depth {worst_t:.2e}, normal {worst_n:.3}°");
+    assert!(frame.stats.metaball_hits > 1000);
 }

@@ -465,7 +465,10 @@ fn colour_matches_the_f64_formula() {
         }
         per_instance[s.instance].push(excess);
     }
-    println!("worst error / per-pixel bound: {worst:.3}; {lit_through} of {} pixels lit through", samples.len());
+    println!(
+        "worst error / per-pixel bound: {worst:.3}; {lit_through} of {} pixels lit through",
+        samples.len()
+    );
     // The objects are back-lit: most of what the camera sees is a face the light leaves through.
     assert!(lit_through * 2 > samples.len(), "{lit_through} of {}", samples.len());
     for (k, errors) in per_instance.into_iter().enumerate() {

@@ -10,7 +10,8 @@ use glam::DVec3;
 use gpu_allocator::MemoryLocation;
 use hadou::effects::metaballs::{cast, Ball, Kernel, MetaballGroupParams};
 use hadou::effects::metaballs_f32::{
-    cast_f32, gpu_balls, gpu_group, tangency, GpuMetaBall, GpuMetaGroup, MB_HIT, MB_OVERFLOW,
+    cast_f32, gpu_balls, gpu_group, tangency, GpuMetaBall, GpuMetaGroup, BAND_C, MB_HIT, MB_NOT_CONVERGED,
+    MB_OVERFLOW,
 };
 use hadou::gpu::barriers::{cmd_barriers, memory_barrier};
 use hadou::gpu::commands::FrameCommands;
@@ -27,7 +28,7 @@ layout(local_size_x = 64) in;
 struct ProbeRay {
     vec4 origin_tmin;   // xyz: world origin, w: t_min
     vec4 dir_tmax;      // xyz: unit world direction, w: t_max
-    uvec4 target;       // x: group, y: list begin, z: list count
+    uvec4 target;       // x: group, y: list begin, z: list count, w: 1 to sphere-trace
 };
 layout(set = 0, binding = 0, std430) readonly buffer Groups { MetaGroup groups[]; };
 layout(set = 0, binding = 1, std430) readonly buffer Balls { MetaBall balls[]; };
@@ -43,7 +44,7 @@ void main() {
     if (r >= params.counts.x) return;
     ProbeRay ray = rays[r];
     MetaHit h = metaball_cast(ray.origin_tmin.xyz, ray.dir_tmax.xyz, groups[ray.target.x], ray.target.y,
-                              ray.target.z, ray.origin_tmin.w, ray.dir_tmax.w);
+                              ray.target.z, ray.origin_tmin.w, ray.dir_tmax.w, ray.target.w != 0u);
     results[2u * r] = vec4(h.normal, h.t);
     results[2u * r + 1u] = vec4(uintBitsToFloat(h.flags), uintBitsToFloat(h.iterations), 0.0, 0.0);
 }
@@ -206,6 +207,7 @@ fn random_group(rng: &mut Rng) -> MetaballGroupParams {
         kernel: if rng.next() < 0.7 { Kernel::Wyvill6 } else { Kernel::Murakami4 },
         balls,
         transform: Transform::from_ops(&ops).unwrap(),
+        method: Default::default(),
     }
 }
 
@@ -259,6 +261,7 @@ fn glsl_matches_the_f32_twin_and_f64() {
             glam::Vec3::from_slice(&ray.dir_tmax[..3]),
             ray.origin_tmin[3],
             ray.dir_tmax[3],
+            false,
         );
         assert_eq!(flags & MB_OVERFLOW, 0);
         let reference = cast(&params[gi], o, d, t_min, t_max);
@@ -295,4 +298,110 @@ fn glsl_matches_the_f32_twin_and_f64() {
     );
     assert!(hits > 2000, "{hits} hits");
     assert!(worst_twin_t <= 1e-5 && worst_twin_n <= 0.05);
+}
+
+/// The two variants the speed-against-error report compares, on the device against the f32
+/// twin: Bézier clipping with a coarse `tolerance` (1e-3 world units) and sphere tracing (4,096
+/// steps: far more than any of these rays needs, so no cast runs out). Both are the same f32
+/// operations on both sides, so outside the tangency band hit/miss agree and depths agree to
+/// rounding (1e-5 relative, as for the default clipping above). Sphere tracing may also skip a
+/// sliver of surface thinner than its least step, where F − T stays within 2⁻¹⁰·T of zero (see
+/// metaballs_trace.rs): there the device and the twin may legitimately take different steps, so
+/// rays whose tangency margin is below 2⁻¹⁰ (margin = min |F − T|/(S + X·G) ≥ that, since
+/// S ≥ T) are left out of the sphere-tracing comparison.
+#[test]
+fn glsl_variants_match_the_f32_twin() {
+    use hadou::effects::metaballs::CastMethod;
+    let mut rng = Rng(0x7661_7269_616e_7473);
+    let (mut groups, mut params, mut balls, mut lists) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut rays, mut ray_f64) = (Vec::new(), Vec::new());
+    for gi in 0..48u32 {
+        let mut g = random_group(&mut rng);
+        g.method = if gi % 2 == 0 {
+            CastMethod::Bezier { tolerance: 1e-3 }
+        } else {
+            CastMethod::SphereTrace { steps: 4096 }
+        };
+        let first = balls.len() as u32;
+        groups.push(gpu_group(&g, first, gi));
+        balls.extend(gpu_balls(&g));
+        let begin = lists.len() as u32;
+        lists.extend(first..first + g.balls.len() as u32);
+        let centre = g.transform.transform_point(DVec3::ZERO);
+        for _ in 0..128 {
+            let o = centre + rng.unit() * rng.range(6.0, 25.0);
+            let d = (centre + rng.vec(-4.0, 4.0) - o).normalize();
+            let t_min = rng.range(0.0, 1.0);
+            rays.push(ProbeRay {
+                origin_tmin: [o.x as f32, o.y as f32, o.z as f32, t_min as f32],
+                dir_tmax: [d.x as f32, d.y as f32, d.z as f32, 100.0],
+                target: [gi, begin, g.balls.len() as u32, gi % 2],
+            });
+            ray_f64.push((params.len(), o, d, t_min));
+        }
+        params.push(g);
+    }
+    let gpu = run_probe(&groups, &balls, &lists, &rays);
+    let (mut hits, mut left_out, mut worst_t, mut worst_f64) = ([0usize; 2], [0usize; 2], [0f64; 2], 0f64);
+    let mut worst_tol = 0f64;
+    for (k, (ray, &(gi, o, d, t_min))) in rays.iter().zip(&ray_f64).enumerate() {
+        let (normal, t, flags, _) = gpu[k];
+        let trace = ray.target[3] as usize;
+        let (b, c) = (ray.target[1] as usize, ray.target[2] as usize);
+        let twin = cast_f32(
+            &groups[gi],
+            &balls,
+            &lists[b..b + c],
+            glam::Vec3::from_slice(&ray.origin_tmin[..3]),
+            glam::Vec3::from_slice(&ray.dir_tmax[..3]),
+            ray.origin_tmin[3],
+            ray.dir_tmax[3],
+            trace == 1,
+        );
+        assert_eq!(flags & (MB_OVERFLOW | MB_NOT_CONVERGED), 0, "ray {k}");
+        assert_eq!(twin.flags & MB_NOT_CONVERGED, 0, "ray {k}");
+        let margin = tangency(&params[gi], o, d, t_min, 100.0).margin;
+        let limit = if trace == 1 { 2f64.powi(-10) } else { BAND_C * f64::from(f32::EPSILON) };
+        if margin <= limit {
+            left_out[trace] += 1;
+            continue;
+        }
+        let gpu_hit = flags & MB_HIT != 0;
+        assert_eq!(
+            gpu_hit,
+            twin.hit(),
+            "ray {k} ({}): GPU flags {flags:#x}, twin {twin:?}",
+            ["clip", "trace"][trace]
+        );
+        if gpu_hit {
+            hits[trace] += 1;
+            worst_t[trace] = worst_t[trace].max(f64::from((t - twin.t).abs() / twin.t));
+            let gn = glam::Vec3::from(normal);
+            assert!(
+                gn.angle_between(twin.normal).to_degrees() <= 0.05,
+                "ray {k}: normal {gn} vs {}",
+                twin.normal
+            );
+            let r = cast(&params[gi], o, d, t_min, 100.0).expect("the reference hits too");
+            if trace == 1 {
+                // Sphere tracing finds the exact first root (away from slivers), to ~2⁻²⁶·T/L.
+                worst_f64 = worst_f64.max((f64::from(t) - r.t).abs() / r.t);
+            } else {
+                // A part whose ends differ in sign holds the first root: within half the
+                // tolerance of its middle, plus the default clipping's f32 error (≤ 1e-4).
+                let err = (f64::from(t) - r.t).abs();
+                assert!(err <= 0.5e-3 + 1e-4 * r.t, "ray {k}: tolerance 1e-3, t {t} vs f64 {}", r.t);
+                worst_tol = worst_tol.max(err);
+            }
+        }
+    }
+    println!(
+        "GPU variants vs the f32 twin: tolerance 1e-3: {} hits, worst depth {:.1e} rel (vs f64: {worst_tol:.1e} \
+         world units), {} rays in the band; \
+         sphere tracing: {} hits, worst depth {:.1e} rel (vs f64 reference {worst_f64:.1e}), {} rays within 2^-10",
+        hits[0], worst_t[0], left_out[0], hits[1], worst_t[1], left_out[1]
+    );
+    assert!(hits[0] > 500 && hits[1] > 500, "{hits:?}");
+    assert!(worst_t[0] <= 1e-5 && worst_t[1] <= 1e-5, "{worst_t:?}");
+    assert!(worst_f64 <= 1e-4, "{worst_f64:.2e}");
 }

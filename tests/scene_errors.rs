@@ -133,6 +133,31 @@ const BAD: &[(&str, usize, usize, &str)] = &[
     ),
     ("metaballs_no_balls.toml", 9, 9, "metaballs \"empty\" `balls`: expected at least one ball"),
     ("metaballs_unknown_key.toml", 8, 1, "unknown field `radii`"),
+    (
+        "metaballs_unknown_method.toml",
+        7,
+        10,
+        "metaballs 1 `method`: expected one of \"bezier\", \"sphere_trace\", found \"marching_cubes\"",
+    ),
+    (
+        "metaballs_steps_zero.toml",
+        9,
+        9,
+        "metaballs \"slime\" `steps`: expected an integer in 1..=100000, found 0",
+    ),
+    (
+        "metaballs_tolerance_negative.toml",
+        8,
+        13,
+        "metaballs \"slime\" `tolerance`: expected a number > 0, found -0.001",
+    ),
+    ("metaballs_steps_with_bezier.toml", 7, 1, "`steps` is a field of method = \"sphere_trace\" only"),
+    (
+        "metaballs_tolerance_with_sphere_trace.toml",
+        8,
+        1,
+        "`tolerance` is a field of method = \"bezier\" only",
+    ),
 ];
 
 /// The OBJ rows also carry the OBJ file's own position, checked here so the table stays short.
@@ -224,7 +249,7 @@ fn asset_scenes_have_the_promised_content() {
     let triangles: usize =
         showcase.instances.iter().map(|i| showcase.meshes[i.mesh].mesh.indices.len() / 3).sum();
     assert!(triangles < 30_000, "showcase has {triangles} triangles");
-    assert!(showcase.instances.len() >= 6 && showcase.lights.len() == 1);
+    assert!(showcase.instances.len() >= 6 && showcase.lights.len() == 2);
     assert_eq!(load("single_cube.toml").instances.len(), 1);
     let grid = load("instances.toml");
     assert_eq!((grid.meshes.len(), grid.instances.len()), (1, 50));

@@ -1,7 +1,9 @@
 // Metaballs (seed 000): ray cast of one metaball group by support-sphere intervals, the lone-ball
-// sphere path and Bézier clipping of the summed Bernstein coefficients.
-// CPU twins: src/effects/metaballs.rs (f64 reference, the math in its module docs) and
-// src/effects/metaballs_f32.rs (this arithmetic, line by line: keep the two in sync).
+// sphere path and Bézier clipping of the summed Bernstein coefficients; or, for the
+// speed-against-error comparison, sphere tracing (mb_trace_slots).
+// CPU twins: src/effects/metaballs.rs (f64 reference, the math in its module docs),
+// src/effects/metaballs_trace.rs (the sphere tracer in f64) and src/effects/metaballs_f32.rs
+// (this arithmetic, line by line: keep the two in sync).
 //
 // Include it twice: the first time gives the structs (so the caller can declare its buffers of
 // them), the second time, once the caller has defined how to read those buffers, the functions:
@@ -15,7 +17,9 @@
 //
 // For a group's whole range: #define MB_INDEX(k) (k) and pass list_begin = info.y,
 // list_count = info.z. A list may hold any superset of the balls whose support the ray crosses,
-// in any order, but only balls of the group passed to metaball_cast.
+// in any order, but only balls of the group passed to metaball_cast. metaball_cast fills the chord
+// slots (mb_chord_t, mb_id) itself; shaders/metaballs.comp fills them per subgroup and calls
+// mb_clip_slots / mb_trace_slots directly.
 #ifndef HADOU_METABALLS_STRUCTS
 #define HADOU_METABALLS_STRUCTS
 
@@ -24,7 +28,8 @@ struct MetaGroup {
     mat4 to_object;      // M⁻¹: world → the group's object space
     mat4 to_world;       // M: object → world (not needed by the cast; for culling and binning)
     mat4 normal_matrix;  // M⁻ᵀ in the upper 3×3: object normal → world normal
-    vec4 params;         // x: threshold T > 0, yzw: 0
+    vec4 params;         // x: threshold T > 0, y: Bézier-clipping tolerance (world distance; 0: the
+                         // default MB_ALPHA_TOL), z: sphere-tracing steps (method sphere_trace), w: 0
     uvec4 info;          // x: kernel (MB_KERNEL_*), y: first ball, z: ball count, w: material index
 };
 
@@ -67,6 +72,8 @@ const float MB_EPS = 1.1920928955078125e-7;       // 2^-23, f32 epsilon
 const float MB_BAND_C = 16.0;                     // δ = MB_BAND_C·ε·(S + X·G), see mb_delta and
                                                   // the calibration in metaballs_f32.rs
 const float MB_FLAT_C = 16.0;                     // a part within MB_FLAT_C·ε·S of zero is a root
+const float MB_TRACE_MIN_STEP = 9.765625e-4;      // 2^-10: sphere tracing's least step, × T/L
+#define MB_TRACE_BISECT 16                        // bisections of a sphere-tracing bracket
 
 #endif  // HADOU_METABALLS_STRUCTS
 
@@ -157,6 +164,8 @@ float mb_delta(float S, float X, float G) {
 }
 
 // The smallest root α ∈ [0, 1] of the Bernstein polynomial `base` by Bézier clipping, or -1.
+// Clipping stops at a part narrower than MB_ALPHA_TOL, or at one at most alpha_tol wide (the
+// group's tolerance) whose end values differ in sign, and returns its middle.
 // Parts are searched left half first, from an explicit stack. `flat_floor` (MB_FLAT_C·ε·S) is
 // the noise rounding leaves in the coefficients; below it a value is indistinguishable from 0:
 // - a part whose control points all lie within it is a root (its middle);
@@ -165,13 +174,18 @@ float mb_delta(float S, float X, float G) {
 //   rounded end values disagree in sign);
 // - a dropped part whose interior control points come within δ of zero from below is a near
 //   miss and flags MB_TANGENT.
-float mb_first_root(float base[7], float flat_floor, float delta, inout uint iterations, inout uint flags) {
+float mb_first_root(float base[7], float flat_floor, float delta, float alpha_tol, inout uint iterations,
+                    inout uint flags) {
     vec2 stack[MB_STACK_SIZE];
     int sp = 0;
     float a = 0.0;
     float b = 1.0;
     float c[7] = base;
-    // Every pass pops a part, returns, or spends a clip step; pops never outnumber pushes.
+    bool narrow = false;  // the part is at most alpha_tol wide (a coarser tolerance than the default)
+    // Every pass pops a part, returns, or spends a clip step; pops never outnumber pushes. Each
+    // pass ends in one restriction (lavapipe runs every branch's code for the whole SIMD group,
+    // so one call at the end costs a third of one per branch): from `base` to [a, b] after a pop,
+    // else from the clipped part to the kept share [u0, u1] of it.
     for (uint guard = 0u; guard < 2u * MB_MAX_ITERATIONS + 2u; ++guard) {
         bool all_pos = true;
         bool all_neg = true;
@@ -184,7 +198,13 @@ float mb_first_root(float base[7], float flat_floor, float delta, inout uint ite
             if (k > 0 && k < 6) inner_max = max(inner_max, c[k]);
         }
         if (largest <= flat_floor) return 0.5 * (a + b);
-        if (all_pos || all_neg) {
+        // A narrow part whose ends differ in sign holds a root within half its width. (One whose
+        // ends agree may hold none: the hull can cross the axis above a curve that does not.)
+        if (narrow && !(c[0] > 0.0 && c[6] > 0.0) && !(c[0] < 0.0 && c[6] < 0.0)) return 0.5 * (a + b);
+        bool pop = all_pos || all_neg;
+        float u0 = a;
+        float u1 = b;
+        if (pop) {
             if (abs(c[0]) <= flat_floor) return a;
             if (abs(c[6]) <= flat_floor) return b;
             if (all_neg && inner_max >= -delta) flags |= MB_TANGENT;
@@ -192,34 +212,39 @@ float mb_first_root(float base[7], float flat_floor, float delta, inout uint ite
             --sp;
             a = stack[sp].x;
             b = stack[sp].y;
-            c = base;
-            mb_restrict(c, a, b);
-            continue;
-        }
-        if (iterations >= MB_MAX_ITERATIONS) {
-            flags |= MB_NOT_CONVERGED;
-            return -1.0;
-        }
-        vec2 h = mb_hull_crossing(c);
-        iterations += 1u;
-        float na = a + h.x * (b - a);
-        float nb = a + h.y * (b - a);
-        if (nb - na <= MB_ALPHA_TOL) return 0.5 * (na + nb);
-        mb_restrict(c, h.x, h.y);
-        a = na;
-        b = nb;
-        if (h.y - h.x > MB_SPLIT_RATIO) {
-            if (sp < MB_STACK_SIZE) {
-                float m = 0.5 * (a + b);
-                stack[sp] = vec2(m, b);
-                ++sp;
-                mb_restrict(c, 0.0, 0.5);
-                b = m;
-            } else {
-                flags |= MB_NOT_CONVERGED;  // unreachable (see MB_STACK_SIZE)
+            u0 = a;
+            u1 = b;
+            narrow = false;
+        } else {
+            if (iterations >= MB_MAX_ITERATIONS) {
+                flags |= MB_NOT_CONVERGED;
                 return -1.0;
             }
+            vec2 h = mb_hull_crossing(c);
+            iterations += 1u;
+            float na = a + h.x * (b - a);
+            float nb = a + h.y * (b - a);
+            if (nb - na <= MB_ALPHA_TOL) return 0.5 * (na + nb);
+            narrow = nb - na <= alpha_tol;
+            a = na;
+            b = nb;
+            u0 = h.x;
+            u1 = h.y;
+            if (h.y - h.x > MB_SPLIT_RATIO && !narrow) {
+                if (sp < MB_STACK_SIZE) {
+                    float m = 0.5 * (a + b);
+                    stack[sp] = vec2(m, b);
+                    ++sp;
+                    u1 = h.x + 0.5 * (h.y - h.x);
+                    b = m;
+                } else {
+                    flags |= MB_NOT_CONVERGED;  // unreachable (see MB_STACK_SIZE)
+                    return -1.0;
+                }
+            }
         }
+        if (pop) c = base;
+        mb_restrict(c, u0, u1);
     }
     flags |= MB_NOT_CONVERGED;
     return -1.0;
@@ -245,141 +270,181 @@ bool mb_shallow_root(float base[7], float alpha, float delta) {
     return s * s <= 2.0 * m2 * delta;
 }
 
-// The first crossing of the group's surface F = T along the world ray origin + t·dir (dir unit),
-// t ∈ [t_min, t_max] (world distances along the ray: t_max from the depth buffer is the ray
-// distance to the raster surface, i.e. the view depth / dot(dir, forward)), against the balls
-// MB_INDEX(list_begin) … MB_INDEX(list_begin + list_count − 1).
-MetaHit metaball_cast(vec3 origin, vec3 dir, MetaGroup g, uint list_begin, uint list_count,
-                      float t_min, float t_max) {
-    MetaHit hit;
-    hit.normal = -dir;
-    hit.t = t_max;
-    hit.flags = 0u;
-    hit.iterations = 0u;
+// The ray's support chords, in slots 0 … slots−1 (object-space t′; a slot's bit in the cast's
+// `mask` says it belongs to this ray). Slots are indexed by subgroup-uniform loop counters only:
+// on lavapipe a per-invocation array indexed by a divergent value is a per-lane gather/scatter,
+// one indexed by a uniform value a single vector access. No sorting: the sweep finds the next
+// chord end by a scan.
+// (Two arrays only: every store into them costs the gather in metaballs.comp a per-lane scatter.)
+vec2 mb_chord_t[MB_MAX_RAY_BALLS];  // x: chord entry, y: chord exit
+uint mb_id[MB_MAX_RAY_BALLS];       // the ball (for MB_BALL)
+
+// a = D/R² (seed eq. 16) of a chord, D = (half its length)².
+float mb_chord_a(vec2 chord, float R) {
+    float half_chord = 0.5 * (chord.y - chord.x);
+    return half_chord * half_chord / (R * R);
+}
+
+// Fills slot j from ball `id` when its support chord crosses (t0, t1); false when it does not.
+bool mb_chord(uint j, uint id, vec3 o, vec3 d, float t0, float t1) {
+    MetaBall ball = MB_BALL(id);
+    vec3 w = ball.centre_radius.xyz - o;
+    float tc = dot(w, d);
+    vec3 cr = cross(w, d);
+    float R = ball.centre_radius.w;
+    float D = R * R - dot(cr, cr);
+    if (!(D > 0.0)) return false;
+    float half_chord = sqrt(D);
+    float en = tc - half_chord;
+    float ex = tc + half_chord;
+    if (ex <= t0 || en >= t1) return false;
+    mb_chord_t[j] = vec2(en, ex);
+    mb_id[j] = id;
+    return true;
+}
+
+// The object-space ray of a world ray (seed 002): o + t′·d with t′ = t·ts.
+struct MetaRay {
+    vec3 o;
+    vec3 d;
+    float ts;
+};
+
+MetaRay mb_object_ray(MetaGroup g, vec3 origin, vec3 dir) {
+    MetaRay r;
+    r.o = (g.to_object * vec4(origin, 1.0)).xyz;
+    vec3 dv = (g.to_object * vec4(dir, 0.0)).xyz;
+    r.ts = length(dv);
+    r.d = dv / r.ts;
+    return r;
+}
+
+// The hit at object-space t_found: the normal from the gradient (seed eq. 25) over the slots'
+// balls, mapped by M⁻ᵀ.
+void mb_finish(inout MetaHit hit, MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, float t_found) {
+    uint kernel = g.info.x;
+    vec3 p = r.o + r.d * t_found;
+    vec3 grad = vec3(0.0);
+    for (uint j = 0u; j < slots; ++j) {
+        if ((mask & (1u << j)) == 0u) continue;
+        MetaBall ball = MB_BALL(mb_id[j]);
+        vec3 w = p - ball.centre_radius.xyz;
+        float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
+        grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
+    }
+    vec3 nw = mat3(g.normal_matrix) * -grad;
+    float len = length(nw);
+    hit.normal = len > 0.0 ? nw / len : -dir;
+    hit.t = t_found / r.ts;
+    hit.flags |= MB_HIT;
+}
+
+// An upper bound of F on [t_cur, t_next] ⊂ the chords of `live`: Σ max(q, 0)·f(r′_min), r′_min
+// the least r′ = 1 − a·(1 − s²) of each chord on the interval (s ∈ [−1, 1] across the chord).
+// Where it stays below T (by δ, so near misses still reach the clipping and its MB_TANGENT
+// test) the interval holds no root and its Bernstein coefficients are never built.
+float mb_field_bound(uint kernel, uint live, float t_cur, float t_next) {
+    float B = 0.0;
+    uint m = live;
+    while (m != 0u) {
+        int j = findLSB(m);
+        m &= m - 1u;
+        MetaBall ball = MB_BALL(mb_id[j]);
+        vec2 ct = mb_chord_t[j];
+        float half_chord = 0.5 * (ct.y - ct.x);
+        float mid = ct.x + half_chord;
+        float s0 = (t_cur - mid) / half_chord;
+        float s1 = (t_next - mid) / half_chord;
+        float s2 = s0 <= 0.0 && s1 >= 0.0 ? 0.0 : min(s0 * s0, s1 * s1);
+        float a = mb_chord_a(ct, ball.centre_radius.w);
+        B += max(ball.coeffs.x, 0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
+    }
+    return B;
+}
+
+// Bézier clipping over the slots' chords (seed section 2): the first crossing of F = T with
+// t′ ∈ [t0, t_end]; a miss leaves hit.t as it was. On lavapipe both sides of every branch run
+// for the whole SIMD group and a loop body runs at least once, so the sweep (cheap: the lone-ball
+// sphere and the bound above) only stops at an interval that needs clipping, and the clipping
+// (the bulk of the code) runs once per such interval, outside the sweep.
+MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, float t0, float t_end,
+                      MetaHit hit) {
     uint kernel = g.info.x;
     float T = g.params.x;
-    // Seed 002: the ray in object space, t' = t·‖M⁻¹d‖.
-    vec3 o = (g.to_object * vec4(origin, 1.0)).xyz;
-    vec3 dv = (g.to_object * vec4(dir, 0.0)).xyz;
-    float ts = length(dv);
-    vec3 d = dv / ts;
-    float t0 = t_min * ts;
-    float t1 = t_max * ts;
-    if (!(t1 >= t0)) return hit;
-    float X = length(o);
-
-    // The support chords crossing (t0, t1), sorted by entry; the nearest MB_MAX_RAY_BALLS kept.
-    float enter_t[MB_MAX_RAY_BALLS];
-    float exit_t[MB_MAX_RAY_BALLS];
-    float chord_a[MB_MAX_RAY_BALLS];
-    uint ball_id[MB_MAX_RAY_BALLS];
-    int n = 0;
-    float t_limit = t1;
-    for (uint k = 0u; k < list_count; ++k) {
-        uint id = MB_INDEX(list_begin + k);
-        MetaBall ball = MB_BALL(id);
-        vec3 w = ball.centre_radius.xyz - o;
-        float tc = dot(w, d);
-        vec3 cr = cross(w, d);
-        float R = ball.centre_radius.w;
-        float D = R * R - dot(cr, cr);
-        if (!(D > 0.0)) continue;
-        float half_chord = sqrt(D);
-        float en = tc - half_chord;
-        float ex = tc + half_chord;
-        if (ex <= t0 || en >= t1) continue;
-        if (n == MB_MAX_RAY_BALLS) {
-            if (en >= enter_t[n - 1]) {
-                t_limit = min(t_limit, en);
-                continue;
-            }
-            t_limit = min(t_limit, enter_t[n - 1]);
-            n -= 1;
-        }
-        int j = n;
-        while (j > 0 && enter_t[j - 1] > en) {
-            enter_t[j] = enter_t[j - 1];
-            exit_t[j] = exit_t[j - 1];
-            chord_a[j] = chord_a[j - 1];
-            ball_id[j] = ball_id[j - 1];
-            --j;
-        }
-        enter_t[j] = en;
-        exit_t[j] = ex;
-        chord_a[j] = D / (R * R);
-        ball_id[j] = id;
-        ++n;
-    }
-    float t_end = min(t1, t_limit);
-
-    // Sweep the intervals between chord ends, nearest first (seed section 2.3).
-    uint live = 0u;
-    int next = 0;
+    float X = length(r.o);
     float t_cur = t0;
     float t_found = 0.0;
     bool found = false;
-    for (int step = 0; step < 2 * MB_MAX_RAY_BALLS + 1; ++step) {
-        while (next < n && enter_t[next] <= t_cur) {
-            live |= 1u << uint(next);
-            ++next;
-        }
-        uint m = live;
-        while (m != 0u) {
-            int j = findLSB(m);
-            m &= m - 1u;
-            if (exit_t[j] <= t_cur) live &= ~(1u << uint(j));
-        }
-        if (t_cur >= t_end) break;
+    bool more = true;  // an interval left to clip
+    uint sweep = 0u;   // intervals visited: at most 2·MB_MAX_RAY_BALLS + 1 in all
+    do {
+        // Sweep the intervals between chord ends, nearest first (seed section 2.3), to the next
+        // one that needs clipping.
+        uint live = 0u;
         float t_next = t_end;
-        if (next < n) t_next = min(t_next, enter_t[next]);
-        m = live;
-        while (m != 0u) {
-            int j = findLSB(m);
-            m &= m - 1u;
-            t_next = min(t_next, exit_t[j]);
+        bool clip = false;
+        while (!found && t_cur < t_end && sweep < uint(2 * MB_MAX_RAY_BALLS + 1)) {
+            ++sweep;
+            live = 0u;
+            t_next = t_end;
+            for (uint j = 0u; j < slots; ++j) {
+                float en = mb_chord_t[j].x;
+                float ex = mb_chord_t[j].y;
+                bool mine = (mask & (1u << j)) != 0u;
+                if (mine && en <= t_cur && ex > t_cur) live |= 1u << j;
+                if (mine && ex > t_cur) t_next = min(t_next, en > t_cur ? en : ex);
+            }
+            int count = bitCount(live);
+            if (count == 1) {
+                // A lone ball: its isosurface is a sphere of radius ρ*R (seed section 2.1).
+                MetaBall ball = MB_BALL(mb_id[findLSB(live)]);
+                vec3 w = ball.centre_radius.xyz - r.o;
+                float tc = dot(w, r.d);
+                vec3 cr = cross(w, r.d);
+                float h2 = dot(cr, cr);
+                float rr = ball.coeffs.y;
+                float disc = rr * rr - h2;
+                if (rr > 0.0 && disc >= 0.0) {
+                    float root = sqrt(disc);
+                    float wl = length(w);
+                    float prod = (wl - rr) * (wl + rr);
+                    float near_t;
+                    float far_t;
+                    if (tc > 0.0) {
+                        far_t = tc + root;
+                        near_t = prod / far_t;
+                    } else {
+                        near_t = tc - root;
+                        far_t = near_t != 0.0 ? prod / near_t : tc + root;
+                    }
+                    if (near_t >= t_cur && near_t <= t_next) {
+                        t_found = near_t;
+                        found = true;
+                    } else if (far_t >= t_cur && far_t <= t_next) {
+                        t_found = far_t;
+                        found = true;
+                    }
+                }
+                if (tc >= t_cur && tc <= t_next) {
+                    // The field's maximum on this ray is at the closest approach: within δ of T
+                    // is a graze (a near miss, or a hit on the silhouette).
+                    float R = ball.centre_radius.w;
+                    float gmax = ball.coeffs.x * mb_kernel(kernel, h2 / (R * R)) - T;
+                    float delta = mb_delta(abs(ball.coeffs.x) + T, X + t_next, ball.coeffs.z);
+                    if (abs(gmax) <= delta) hit.flags |= MB_TANGENT;
+                }
+            } else if (count >= 2) {
+                float B = mb_field_bound(kernel, live, t_cur, t_next);
+                // δ of the interval with B + T standing in for its coefficient scale S, and G the
+                // largest single |q|γ/R (both underestimates: the skip is the stricter for it).
+                clip = B >= T - mb_delta(B + T, X + t_next, 0.0);
+            }
+            if (!found && !clip) t_cur = t_next;
+            if (clip) break;
         }
-        int count = bitCount(live);
-        if (count == 1) {
-            // A lone ball: its isosurface is a sphere of radius ρ*R (seed section 2.1).
-            int j = findLSB(live);
-            MetaBall ball = MB_BALL(ball_id[j]);
-            vec3 w = ball.centre_radius.xyz - o;
-            float tc = dot(w, d);
-            vec3 cr = cross(w, d);
-            float h2 = dot(cr, cr);
-            float rr = ball.coeffs.y;
-            float disc = rr * rr - h2;
-            if (rr > 0.0 && disc >= 0.0) {
-                float root = sqrt(disc);
-                float wl = length(w);
-                float prod = (wl - rr) * (wl + rr);
-                float near_t;
-                float far_t;
-                if (tc > 0.0) {
-                    far_t = tc + root;
-                    near_t = prod / far_t;
-                } else {
-                    near_t = tc - root;
-                    far_t = near_t != 0.0 ? prod / near_t : tc + root;
-                }
-                if (near_t >= t_cur && near_t <= t_next) {
-                    t_found = near_t;
-                    found = true;
-                } else if (far_t >= t_cur && far_t <= t_next) {
-                    t_found = far_t;
-                    found = true;
-                }
-            }
-            if (tc >= t_cur && tc <= t_next) {
-                // The field's maximum on this ray is at the closest approach: within δ of T is a
-                // graze (a near miss, or a hit on the silhouette).
-                float R = ball.centre_radius.w;
-                float gmax = ball.coeffs.x * mb_kernel(kernel, h2 / (R * R)) - T;
-                float delta = mb_delta(abs(ball.coeffs.x) + T, X + t_next, ball.coeffs.z);
-                if (abs(gmax) <= delta) hit.flags |= MB_TANGENT;
-            }
-        } else if (count >= 2) {
-            // Several: Σ q·f as one Bernstein polynomial over the interval, minus T (seed 2.2).
+        more = clip && !found;
+        if (more) {
+            // Several balls: Σ q·f as one Bernstein polynomial over the interval, minus T (seed 2.2).
             float c[7];
             float scale[7];
             for (int k = 0; k < 7; ++k) {
@@ -387,16 +452,17 @@ MetaHit metaball_cast(vec3 origin, vec3 dir, MetaGroup g, uint list_begin, uint 
                 scale[k] = 0.0;
             }
             float G = 0.0;
-            m = live;
+            uint m = live;
             while (m != 0u) {
                 int j = findLSB(m);
                 m &= m - 1u;
-                MetaBall ball = MB_BALL(ball_id[j]);
-                float chord = exit_t[j] - enter_t[j];
-                float sa = clamp((t_cur - enter_t[j]) / chord, 0.0, 1.0);
-                float sb = clamp((t_next - enter_t[j]) / chord, 0.0, 1.0);
+                MetaBall ball = MB_BALL(mb_id[j]);
+                vec2 ct = mb_chord_t[j];
+                float chord = ct.y - ct.x;
+                float sa = clamp((t_cur - ct.x) / chord, 0.0, 1.0);
+                float sb = clamp((t_next - ct.x) / chord, 0.0, 1.0);
                 float dj[7];
-                mb_chord_bernstein(kernel, chord_a[j], ball.coeffs.x, dj);
+                mb_chord_bernstein(kernel, mb_chord_a(ct, ball.centre_radius.w), ball.coeffs.x, dj);
                 mb_restrict(dj, sa, sb);
                 for (int k = 0; k < 7; ++k) {
                     c[k] += dj[k];
@@ -407,40 +473,152 @@ MetaHit metaball_cast(vec3 origin, vec3 dir, MetaGroup g, uint list_begin, uint 
             float S = 0.0;
             for (int k = 0; k < 7; ++k) S = max(S, scale[k]);
             float delta = mb_delta(S + T, X + t_next, G);
-            float alpha = mb_first_root(c, MB_FLAT_C * MB_EPS * (S + T), delta, hit.iterations, hit.flags);
-            if ((hit.flags & MB_NOT_CONVERGED) != 0u) return hit;
-            if (alpha >= 0.0) {
+            // The group's tolerance (world units; 0: MB_ALPHA_TOL alone) as a width in α.
+            float tol = g.params.y;
+            float alpha_tol = tol > 0.0 ? max(MB_ALPHA_TOL, tol * r.ts / (t_next - t_cur)) : MB_ALPHA_TOL;
+            float alpha = mb_first_root(c, MB_FLAT_C * MB_EPS * (S + T), delta, alpha_tol, hit.iterations,
+                                        hit.flags);
+            if ((hit.flags & MB_NOT_CONVERGED) != 0u) {
+                more = false;
+            } else if (alpha >= 0.0) {
                 if (mb_shallow_root(c, alpha, delta)) hit.flags |= MB_TANGENT;
                 t_found = t_cur + alpha * (t_next - t_cur);
                 found = true;
+                more = false;
+            } else {
+                t_cur = t_next;
             }
         }
-        if (found) break;
-        t_cur = t_next;
+    } while (more);
+    if ((hit.flags & MB_NOT_CONVERGED) != 0u) return hit;
+    if (found) mb_finish(hit, g, r, dir, slots, mask, t_found);
+    return hit;
+}
+
+// F along the ray at t′ from the slots (r′ = 1 − a·(1 − s²) on a chord, s ∈ [−1, 1] across it),
+// with L = Σ|q|γ/R over the chords containing t′ (a Lipschitz bound of F along the ray until the
+// next chord entry) and that next entry.
+vec3 mb_trace_probe(uint kernel, uint slots, uint mask, float t) {
+    float F = 0.0;
+    float L = 0.0;
+    float next_en = 3.402823466e38;
+    for (uint j = 0u; j < slots; ++j) {
+        bool mine = (mask & (1u << j)) != 0u;
+        if (!mine) continue;
+        MetaBall ball = MB_BALL(mb_id[j]);
+        float en = mb_chord_t[j].x;
+        float ex = mb_chord_t[j].y;
+        float half_chord = 0.5 * (ex - en);
+        float s = (t - (en + half_chord)) / half_chord;
+        float a = mb_chord_a(mb_chord_t[j], ball.centre_radius.w);
+        float v = ball.coeffs.x * mb_kernel(kernel, 1.0 - a * (1.0 - s * s));
+        F += en <= t && t <= ex ? v : 0.0;
+        L += en <= t && t < ex ? ball.coeffs.z : 0.0;
+        if (mine && en > t) next_en = min(next_en, en);
     }
-    if (!found) {
-        if (t_limit < t1) {
-            // Known to miss up to t_limit only: report it, so a caller may cast again from there.
-            hit.flags |= MB_OVERFLOW;
-            hit.t = t_limit / ts;
+    return vec3(F, L, next_en);
+}
+
+// The sphere-tracing baseline (CPU twin: src/effects/metaballs_trace.rs): from t0, steps of
+// |F − T|/L (never past a root: |F − T| changes by at most L per unit t′ until the next chord
+// entry, which ends a step), at least MB_TRACE_MIN_STEP·T/L, at most g.params.z of them; a sign
+// change of F − T brackets the root, refined by MB_TRACE_BISECT bisections. Out of steps before
+// t_end: MB_NOT_CONVERGED. hit.iterations counts the march steps.
+MetaHit mb_trace_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, float t0, float t_end,
+                       MetaHit hit) {
+    uint kernel = g.info.x;
+    float T = g.params.x;
+    uint steps = uint(g.params.z);
+    vec3 p = mb_trace_probe(kernel, slots, mask, t0);
+    bool inside = p.x >= T;  // the sign F − T starts with (the camera may be inside)
+    float t = t0;
+    float t_prev = t0;
+    bool bracket = false;
+    uint k = 0u;
+    do {
+        float gap = inside ? p.x - T : T - p.x;
+        if (gap <= 0.0) {
+            bracket = true;
+            break;
         }
+        if (t >= t_end || k >= steps) break;
+        float step = p.y > 0.0 ? max(gap, MB_TRACE_MIN_STEP * T) / p.y : t_end - t;
+        t_prev = t;
+        t = min(min(t + step, p.z), t_end);
+        p = mb_trace_probe(kernel, slots, mask, t);
+        ++k;
+    } while (true);
+    hit.iterations += k;
+    if (!bracket) {
+        if (t < t_end) hit.flags |= MB_NOT_CONVERGED;
         return hit;
     }
-
-    // The normal from the gradient (seed eq. 25) over the ray's balls, mapped by M⁻ᵀ.
-    vec3 p = o + d * t_found;
-    vec3 grad = vec3(0.0);
-    for (int j = 0; j < n; ++j) {
-        MetaBall ball = MB_BALL(ball_id[j]);
-        vec3 w = p - ball.centre_radius.xyz;
-        float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
-        grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
+    float lo = t_prev;
+    float hi = t;
+    for (int i = 0; i < MB_TRACE_BISECT; ++i) {
+        float mid = 0.5 * (lo + hi);
+        bool in_mid = mb_trace_probe(kernel, slots, mask, mid).x >= T;
+        if (in_mid == inside) lo = mid;
+        else hi = mid;
     }
-    vec3 nw = mat3(g.normal_matrix) * -grad;
-    float len = length(nw);
-    hit.normal = len > 0.0 ? nw / len : -dir;
-    hit.t = t_found / ts;
-    hit.flags |= MB_HIT;
+    mb_finish(hit, g, r, dir, slots, mask, 0.5 * (lo + hi));
+    return hit;
+}
+
+// The first crossing of the group's surface F = T along the world ray origin + t·dir (dir unit),
+// t ∈ [t_min, t_max] (world distances along the ray: t_max from the depth buffer is the ray
+// distance to the raster surface, i.e. the view depth / dot(dir, forward)), against the balls
+// MB_INDEX(list_begin) … MB_INDEX(list_begin + list_count − 1), by Bézier clipping, or by
+// sphere tracing when `trace` (the group's method).
+MetaHit metaball_cast(vec3 origin, vec3 dir, MetaGroup g, uint list_begin, uint list_count,
+                      float t_min, float t_max, bool trace) {
+    MetaHit hit;
+    hit.normal = -dir;
+    hit.t = t_max;
+    hit.flags = 0u;
+    hit.iterations = 0u;
+    MetaRay r = mb_object_ray(g, origin, dir);
+    float t0 = t_min * r.ts;
+    float t1 = t_max * r.ts;
+    if (!(t1 >= t0)) return hit;
+
+    // The support chords crossing (t0, t1); the nearest MB_MAX_RAY_BALLS by entry kept.
+    uint n = 0u;
+    float t_limit = t1;
+    for (uint k = 0u; k < list_count; ++k) {
+        uint j = min(n, uint(MB_MAX_RAY_BALLS - 1));
+        if (n == uint(MB_MAX_RAY_BALLS)) {
+            // Full: the slot with the latest entry is the candidate to replace.
+            float latest = mb_chord_t[0].x;
+            j = 0u;
+            for (uint i = 1u; i < uint(MB_MAX_RAY_BALLS); ++i) {
+                if (mb_chord_t[i].x > latest) {
+                    latest = mb_chord_t[i].x;
+                    j = i;
+                }
+            }
+            vec2 chord0 = mb_chord_t[j];
+            uint id0 = mb_id[j];
+            if (!mb_chord(j, MB_INDEX(list_begin + k), r.o, r.d, t0, t1)) continue;
+            if (mb_chord_t[j].x >= latest) {
+                t_limit = min(t_limit, mb_chord_t[j].x);
+                mb_chord_t[j] = chord0;
+                mb_id[j] = id0;
+            } else {
+                t_limit = min(t_limit, latest);
+            }
+        } else if (mb_chord(j, MB_INDEX(list_begin + k), r.o, r.d, t0, t1)) {
+            ++n;
+        }
+    }
+    float t_end = min(t1, t_limit);
+    uint mask = n >= 32u ? 0xffffffffu : (1u << n) - 1u;
+    hit = trace ? mb_trace_slots(g, r, dir, n, mask, t0, t_end, hit) : mb_clip_slots(g, r, dir, n, mask, t0, t_end, hit);
+    if ((hit.flags & (MB_HIT | MB_NOT_CONVERGED)) == 0u && t_limit < t1) {
+        // Known to miss up to t_limit only: report it, so a caller may cast again from there.
+        hit.flags |= MB_OVERFLOW;
+        hit.t = t_limit / r.ts;
+    }
     return hit;
 }
 

@@ -2,10 +2,7 @@
 //! [--force]`: bakes thickness LUTs (seed 003) through the on-disk cache, with a progress line on
 //! stderr and one summary line per table on stdout.
 
-use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
-
-use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
@@ -16,6 +13,8 @@ use hadou::effects::thickness_lut::{
 };
 use hadou::scene::mesh::Mesh;
 use hadou::scene::{MaterialKind, ThicknessMode};
+
+use super::progress::Progress;
 
 #[derive(Args, Debug)]
 pub struct BakeArgs {
@@ -81,44 +80,6 @@ fn jobs(args: &BakeArgs) -> anyhow::Result<Vec<Job>> {
         .collect())
 }
 
-/// A progress line on stderr: redrawn in place at most every 100 ms on a terminal, a new line
-/// every 2 s otherwise; 100 % exactly once.
-struct Progress {
-    label: String,
-    terminal: bool,
-    /// When the line was last drawn, and whether 100 % has been shown.
-    state: Mutex<(Option<Instant>, bool)>,
-}
-
-impl Progress {
-    fn new(label: String) -> Progress {
-        Progress { label, terminal: std::io::stderr().is_terminal(), state: Mutex::new((None, false)) }
-    }
-
-    fn show(&self, done: usize, total: usize) {
-        let Ok(mut state) = self.state.lock() else { return };
-        let (last, finished) = &mut *state;
-        let period = if self.terminal { 100 } else { 2000 };
-        let due = last.is_none_or(|t| t.elapsed().as_millis() >= period);
-        if *finished || (!due && done < total) {
-            return;
-        }
-        *last = Some(Instant::now());
-        *finished = done >= total;
-        let percent = if total == 0 { 100.0 } else { done as f64 * 100.0 / total as f64 };
-        let mut err = std::io::stderr().lock();
-        let (start, end) = if self.terminal { ("\r", "") } else { ("", "\n") };
-        let _ = write!(err, "{start}{}: {percent:5.1}% of {total} pairs{end}", self.label);
-        let _ = err.flush();
-    }
-
-    fn finish(&self) {
-        if self.terminal {
-            let _ = writeln!(std::io::stderr());
-        }
-    }
-}
-
 pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     if let Some(res) = args.res {
         if res == 0 || res > hadou::effects::voxelize::MAX_VOXEL_RES {
@@ -137,7 +98,8 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     }
     for job in &jobs {
         let progress = Progress::new(format!("baking {} at {}³", job.label, job.res));
-        let show = |done: usize, total: usize| progress.show(done, total);
+        let show =
+            |done: usize, total: usize| progress.show(done, total, &format!("of {total} pairs"), false);
         let start = Instant::now();
         let (lut, stats, how) = match (&cache, args.force) {
             (Some(cache), false) => {

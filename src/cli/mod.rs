@@ -2,7 +2,10 @@
 
 mod bake;
 mod profile;
+mod progress;
 mod render;
+mod report;
+mod view;
 
 use std::path::Path;
 
@@ -26,6 +29,10 @@ enum Command {
     Devices,
     /// Bake thickness LUTs (translucency, seed 003) for an OBJ or a scene's translucent meshes.
     Bake(bake::BakeArgs),
+    /// Speed against error for every effect, measured on this device: report.md, CSV, PNG plots.
+    Report(report::ReportArgs),
+    /// Open a window on a scene: orbit/fly camera, pass toggles, hot reload, screenshots.
+    View(view::ViewArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -33,6 +40,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(args),
         Command::Profile(args) => profile::run(args),
         Command::Bake(args) => bake::run(args),
+        Command::Report(args) => report::run(args),
+        Command::View(args) => view::run(args),
         Command::Devices => {
             let runtime = hadou::Runtime::new(&hadou::RuntimeOptions::from_env())?;
             let info = runtime.device_info();

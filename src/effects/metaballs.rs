@@ -69,6 +69,7 @@
 
 use glam::DVec3;
 
+pub use super::metaballs_trace::CastMethod;
 use crate::scene::transform::{ObjectRay, Transform};
 
 /// The density kernel f of every ball in a group.
@@ -100,6 +101,8 @@ pub struct MetaballGroupParams {
     pub balls: Vec<Ball>,
     /// Object → world.
     pub transform: Transform,
+    /// How the pass casts rays against it (the references here always clip exactly).
+    pub method: CastMethod,
 }
 
 /// The first crossing of the surface along a ray.
@@ -238,7 +241,11 @@ pub fn gradient(group: &MetaballGroupParams, p_object: DVec3) -> DVec3 {
     gradient_of(group, group.balls.iter(), p_object)
 }
 
-fn gradient_of<'a>(group: &MetaballGroupParams, balls: impl Iterator<Item = &'a Ball>, p: DVec3) -> DVec3 {
+pub(crate) fn gradient_of<'a>(
+    group: &MetaballGroupParams,
+    balls: impl Iterator<Item = &'a Ball>,
+    p: DVec3,
+) -> DVec3 {
     balls.fold(DVec3::ZERO, |acc, b| {
         let d = p - b.centre;
         let r2 = sq(b.radius);
@@ -725,6 +732,7 @@ mod tests {
             kernel: Kernel::Wyvill6,
             balls: balls.iter().map(|&(centre, radius, q)| Ball { centre, radius, q }).collect(),
             transform: Transform::IDENTITY,
+            method: Default::default(),
         }
     }
 

@@ -1,5 +1,6 @@
 //! The f32 twin of `shaders/common/metaballs.glsl`: the GPU structs (std430, asserted sizes), their
-//! packing from a [`MetaballGroupParams`], [`cast_f32`] (the shader's `metaball_cast` line by line)
+//! packing from a [`MetaballGroupParams`], [`cast_f32`] (the shader's `metaball_cast` line by line,
+//! Bézier clipping with the group's tolerance or sphere tracing with its steps)
 //! and the tangency band that says where an f32 answer may legitimately differ from the f64 one.
 //!
 //! # The tangency band
@@ -53,7 +54,7 @@ use glam::{DMat4, DVec3, Mat3, Mat4, Vec3};
 
 use super::metaballs::{
     coefficient_scale, derivative, eval_poly, field_pieces, interval_bernstein, iso_radius, ray_balls,
-    roots_in_unit, MetaballGroupParams,
+    roots_in_unit, CastMethod, MetaballGroupParams,
 };
 
 /// One metaball group. Keep in sync with `MetaGroup` in shaders/common/metaballs.glsl.
@@ -66,7 +67,8 @@ pub struct GpuMetaGroup {
     pub to_world: [[f32; 4]; 4],
     /// M⁻ᵀ in the upper 3×3 (object normal → world normal).
     pub normal_matrix: [[f32; 4]; 4],
-    /// x: threshold T; yzw: 0.
+    /// x: threshold T, y: Bézier-clipping tolerance (world distance; 0: the default), z: sphere-tracing
+    /// steps, w: 0.
     pub params: [f32; 4],
     /// x: kernel id (`Kernel::gpu_id`), y: first ball, z: ball count, w: material index.
     pub info: [u32; 4],
@@ -115,6 +117,8 @@ pub const BAND_C: f64 = 16.0;
 const MB_BAND_C: f32 = BAND_C as f32;
 /// A part within MB_FLAT_C·ε·S of zero is accepted as a (double) root.
 pub const MB_FLAT_C: f32 = 16.0;
+const MB_TRACE_MIN_STEP: f32 = super::metaballs_trace::TRACE_MIN_STEP as f32;
+const MB_TRACE_BISECT: u32 = super::metaballs_trace::TRACE_BISECT;
 
 const MB_KERNEL_WYVILL6: u32 = 0;
 const MB_W6_K3: f32 = -0.444_444_45;
@@ -155,11 +159,16 @@ fn mat(m: DMat4) -> [[f32; 4]; 4] {
 /// ball buffer.
 pub fn gpu_group(group: &MetaballGroupParams, first_ball: u32, material: u32) -> GpuMetaGroup {
     let t = &group.transform;
+    // Steps ≤ CastMethod::MAX_STEPS are exact in f32.
+    let (tolerance, steps) = match group.method {
+        CastMethod::Bezier { tolerance } => (tolerance, 0),
+        CastMethod::SphereTrace { steps } => (0.0, steps),
+    };
     GpuMetaGroup {
         to_object: mat(t.inverse),
         to_world: mat(t.matrix),
         normal_matrix: mat(DMat4::from_mat3(t.normal_matrix())),
-        params: [group.threshold as f32, 0.0, 0.0, 0.0],
+        params: [group.threshold as f32, tolerance as f32, steps as f32, 0.0],
         info: [group.kernel.gpu_id(), first_ball, group.balls.len() as u32, material],
     }
 }
@@ -281,12 +290,20 @@ fn mb_delta(s: f32, x: f32, g: f32) -> f32 {
     MB_BAND_C * MB_EPS * (s + x * g)
 }
 
-fn mb_first_root(base: &[f32; 7], flat_floor: f32, delta: f32, iterations: &mut u32, flags: &mut u32) -> f32 {
+fn mb_first_root(
+    base: &[f32; 7],
+    flat_floor: f32,
+    delta: f32,
+    alpha_tol: f32,
+    iterations: &mut u32,
+    flags: &mut u32,
+) -> f32 {
     let mut stack = [[0.0f32; 2]; MB_STACK_SIZE];
     let mut sp = 0usize;
     let mut a = 0.0f32;
     let mut b = 1.0f32;
     let mut c = *base;
+    let mut narrow = false;
     for _guard in 0..2 * MB_MAX_ITERATIONS + 2 {
         let mut all_pos = true;
         let mut all_neg = true;
@@ -303,7 +320,13 @@ fn mb_first_root(base: &[f32; 7], flat_floor: f32, delta: f32, iterations: &mut 
         if largest <= flat_floor {
             return 0.5 * (a + b);
         }
-        if all_pos || all_neg {
+        if narrow && !(c[0] > 0.0 && c[6] > 0.0) && !(c[0] < 0.0 && c[6] < 0.0) {
+            return 0.5 * (a + b);
+        }
+        let pop = all_pos || all_neg;
+        let u0;
+        let mut u1;
+        if pop {
             if c[0].abs() <= flat_floor {
                 return a;
             }
@@ -319,36 +342,43 @@ fn mb_first_root(base: &[f32; 7], flat_floor: f32, delta: f32, iterations: &mut 
             sp -= 1;
             a = stack[sp][0];
             b = stack[sp][1];
-            c = *base;
-            mb_restrict(&mut c, a, b);
-            continue;
-        }
-        if *iterations >= MB_MAX_ITERATIONS {
-            *flags |= MB_NOT_CONVERGED;
-            return -1.0;
-        }
-        let h = mb_hull_crossing(&c);
-        *iterations += 1;
-        let na = a + h.0 * (b - a);
-        let nb = a + h.1 * (b - a);
-        if nb - na <= MB_ALPHA_TOL {
-            return 0.5 * (na + nb);
-        }
-        mb_restrict(&mut c, h.0, h.1);
-        a = na;
-        b = nb;
-        if h.1 - h.0 > MB_SPLIT_RATIO {
-            if sp < MB_STACK_SIZE {
-                let m = 0.5 * (a + b);
-                stack[sp] = [m, b];
-                sp += 1;
-                mb_restrict(&mut c, 0.0, 0.5);
-                b = m;
-            } else {
+            u0 = a;
+            u1 = b;
+            narrow = false;
+        } else {
+            if *iterations >= MB_MAX_ITERATIONS {
                 *flags |= MB_NOT_CONVERGED;
                 return -1.0;
             }
+            let h = mb_hull_crossing(&c);
+            *iterations += 1;
+            let na = a + h.0 * (b - a);
+            let nb = a + h.1 * (b - a);
+            if nb - na <= MB_ALPHA_TOL {
+                return 0.5 * (na + nb);
+            }
+            narrow = nb - na <= alpha_tol;
+            a = na;
+            b = nb;
+            u0 = h.0;
+            u1 = h.1;
+            if h.1 - h.0 > MB_SPLIT_RATIO && !narrow {
+                if sp < MB_STACK_SIZE {
+                    let m = 0.5 * (a + b);
+                    stack[sp] = [m, b];
+                    sp += 1;
+                    u1 = h.0 + 0.5 * (h.1 - h.0);
+                    b = m;
+                } else {
+                    *flags |= MB_NOT_CONVERGED;
+                    return -1.0;
+                }
+            }
         }
+        if pop {
+            c = *base;
+        }
+        mb_restrict(&mut c, u0, u1);
     }
     *flags |= MB_NOT_CONVERGED;
     -1.0
@@ -375,164 +405,216 @@ fn v3(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
 }
 
-/// `metaball_cast` of shaders/common/metaballs.glsl in f32, line by line: the group's header,
-/// the ball buffer, the pixel's list of ball indices (`MB_INDEX(k)` = `list[k]`), the world ray
-/// (`dir` unit) and [t_min, t_max] in world distances.
-pub fn cast_f32(
-    g: &GpuMetaGroup,
-    balls: &[GpuMetaBall],
-    list: &[u32],
-    origin: Vec3,
-    dir: Vec3,
-    t_min: f32,
-    t_max: f32,
-) -> MetaHitF32 {
-    let ball_at = |i: u32| balls[i as usize];
-    let mut hit = MetaHitF32 { normal: -dir, t: t_max, flags: 0, iterations: 0 };
-    let kernel = g.info[0];
-    let tt = g.params[0];
-    let to_object = Mat4::from_cols_array_2d(&g.to_object);
-    let o = (to_object * origin.extend(1.0)).truncate();
-    let dv = (to_object * dir.extend(0.0)).truncate();
-    let ts = dv.length();
-    let d = dv / ts;
-    let t0 = t_min * ts;
-    let t1 = t_max * ts;
-    if t0.is_nan() || t1.is_nan() || t1 < t0 {
-        return hit;
-    }
-    let x = o.length();
+/// The ray's support chords (`mb_chord_t`, `mb_id` of the shader): slot j holds (entry, exit)
+/// in object-space t′ and the ball; `mask` says which slots belong to the ray.
+struct Slots {
+    chord: [[f32; 2]; MB_MAX_RAY_BALLS],
+    id: [u32; MB_MAX_RAY_BALLS],
+}
 
-    let mut enter_t = [0.0f32; MB_MAX_RAY_BALLS];
-    let mut exit_t = [0.0f32; MB_MAX_RAY_BALLS];
-    let mut chord_a = [0.0f32; MB_MAX_RAY_BALLS];
-    let mut ball_id = [0u32; MB_MAX_RAY_BALLS];
-    let mut n = 0usize;
-    let mut t_limit = t1;
-    for &id in list {
-        let ball = ball_at(id);
-        let w = v3(ball.centre_radius) - o;
-        let tc = w.dot(d);
-        let cr = w.cross(d);
-        let r = ball.centre_radius[3];
-        let dd = r * r - cr.dot(cr);
-        if dd.is_nan() || dd <= 0.0 {
-            continue;
-        }
-        let half_chord = dd.sqrt();
-        let en = tc - half_chord;
-        let ex = tc + half_chord;
-        if ex <= t0 || en >= t1 {
-            continue;
-        }
-        if n == MB_MAX_RAY_BALLS {
-            if en >= enter_t[n - 1] {
-                t_limit = t_limit.min(en);
+/// `mb_chord`: slot j from ball `id` when its chord crosses (t0, t1).
+#[allow(clippy::too_many_arguments)]
+fn mb_chord(
+    slots: &mut Slots,
+    j: usize,
+    balls: &[GpuMetaBall],
+    id: u32,
+    o: Vec3,
+    d: Vec3,
+    t0: f32,
+    t1: f32,
+) -> bool {
+    let ball = balls[id as usize];
+    let w = v3(ball.centre_radius) - o;
+    let tc = w.dot(d);
+    let cr = w.cross(d);
+    let r = ball.centre_radius[3];
+    let dd = r * r - cr.dot(cr);
+    if dd.is_nan() || dd <= 0.0 {
+        return false;
+    }
+    let half_chord = dd.sqrt();
+    let en = tc - half_chord;
+    let ex = tc + half_chord;
+    if ex <= t0 || en >= t1 {
+        return false;
+    }
+    slots.chord[j] = [en, ex];
+    slots.id[j] = id;
+    true
+}
+
+/// `mb_chord_a`: a = D/R² from the chord's half length.
+fn mb_chord_a(chord: [f32; 2], r: f32) -> f32 {
+    let half_chord = 0.5 * (chord[1] - chord[0]);
+    half_chord * half_chord / (r * r)
+}
+
+/// The object-space ray (`MetaRay`).
+#[derive(Clone, Copy)]
+struct MetaRay {
+    o: Vec3,
+    d: Vec3,
+    ts: f32,
+}
+
+/// What the slot casts share: the group, the balls and the slots.
+struct Cast<'a> {
+    g: &'a GpuMetaGroup,
+    balls: &'a [GpuMetaBall],
+    slots: Slots,
+    n: usize,
+    mask: u32,
+    r: MetaRay,
+    dir: Vec3,
+}
+
+impl Cast<'_> {
+    fn ball(&self, j: usize) -> GpuMetaBall {
+        self.balls[self.slots.id[j] as usize]
+    }
+
+    fn mine(&self, j: usize) -> bool {
+        self.mask & (1u32 << j) != 0
+    }
+
+    /// `mb_finish`.
+    fn finish(&self, hit: &mut MetaHitF32, t_found: f32) {
+        let kernel = self.g.info[0];
+        let p = self.r.o + self.r.d * t_found;
+        let mut grad = Vec3::ZERO;
+        for j in 0..self.n {
+            if !self.mine(j) {
                 continue;
             }
-            t_limit = t_limit.min(enter_t[n - 1]);
-            n -= 1;
+            let ball = self.ball(j);
+            let w = p - v3(ball.centre_radius);
+            let inv_r2 = 1.0 / (ball.centre_radius[3] * ball.centre_radius[3]);
+            grad += w * (2.0 * ball.coeffs[0] * inv_r2 * mb_kernel_deriv(kernel, w.dot(w) * inv_r2));
         }
-        let mut j = n;
-        while j > 0 && enter_t[j - 1] > en {
-            enter_t[j] = enter_t[j - 1];
-            exit_t[j] = exit_t[j - 1];
-            chord_a[j] = chord_a[j - 1];
-            ball_id[j] = ball_id[j - 1];
-            j -= 1;
-        }
-        enter_t[j] = en;
-        exit_t[j] = ex;
-        chord_a[j] = dd / (r * r);
-        ball_id[j] = id;
-        n += 1;
+        let nw = Mat3::from_mat4(Mat4::from_cols_array_2d(&self.g.normal_matrix)) * -grad;
+        let len = nw.length();
+        hit.normal = if len > 0.0 { nw / len } else { -self.dir };
+        hit.t = t_found / self.r.ts;
+        hit.flags |= MB_HIT;
     }
-    let t_end = t1.min(t_limit);
 
-    let mut live = 0u32;
-    let mut next = 0usize;
-    let mut t_cur = t0;
-    let mut t_found = 0.0f32;
-    let mut found = false;
-    for _step in 0..2 * MB_MAX_RAY_BALLS + 1 {
-        while next < n && enter_t[next] <= t_cur {
-            live |= 1u32 << next;
-            next += 1;
-        }
+    /// `mb_field_bound`: Σ max(q, 0)·f(r′_min) over the chords of `live` on [t_cur, t_next].
+    fn field_bound(&self, live: u32, t_cur: f32, t_next: f32) -> f32 {
+        let kernel = self.g.info[0];
+        let mut bound = 0.0f32;
         let mut m = live;
         while m != 0 {
             let j = m.trailing_zeros() as usize;
             m &= m - 1;
-            if exit_t[j] <= t_cur {
-                live &= !(1u32 << j);
-            }
+            let ball = self.ball(j);
+            let ct = self.slots.chord[j];
+            let half_chord = 0.5 * (ct[1] - ct[0]);
+            let mid = ct[0] + half_chord;
+            let s0 = (t_cur - mid) / half_chord;
+            let s1 = (t_next - mid) / half_chord;
+            let s2 = if s0 <= 0.0 && s1 >= 0.0 { 0.0 } else { (s0 * s0).min(s1 * s1) };
+            let a = mb_chord_a(ct, ball.centre_radius[3]);
+            bound += ball.coeffs[0].max(0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
         }
-        if t_cur >= t_end {
-            break;
-        }
-        let mut t_next = t_end;
-        if next < n {
-            t_next = t_next.min(enter_t[next]);
-        }
-        m = live;
-        while m != 0 {
-            let j = m.trailing_zeros() as usize;
-            m &= m - 1;
-            t_next = t_next.min(exit_t[j]);
-        }
-        let count = live.count_ones();
-        if count == 1 {
-            let j = live.trailing_zeros() as usize;
-            let ball = ball_at(ball_id[j]);
-            let w = v3(ball.centre_radius) - o;
-            let tc = w.dot(d);
-            let cr = w.cross(d);
-            let h2 = cr.dot(cr);
-            let rr = ball.coeffs[1];
-            let disc = rr * rr - h2;
-            if rr > 0.0 && disc >= 0.0 {
-                let root = disc.sqrt();
-                let wl = w.length();
-                let prod = (wl - rr) * (wl + rr);
-                let near_t;
-                let far_t;
-                if tc > 0.0 {
-                    far_t = tc + root;
-                    near_t = prod / far_t;
-                } else {
-                    near_t = tc - root;
-                    far_t = if near_t != 0.0 { prod / near_t } else { tc + root };
+        bound
+    }
+
+    /// `mb_clip_slots`.
+    fn clip(&self, t0: f32, t_end: f32, mut hit: MetaHitF32) -> MetaHitF32 {
+        let kernel = self.g.info[0];
+        let tt = self.g.params[0];
+        let x = self.r.o.length();
+        let (o, d) = (self.r.o, self.r.d);
+        let mut t_cur = t0;
+        let mut t_found = 0.0f32;
+        let mut found = false;
+        let mut sweep = 0usize;
+        loop {
+            let mut live = 0u32;
+            let mut t_next = t_end;
+            let mut clip = false;
+            while !found && t_cur < t_end && sweep < 2 * MB_MAX_RAY_BALLS + 1 {
+                sweep += 1;
+                live = 0;
+                t_next = t_end;
+                for j in 0..self.n {
+                    let [en, ex] = self.slots.chord[j];
+                    let mine = self.mine(j);
+                    if mine && en <= t_cur && ex > t_cur {
+                        live |= 1u32 << j;
+                    }
+                    if mine && ex > t_cur {
+                        t_next = t_next.min(if en > t_cur { en } else { ex });
+                    }
                 }
-                if near_t >= t_cur && near_t <= t_next {
-                    t_found = near_t;
-                    found = true;
-                } else if far_t >= t_cur && far_t <= t_next {
-                    t_found = far_t;
-                    found = true;
+                let count = live.count_ones();
+                if count == 1 {
+                    let ball = self.ball(live.trailing_zeros() as usize);
+                    let w = v3(ball.centre_radius) - o;
+                    let tc = w.dot(d);
+                    let cr = w.cross(d);
+                    let h2 = cr.dot(cr);
+                    let rr = ball.coeffs[1];
+                    let disc = rr * rr - h2;
+                    if rr > 0.0 && disc >= 0.0 {
+                        let root = disc.sqrt();
+                        let wl = w.length();
+                        let prod = (wl - rr) * (wl + rr);
+                        let near_t;
+                        let far_t;
+                        if tc > 0.0 {
+                            far_t = tc + root;
+                            near_t = prod / far_t;
+                        } else {
+                            near_t = tc - root;
+                            far_t = if near_t != 0.0 { prod / near_t } else { tc + root };
+                        }
+                        if near_t >= t_cur && near_t <= t_next {
+                            t_found = near_t;
+                            found = true;
+                        } else if far_t >= t_cur && far_t <= t_next {
+                            t_found = far_t;
+                            found = true;
+                        }
+                    }
+                    if tc >= t_cur && tc <= t_next {
+                        let r = ball.centre_radius[3];
+                        let gmax = ball.coeffs[0] * mb_kernel(kernel, h2 / (r * r)) - tt;
+                        let delta = mb_delta(ball.coeffs[0].abs() + tt, x + t_next, ball.coeffs[2]);
+                        if gmax.abs() <= delta {
+                            hit.flags |= MB_TANGENT;
+                        }
+                    }
+                } else if count >= 2 {
+                    let bound = self.field_bound(live, t_cur, t_next);
+                    clip = bound >= tt - mb_delta(bound + tt, x + t_next, 0.0);
+                }
+                if !found && !clip {
+                    t_cur = t_next;
+                }
+                if clip {
+                    break;
                 }
             }
-            if tc >= t_cur && tc <= t_next {
-                let r = ball.centre_radius[3];
-                let gmax = ball.coeffs[0] * mb_kernel(kernel, h2 / (r * r)) - tt;
-                let delta = mb_delta(ball.coeffs[0].abs() + tt, x + t_next, ball.coeffs[2]);
-                if gmax.abs() <= delta {
-                    hit.flags |= MB_TANGENT;
-                }
+            // `more` of the shader: an interval to clip.
+            if !clip || found {
+                break;
             }
-        } else if count >= 2 {
             let mut c = [-tt; 7];
             let mut scale = [0.0f32; 7];
             let mut gsum = 0.0f32;
-            m = live;
+            let mut m = live;
             while m != 0 {
                 let j = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let ball = ball_at(ball_id[j]);
-                let chord = exit_t[j] - enter_t[j];
-                let sa = ((t_cur - enter_t[j]) / chord).clamp(0.0, 1.0);
-                let sb = ((t_next - enter_t[j]) / chord).clamp(0.0, 1.0);
+                let ball = self.ball(j);
+                let ct = self.slots.chord[j];
+                let chord = ct[1] - ct[0];
+                let sa = ((t_cur - ct[0]) / chord).clamp(0.0, 1.0);
+                let sb = ((t_next - ct[0]) / chord).clamp(0.0, 1.0);
                 let mut dj = [0.0f32; 7];
-                mb_chord_bernstein(kernel, chord_a[j], ball.coeffs[0], &mut dj);
+                mb_chord_bernstein(kernel, mb_chord_a(ct, ball.centre_radius[3]), ball.coeffs[0], &mut dj);
                 mb_restrict(&mut dj, sa, sb);
                 for k in 0..7 {
                     c[k] += dj[k];
@@ -545,8 +627,11 @@ pub fn cast_f32(
                 s = s.max(sk);
             }
             let delta = mb_delta(s + tt, x + t_next, gsum);
-            let alpha =
-                mb_first_root(&c, MB_FLAT_C * MB_EPS * (s + tt), delta, &mut hit.iterations, &mut hit.flags);
+            let tol = self.g.params[1];
+            let alpha_tol =
+                if tol > 0.0 { MB_ALPHA_TOL.max(tol * self.r.ts / (t_next - t_cur)) } else { MB_ALPHA_TOL };
+            let floor = MB_FLAT_C * MB_EPS * (s + tt);
+            let alpha = mb_first_root(&c, floor, delta, alpha_tol, &mut hit.iterations, &mut hit.flags);
             if hit.flags & MB_NOT_CONVERGED != 0 {
                 return hit;
             }
@@ -556,34 +641,147 @@ pub fn cast_f32(
                 }
                 t_found = t_cur + alpha * (t_next - t_cur);
                 found = true;
+                break;
             }
+            t_cur = t_next;
         }
         if found {
-            break;
+            self.finish(&mut hit, t_found);
         }
-        t_cur = t_next;
+        hit
     }
-    if !found {
-        if t_limit < t1 {
-            hit.flags |= MB_OVERFLOW;
-            hit.t = t_limit / ts;
+
+    /// `mb_trace_probe`: (F, L, next entry) at t′.
+    fn probe(&self, t: f32) -> (f32, f32, f32) {
+        let kernel = self.g.info[0];
+        let (mut f, mut l, mut next_en) = (0.0f32, 0.0f32, f32::MAX);
+        for j in 0..self.n {
+            if !self.mine(j) {
+                continue;
+            }
+            let ball = self.ball(j);
+            let [en, ex] = self.slots.chord[j];
+            let half_chord = 0.5 * (ex - en);
+            let s = (t - (en + half_chord)) / half_chord;
+            let a = mb_chord_a(self.slots.chord[j], ball.centre_radius[3]);
+            let v = ball.coeffs[0] * mb_kernel(kernel, 1.0 - a * (1.0 - s * s));
+            f += if en <= t && t <= ex { v } else { 0.0 };
+            l += if en <= t && t < ex { ball.coeffs[2] } else { 0.0 };
+            if en > t {
+                next_en = next_en.min(en);
+            }
         }
+        (f, l, next_en)
+    }
+
+    /// `mb_trace_slots`.
+    fn trace(&self, t0: f32, t_end: f32, mut hit: MetaHitF32) -> MetaHitF32 {
+        let tt = self.g.params[0];
+        let steps = self.g.params[2] as u32;
+        let mut p = self.probe(t0);
+        let inside = p.0 >= tt;
+        let (mut t, mut t_prev) = (t0, t0);
+        let mut bracket = false;
+        let mut k = 0u32;
+        loop {
+            let gap = if inside { p.0 - tt } else { tt - p.0 };
+            if gap <= 0.0 {
+                bracket = true;
+                break;
+            }
+            if t >= t_end || k >= steps {
+                break;
+            }
+            let step = if p.1 > 0.0 { gap.max(MB_TRACE_MIN_STEP * tt) / p.1 } else { t_end - t };
+            t_prev = t;
+            t = (t + step).min(p.2).min(t_end);
+            p = self.probe(t);
+            k += 1;
+        }
+        hit.iterations += k;
+        if !bracket {
+            if t < t_end {
+                hit.flags |= MB_NOT_CONVERGED;
+            }
+            return hit;
+        }
+        let (mut lo, mut hi) = (t_prev, t);
+        for _ in 0..MB_TRACE_BISECT {
+            let mid = 0.5 * (lo + hi);
+            if (self.probe(mid).0 >= tt) == inside {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        self.finish(&mut hit, 0.5 * (lo + hi));
+        hit
+    }
+}
+
+/// `metaball_cast` of shaders/common/metaballs.glsl in f32, line by line: the group's header,
+/// the ball buffer, the pixel's list of ball indices (`MB_INDEX(k)` = `list[k]`), the world ray
+/// (`dir` unit), [t_min, t_max] in world distances, and the method (`trace`: sphere tracing).
+#[allow(clippy::too_many_arguments)]
+pub fn cast_f32(
+    g: &GpuMetaGroup,
+    balls: &[GpuMetaBall],
+    list: &[u32],
+    origin: Vec3,
+    dir: Vec3,
+    t_min: f32,
+    t_max: f32,
+    trace: bool,
+) -> MetaHitF32 {
+    let mut hit = MetaHitF32 { normal: -dir, t: t_max, flags: 0, iterations: 0 };
+    let to_object = Mat4::from_cols_array_2d(&g.to_object);
+    let o = (to_object * origin.extend(1.0)).truncate();
+    let dv = (to_object * dir.extend(0.0)).truncate();
+    let ts = dv.length();
+    let r = MetaRay { o, d: dv / ts, ts };
+    let t0 = t_min * ts;
+    let t1 = t_max * ts;
+    if t0.is_nan() || t1.is_nan() || t1 < t0 {
         return hit;
     }
 
-    let p = o + d * t_found;
-    let mut grad = Vec3::ZERO;
-    for &id in &ball_id[..n] {
-        let ball = ball_at(id);
-        let w = p - v3(ball.centre_radius);
-        let inv_r2 = 1.0 / (ball.centre_radius[3] * ball.centre_radius[3]);
-        grad += w * (2.0 * ball.coeffs[0] * inv_r2 * mb_kernel_deriv(kernel, w.dot(w) * inv_r2));
+    let mut slots = Slots { chord: [[0.0; 2]; MB_MAX_RAY_BALLS], id: [0; MB_MAX_RAY_BALLS] };
+    let mut n = 0usize;
+    let mut t_limit = t1;
+    for &id in list {
+        let mut j = n.min(MB_MAX_RAY_BALLS - 1);
+        if n == MB_MAX_RAY_BALLS {
+            let mut latest = slots.chord[0][0];
+            j = 0;
+            for i in 1..MB_MAX_RAY_BALLS {
+                if slots.chord[i][0] > latest {
+                    latest = slots.chord[i][0];
+                    j = i;
+                }
+            }
+            let (chord0, id0) = (slots.chord[j], slots.id[j]);
+            if !mb_chord(&mut slots, j, balls, id, r.o, r.d, t0, t1) {
+                continue;
+            }
+            if slots.chord[j][0] >= latest {
+                t_limit = t_limit.min(slots.chord[j][0]);
+                slots.chord[j] = chord0;
+                slots.id[j] = id0;
+            } else {
+                t_limit = t_limit.min(latest);
+            }
+        } else if mb_chord(&mut slots, j, balls, id, r.o, r.d, t0, t1) {
+            n += 1;
+        }
     }
-    let nw = Mat3::from_mat4(Mat4::from_cols_array_2d(&g.normal_matrix)) * -grad;
-    let len = nw.length();
-    hit.normal = if len > 0.0 { nw / len } else { -dir };
-    hit.t = t_found / ts;
-    hit.flags |= MB_HIT;
+    let t_end = t1.min(t_limit);
+    let mask = if n >= 32 { u32::MAX } else { (1u32 << n) - 1 };
+    let cast = Cast { g, balls, slots, n, mask, r, dir };
+    hit = if trace { cast.trace(t0, t_end, hit) } else { cast.clip(t0, t_end, hit) };
+    if hit.flags & (MB_HIT | MB_NOT_CONVERGED) == 0 && t_limit < t1 {
+        hit.flags |= MB_OVERFLOW;
+        hit.t = t_limit / ts;
+    }
     hit
 }
 
@@ -594,16 +792,20 @@ pub struct PackedGroup {
     pub balls: Vec<GpuMetaBall>,
     /// 0..n: every ball of the group.
     pub list: Vec<u32>,
+    /// The group's method is sphere tracing.
+    pub trace: bool,
 }
 
 impl PackedGroup {
     pub fn new(group: &MetaballGroupParams) -> PackedGroup {
         let balls = gpu_balls(group);
         let list = (0..balls.len() as u32).collect();
-        PackedGroup { header: gpu_group(group, 0, 0), balls, list }
+        let trace = matches!(group.method, CastMethod::SphereTrace { .. });
+        PackedGroup { header: gpu_group(group, 0, 0), balls, list, trace }
     }
 
-    /// [`cast_f32`] with every ball of the group listed; the ray rounded to f32.
+    /// [`cast_f32`] with every ball of the group listed, by the group's method; the ray rounded
+    /// to f32.
     pub fn cast(&self, origin: DVec3, dir: DVec3, t_min: f64, t_max: f64) -> MetaHitF32 {
         cast_f32(
             &self.header,
@@ -613,6 +815,7 @@ impl PackedGroup {
             dir.as_vec3(),
             t_min as f32,
             t_max as f32,
+            self.trace,
         )
     }
 }
@@ -702,6 +905,7 @@ mod tests {
             kernel: Kernel::Wyvill6,
             balls: vec![Ball { centre: DVec3::ZERO, radius: 2.0, q: 1.0 }],
             transform: Transform::IDENTITY,
+            method: Default::default(),
         };
         let packed = PackedGroup::new(&g);
         let h = packed.cast(DVec3::new(0.0, 0.0, 10.0), -DVec3::Z, 0.0, 100.0);
@@ -718,6 +922,7 @@ mod tests {
             kernel: Kernel::Wyvill6,
             balls: vec![Ball { centre: DVec3::X, radius: 2.0, q: 1.0 }],
             transform: t,
+            method: Default::default(),
         };
         let (c, r) = world_bound(&g, 0);
         assert!((c - DVec3::new(3.0, 0.0, 0.0)).length() < 1e-12);

@@ -163,7 +163,14 @@ pub fn exit_weight(normal: DVec3, light_dir: DVec3) -> f64 {
 
 /// What the translucency pass writes to HDR: the surface term plus the transmitted light weighted by
 /// the exit weight `w` (`exit_weight`).
-pub fn translucent_colour(surface: DVec3, radiance: DVec3, albedo: DVec3, sigma: DVec3, d: f64, w: f64) -> DVec3 {
+pub fn translucent_colour(
+    surface: DVec3,
+    radiance: DVec3,
+    albedo: DVec3,
+    sigma: DVec3,
+    d: f64,
+    w: f64,
+) -> DVec3 {
     surface + w * transmitted(radiance, albedo, sigma, d)
 }
 

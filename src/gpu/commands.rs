@@ -55,6 +55,12 @@ impl FrameCommands {
         }
     }
 
+    /// Ends recording without submitting (a frame abandoned after an error).
+    pub fn end(&self, ctx: &GpuContext) -> GpuResult<()> {
+        // SAFETY: the command buffer is recording (begin was called).
+        unsafe { ctx.device.end_command_buffer(self.cmd) }.vk("vkEndCommandBuffer")
+    }
+
     /// Ends recording, submits, and waits for the fence. `last_pass` names the pass for a device-lost error.
     pub fn submit_and_wait(&self, ctx: &GpuContext, last_pass: &str) -> GpuResult<()> {
         let lost = |r: vk::Result, call: &'static str| match r {

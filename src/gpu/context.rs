@@ -8,6 +8,9 @@ use ash::vk;
 use super::error::{GpuError, GpuResult, VkResultExt};
 use super::validation::{messenger_callback, ValidationCounts, ValidationLog};
 
+mod raw;
+pub use raw::{EnabledFeatures, RawVulkan};
+
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
 /// How a context is created.
@@ -26,6 +29,16 @@ impl ContextOptions {
         let device_filter = std::env::var("HADOU_DEVICE").ok().filter(|s| !s.is_empty());
         ContextOptions { validation, device_filter }
     }
+}
+
+/// What a context that presents to a window needs (the viewer, `examples/game_prototype`): the
+/// instance gets the surface's extensions, the device `VK_KHR_swapchain`, and a device is chosen
+/// only if its queue family can present to the surface.
+pub struct PresentRequest<'a> {
+    /// Instance extensions the surface needs (`ash_window::enumerate_required_extensions`).
+    pub instance_extensions: &'a [*const c_char],
+    /// Creates the surface once the instance exists (e.g. with `ash_window::create_surface`).
+    pub create_surface: &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR, vk::Result>,
 }
 
 /// What was chosen, for reports.
@@ -57,6 +70,9 @@ pub struct GpuContext {
     messenger: vk::DebugUtilsMessengerEXT,
     log: Arc<ValidationLog>,
     pub validation: bool,
+    /// False for a context made by `from_raw`: the game owns the instance and device, and Drop
+    /// leaves them alone.
+    owns_device: bool,
 }
 
 struct Candidate {
@@ -69,20 +85,48 @@ struct Candidate {
 
 impl GpuContext {
     pub fn new(options: &ContextOptions) -> GpuResult<Self> {
+        Self::create(options, None).map(|(ctx, _)| ctx)
+    }
+
+    /// A context whose queue presents to the surface `present.create_surface` makes. The caller
+    /// owns the returned surface: destroy it (`ash::khr::surface::Instance::destroy_surface`, after
+    /// its swapchain) before the context is dropped.
+    pub fn new_presenting(
+        options: &ContextOptions,
+        present: &PresentRequest,
+    ) -> GpuResult<(Self, vk::SurfaceKHR)> {
+        Self::create(options, Some(present))
+    }
+
+    fn create(
+        options: &ContextOptions,
+        present: Option<&PresentRequest>,
+    ) -> GpuResult<(Self, vk::SurfaceKHR)> {
         // SAFETY: loading libvulkan runs its initializers; nothing else is shared yet.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::NoLoader(e.to_string()))?;
         let log = Arc::new(ValidationLog::default());
-        let (instance, debug_instance, messenger) = create_instance(&entry, options, &log)?;
+        let extra = present.map(|p| p.instance_extensions).unwrap_or(&[]);
+        let (instance, debug_instance, messenger) = create_instance(&entry, options, &log, extra)?;
+        let surface_loader = ash::khr::surface::Instance::new(&entry, &instance);
+        let mut surface = vk::SurfaceKHR::null();
         let context = (|| {
-            let candidate = choose_device(&instance, options.device_filter.as_deref())?;
-            let device = create_device(&instance, &candidate)?;
+            if let Some(p) = present {
+                surface = (p.create_surface)(&entry, &instance)
+                    .map_err(|result| GpuError::Vk { call: "vkCreate*SurfaceKHR", result })?;
+            }
+            let presents_to = present.map(|_| (&surface_loader, surface));
+            let candidate = choose_device(&instance, options.device_filter.as_deref(), presents_to)?;
+            let device = create_device(&instance, &candidate, present.is_some())?;
             Ok((candidate, device))
         })();
         let (candidate, device) = match context {
             Ok(v) => v,
             Err(e) => {
-                // SAFETY: nothing was created from the instance yet.
+                // SAFETY: nothing but the surface was created from the instance yet.
                 unsafe {
+                    if surface != vk::SurfaceKHR::null() {
+                        surface_loader.destroy_surface(surface, None);
+                    }
                     if let Some(d) = &debug_instance {
                         d.destroy_debug_utils_messenger(messenger, None);
                     }
@@ -104,7 +148,7 @@ impl GpuContext {
             info.api_version,
             info.driver
         );
-        Ok(GpuContext {
+        let ctx = GpuContext {
             entry,
             instance,
             physical_device: candidate.physical,
@@ -119,7 +163,9 @@ impl GpuContext {
             messenger,
             log,
             validation: options.validation,
-        })
+            owns_device: true,
+        };
+        Ok((ctx, surface))
     }
 
     pub fn validation_counts(&self) -> ValidationCounts {
@@ -170,6 +216,9 @@ impl GpuContext {
 
 impl Drop for GpuContext {
     fn drop(&mut self) {
+        if !self.owns_device {
+            return;
+        }
         // SAFETY: owners of device objects destroy them before the context (Runtime's field order).
         unsafe {
             let _ = self.device.device_wait_idle();
@@ -202,6 +251,7 @@ fn create_instance(
     entry: &ash::Entry,
     options: &ContextOptions,
     log: &Arc<ValidationLog>,
+    extra_extensions: &[*const c_char],
 ) -> GpuResult<InstanceParts> {
     // SAFETY: plain query.
     let version = unsafe { entry.try_enumerate_instance_version() }.vk("vkEnumerateInstanceVersion")?;
@@ -225,8 +275,9 @@ fn create_instance(
         .api_version(vk::API_VERSION_1_3);
     let layers: Vec<*const c_char> =
         if options.validation { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
-    let extensions: Vec<*const c_char> =
+    let mut extensions: Vec<*const c_char> =
         if debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+    extensions.extend_from_slice(extra_extensions);
     let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
     let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
     let mut messenger_info = messenger_create_info(log);
@@ -302,7 +353,13 @@ fn kind_rank(kind: vk::PhysicalDeviceType) -> u32 {
     }
 }
 
-fn choose_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Candidate> {
+type PresentsTo<'a> = Option<(&'a ash::khr::surface::Instance, vk::SurfaceKHR)>;
+
+fn choose_device(
+    instance: &ash::Instance,
+    filter: Option<&str>,
+    surface: PresentsTo,
+) -> GpuResult<Candidate> {
     // SAFETY: plain query.
     let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
     let mut refused = Vec::new();
@@ -317,7 +374,9 @@ fn choose_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Ca
                 continue;
             }
         }
-        match check_device(instance, physical, &props) {
+        let checked = check_device(instance, physical, &props)
+            .and_then(|found| check_present(instance, physical, found.0, surface).map(|_| found));
+        match checked {
             Ok((queue_family, timestamp_valid_bits)) => {
                 let c =
                     Candidate { physical, name, kind: props.device_type, queue_family, timestamp_valid_bits };
@@ -344,13 +403,15 @@ fn check_device(
         return Err(format!("supports Vulkan {}, hadou needs 1.3", version_string(props.api_version)));
     }
     let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
-    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13);
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13).push_next(&mut f12);
     // SAFETY: plain query into local structs.
     unsafe { instance.get_physical_device_features2(physical, &mut f2) };
     for (ok, feature) in [
         (f13.dynamic_rendering, "dynamicRendering"),
         (f13.synchronization2, "synchronization2"),
         (f13.maintenance4, "maintenance4"),
+        (f12.host_query_reset, "hostQueryReset"),
     ] {
         if ok == vk::FALSE {
             return Err(format!("lacks feature {feature}"));
@@ -369,7 +430,27 @@ fn check_device(
         .ok_or_else(|| "no queue family with graphics, compute and timestamps".into())
 }
 
-fn create_device(instance: &ash::Instance, c: &Candidate) -> GpuResult<ash::Device> {
+/// With a surface: the chosen queue family must present to it and the device offer VK_KHR_swapchain.
+fn check_present(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    family: u32,
+    surface: PresentsTo,
+) -> Result<(), String> {
+    let Some((loader, surface)) = surface else { return Ok(()) };
+    // SAFETY: plain queries; the surface belongs to this instance.
+    let supported = unsafe { loader.get_physical_device_surface_support(physical, family, surface) };
+    if !supported.unwrap_or(false) {
+        return Err(format!("queue family {family} cannot present to the window surface"));
+    }
+    let exts = unsafe { instance.enumerate_device_extension_properties(physical) }.unwrap_or_default();
+    if !exts.iter().any(|e| e.extension_name_as_c_str() == Ok(ash::khr::swapchain::NAME)) {
+        return Err("lacks VK_KHR_swapchain".into());
+    }
+    Ok(())
+}
+
+fn create_device(instance: &ash::Instance, c: &Candidate, swapchain: bool) -> GpuResult<ash::Device> {
     let priorities = [1.0f32];
     let queues = [vk::DeviceQueueCreateInfo::default()
         .queue_family_index(c.queue_family)
@@ -378,8 +459,15 @@ fn create_device(instance: &ash::Instance, c: &Candidate) -> GpuResult<ash::Devi
         .dynamic_rendering(true)
         .synchronization2(true)
         .maintenance4(true);
-    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13);
-    let info = vk::DeviceCreateInfo::default().queue_create_infos(&queues).push_next(&mut f2);
+    // Timestamps are reset from the host, so reading them never needs a command buffer or a wait.
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default().host_query_reset(true);
+    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13).push_next(&mut f12);
+    let extensions: Vec<*const c_char> =
+        if swapchain { vec![ash::khr::swapchain::NAME.as_ptr()] } else { vec![] };
+    let info = vk::DeviceCreateInfo::default()
+        .queue_create_infos(&queues)
+        .enabled_extension_names(&extensions)
+        .push_next(&mut f2);
     // SAFETY: the features were checked in check_device.
     unsafe { instance.create_device(c.physical, &info, None) }.map_err(|result| match result {
         vk::Result::ERROR_FEATURE_NOT_PRESENT => {

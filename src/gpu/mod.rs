@@ -4,6 +4,7 @@ pub mod barriers;
 pub mod commands;
 pub mod context;
 pub mod error;
+pub mod fullscreen;
 pub mod memory;
 pub mod pipeline;
 pub mod recorder;
@@ -13,6 +14,6 @@ pub mod upload;
 pub mod validation;
 
 pub use ash::vk;
-pub use context::{ContextOptions, DeviceInfo, GpuContext};
+pub use context::{ContextOptions, DeviceInfo, EnabledFeatures, GpuContext, PresentRequest, RawVulkan};
 pub use error::{GpuError, GpuResult};
 pub use validation::ValidationCounts;

@@ -38,7 +38,7 @@ pub fn binding(
         .stage_flags(stages)
 }
 
-fn create_layouts(
+pub(super) fn create_layouts(
     ctx: &GpuContext,
     name: &str,
     bindings: &[vk::DescriptorSetLayoutBinding],
@@ -67,7 +67,7 @@ fn create_layouts(
     Ok((set_layout, layout))
 }
 
-fn shader_module(ctx: &GpuContext, name: &str, words: &[u32]) -> GpuResult<vk::ShaderModule> {
+pub(super) fn shader_module(ctx: &GpuContext, name: &str, words: &[u32]) -> GpuResult<vk::ShaderModule> {
     let info = vk::ShaderModuleCreateInfo::default().code(words);
     // SAFETY: words is SPIR-V from shaderc.
     let module = unsafe { ctx.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
@@ -98,7 +98,7 @@ pub fn create_compute_pipeline(
 }
 
 /// Wraps a created pipeline with its layouts, or frees the layouts when creation failed.
-fn finish(
+pub(super) fn finish(
     ctx: &GpuContext,
     name: &str,
     result: Result<Vec<vk::Pipeline>, (Vec<vk::Pipeline>, vk::Result)>,
@@ -129,23 +129,71 @@ pub struct GraphicsDesc<'a> {
     pub fragment: &'a [u32],
     pub bindings: &'a [vk::DescriptorSetLayoutBinding<'a>],
     pub push_constant_bytes: u32,
+    /// The stages that read the push constants (`vkCmdPushConstants` must name the same).
+    pub push_stages: vk::ShaderStageFlags,
     pub vertex_bindings: &'a [vk::VertexInputBindingDescription],
     pub vertex_attributes: &'a [vk::VertexInputAttributeDescription],
     pub color_formats: &'a [vk::Format],
+    /// `vk::Format::UNDEFINED`: no depth attachment and no depth test.
     pub depth_format: vk::Format,
     pub depth_compare: vk::CompareOp,
     pub cull_mode: vk::CullModeFlags,
+    pub blend: Blend,
+}
+
+/// How a graphics pipeline writes its colour attachments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Blend {
+    /// The fragment's value replaces the attachment's.
+    Replace,
+    /// Premultiplied alpha: result = src + (1 − src.a)·dst (colour and alpha).
+    PremultipliedOver,
+}
+
+impl Blend {
+    fn attachment(self) -> vk::PipelineColorBlendAttachmentState {
+        let state =
+            vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA);
+        match self {
+            Blend::Replace => state,
+            Blend::PremultipliedOver => state
+                .blend_enable(true)
+                .src_color_blend_factor(vk::BlendFactor::ONE)
+                .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+                .color_blend_op(vk::BlendOp::ADD)
+                .src_alpha_blend_factor(vk::BlendFactor::ONE)
+                .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+                .alpha_blend_op(vk::BlendOp::ADD),
+        }
+    }
+}
+
+/// The vertex and fragment modules of `desc`, or none (the first one freed when the second fails).
+fn graphics_modules(
+    ctx: &GpuContext,
+    desc: &GraphicsDesc,
+) -> GpuResult<(vk::ShaderModule, vk::ShaderModule)> {
+    let vs = shader_module(ctx, &format!("{}.vert", desc.name), desc.vertex)?;
+    match shader_module(ctx, &format!("{}.frag", desc.name), desc.fragment) {
+        Ok(fs) => Ok((vs, fs)),
+        Err(e) => {
+            unsafe { ctx.device.destroy_shader_module(vs, None) };
+            Err(e)
+        }
+    }
 }
 
 pub fn create_graphics_pipeline(ctx: &GpuContext, desc: &GraphicsDesc) -> GpuResult<Pipeline> {
-    let stages_flags = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
     let (set_layout, layout) =
-        create_layouts(ctx, desc.name, desc.bindings, desc.push_constant_bytes, stages_flags)?;
-    let vs = shader_module(ctx, &format!("{}.vert", desc.name), desc.vertex)?;
-    let fs = match shader_module(ctx, &format!("{}.frag", desc.name), desc.fragment) {
+        create_layouts(ctx, desc.name, desc.bindings, desc.push_constant_bytes, desc.push_stages)?;
+    let (vs, fs) = match graphics_modules(ctx, desc) {
         Ok(m) => m,
         Err(e) => {
-            unsafe { ctx.device.destroy_shader_module(vs, None) };
+            // SAFETY: nothing uses the layouts of a pipeline that was not created.
+            unsafe {
+                ctx.device.destroy_pipeline_layout(layout, None);
+                ctx.device.destroy_descriptor_set_layout(set_layout, None);
+            }
             return Err(e);
         }
     };
@@ -172,17 +220,12 @@ pub fn create_graphics_pipeline(ctx: &GpuContext, desc: &GraphicsDesc) -> GpuRes
         .line_width(1.0);
     let multisample =
         vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    let depth_test = desc.depth_format != vk::Format::UNDEFINED;
     let depth = vk::PipelineDepthStencilStateCreateInfo::default()
-        .depth_test_enable(true)
-        .depth_write_enable(true)
+        .depth_test_enable(depth_test)
+        .depth_write_enable(depth_test)
         .depth_compare_op(desc.depth_compare);
-    let blend_attachments: Vec<_> = desc
-        .color_formats
-        .iter()
-        .map(|_| {
-            vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA)
-        })
-        .collect();
+    let blend_attachments: Vec<_> = desc.color_formats.iter().map(|_| desc.blend.attachment()).collect();
     let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
     let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
     let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);

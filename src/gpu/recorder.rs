@@ -55,31 +55,43 @@ impl Recorder<'_> {
         depth: &Image,
         depth_clear: f32,
     ) {
+        let colors: Vec<_> =
+            colors.iter().map(|c| (c.image.view, Some(vk::ClearValue { color: c.clear }))).collect();
+        let depth_clear =
+            vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: depth_clear, stencil: 0 } };
+        self.begin_rendering_views(extent, &colors, Some((depth.view, Some(depth_clear))));
+    }
+
+    /// Begins dynamic rendering over the full extent into image views; each attachment is cleared
+    /// to its value, or loaded when it has none (e.g. depth imported from a game).
+    pub fn begin_rendering_views(
+        &self,
+        extent: vk::Extent2D,
+        colors: &[(vk::ImageView, Option<vk::ClearValue>)],
+        depth: Option<(vk::ImageView, Option<vk::ClearValue>)>,
+    ) {
+        let attachment = |view: vk::ImageView, clear: Option<vk::ClearValue>, layout| {
+            let info = vk::RenderingAttachmentInfo::default()
+                .image_view(view)
+                .image_layout(layout)
+                .store_op(vk::AttachmentStoreOp::STORE);
+            match clear {
+                Some(value) => info.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(value),
+                None => info.load_op(vk::AttachmentLoadOp::LOAD),
+            }
+        };
         let color_infos: Vec<_> = colors
             .iter()
-            .map(|c| {
-                vk::RenderingAttachmentInfo::default()
-                    .image_view(c.image.view)
-                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                    .load_op(vk::AttachmentLoadOp::CLEAR)
-                    .store_op(vk::AttachmentStoreOp::STORE)
-                    .clear_value(vk::ClearValue { color: c.clear })
-            })
+            .map(|&(view, clear)| attachment(view, clear, vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL))
             .collect();
-        let depth_info = vk::RenderingAttachmentInfo::default()
-            .image_view(depth.view)
-            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                depth_stencil: vk::ClearDepthStencilValue { depth: depth_clear, stencil: 0 },
-            });
+        let depth_info =
+            depth.map(|(view, clear)| attachment(view, clear, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL));
         let area = vk::Rect2D { offset: vk::Offset2D::default(), extent };
-        let info = vk::RenderingInfo::default()
-            .render_area(area)
-            .layer_count(1)
-            .color_attachments(&color_infos)
-            .depth_attachment(&depth_info);
+        let mut info =
+            vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&color_infos);
+        if let Some(d) = &depth_info {
+            info = info.depth_attachment(d);
+        }
         let viewport = vk::Viewport {
             x: 0.0,
             y: 0.0,
@@ -113,6 +125,29 @@ impl Recorder<'_> {
             self.device().cmd_bind_index_buffer(self.cmd, indices.raw, 0, vk::IndexType::UINT32);
             self.device().cmd_draw_indexed(self.cmd, index_count, instances, 0, 0, first_instance);
         }
+    }
+
+    /// A full-screen triangle (no vertex buffer: the vertex shader makes it from gl_VertexIndex).
+    pub fn draw_fullscreen(&self) {
+        unsafe { self.device().cmd_draw(self.cmd, 3, 1, 0, 0) };
+    }
+
+    /// Copies a tightly packed buffer into the whole depth image (in TRANSFER_DST layout).
+    pub fn copy_buffer_to_depth(&self, buffer: &Buffer, image: &Image) {
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(
+                vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::DEPTH).layer_count(1),
+            )
+            .image_extent(vk::Extent3D { width: image.extent.width, height: image.extent.height, depth: 1 });
+        unsafe {
+            self.device().cmd_copy_buffer_to_image(
+                self.cmd,
+                buffer.raw,
+                image.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
     }
 
     /// Copies a whole colour image (in TRANSFER_SRC layout) into a buffer, tightly packed.

@@ -23,6 +23,11 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ("light_id.vert", include_str!("../../shaders/light_id.vert")),
     ("light_id.frag", include_str!("../../shaders/light_id.frag")),
     ("translucency.comp", include_str!("../../shaders/translucency.comp")),
+    ("depth_import.comp", include_str!("../../shaders/depth_import.comp")),
+    ("fullscreen.vert", include_str!("../../shaders/fullscreen.vert")),
+    ("composite.frag", include_str!("../../shaders/composite.frag")),
+    ("ceiling_fma.comp", include_str!("../../shaders/ceiling_fma.comp")),
+    ("ceiling_copy.comp", include_str!("../../shaders/ceiling_copy.comp")),
 ];
 
 pub struct ShaderCompiler {

@@ -56,6 +56,32 @@ impl TimestampPool {
         Some(index)
     }
 
+    /// Resets every query from the host (Vulkan 1.2 `hostQueryReset`): no command buffer needed,
+    /// and a reset pool reads as "not available" at once, so a stale result is never taken for a new
+    /// one. The caller guarantees no submitted command still writes these queries.
+    pub fn host_reset(&mut self, ctx: &GpuContext) {
+        // SAFETY: see above; the range is the whole pool.
+        unsafe { ctx.device.reset_query_pool(self.pool, 0, self.capacity) };
+        self.used = 0;
+    }
+
+    /// The written timestamps as nanoseconds if the GPU has written all of them, else None; never waits.
+    pub fn try_read_ns(&self, ctx: &GpuContext) -> GpuResult<Option<Vec<f64>>> {
+        if self.used == 0 {
+            return Ok(Some(Vec::new()));
+        }
+        let mut ticks = vec![0u64; self.used as usize];
+        // SAFETY: the queries were reset before they were written; without WAIT this only polls.
+        let result = unsafe {
+            ctx.device.get_query_pool_results(self.pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64)
+        };
+        match result {
+            Ok(()) => Ok(Some(ticks.iter().map(|t| (t & self.valid_mask) as f64 * self.period_ns).collect())),
+            Err(vk::Result::NOT_READY) => Ok(None),
+            Err(e) => Err(e).vk("vkGetQueryPoolResults"),
+        }
+    }
+
     /// Reads the written timestamps as nanoseconds (after the frame's fence).
     pub fn read_ns(&self, ctx: &GpuContext) -> GpuResult<Vec<f64>> {
         if self.used == 0 {

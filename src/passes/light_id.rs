@@ -23,7 +23,7 @@ use super::{Pass, PassInputs};
 use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::Memory;
 use crate::gpu::pipeline::{
-    binding, create_graphics_pipeline, write_set, Bound, DescriptorPool, GraphicsDesc, Pipeline,
+    binding, create_graphics_pipeline, write_set, Blend, Bound, DescriptorPool, GraphicsDesc, Pipeline,
 };
 use crate::gpu::recorder::ColorTarget;
 use crate::gpu::shader::ShaderCompiler;
@@ -99,6 +99,7 @@ impl LightIdPass {
                 fragment: &fragment,
                 bindings: &bindings,
                 push_constant_bytes: std::mem::size_of::<LightViewData>() as u32,
+                push_stages: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                 vertex_bindings: &vertex_bindings,
                 vertex_attributes: &vertex_attributes,
                 color_formats: &color_formats,
@@ -109,6 +110,7 @@ impl LightIdPass {
                 // (right, up, dir) frame is left-handed, so faces toward the light wind clockwise
                 // in framebuffer space: "back" to Vulkan's counter-clockwise front face.
                 cull_mode: if mirrored { vk::CullModeFlags::BACK } else { vk::CullModeFlags::FRONT },
+                blend: Blend::Replace,
             },
         )
     }

@@ -10,16 +10,24 @@
 //! exact and variable-length ([`TileLists`]), so nothing is cut short; the host-visible buffers
 //! grow (and the pass rewrites its own descriptors) when a frame needs more.
 //!
-//! Per pixel the shader casts each group present in its tile over that tile's run of balls; a
-//! cast reporting `MB_OVERFLOW` (more than 32 supports on the ray) is repeated from the returned
-//! t. Where that cannot move on (more than 32 supports overlap at one point) or the clipping does
-//! not converge, the pixel is counted in `FrameStats::metaball_overflow` and a warning is logged.
+//! Per pixel the shader casts each group present in its tile over that tile's run of balls: the
+//! subgroup gathers the support chords its rays cross into at most 32 shared slots per round
+//! (each pixel marking its own), and a pixel whose chords did not all fit searches up to the
+//! first one left out, then goes on from there in the next round. Where that cannot move on (more
+//! than 32 supports overlap at one point), the clipping does not converge, or a sphere-traced
+//! group (`method = "sphere_trace"`) runs out of steps, the pixel is counted in
+//! `FrameStats::metaball_overflow` and a warning is logged.
+//!
+//! # Methods
+//! Each group's [`CastMethod`] picks Bézier clipping (with its `tolerance`) or sphere tracing (its
+//! `steps`), carried in the group header and the run flags ([`RUN_TRACE`]). The pipeline is
+//! compiled with only the casts the scene's groups use (`MB_WITH_CLIP`, `MB_WITH_TRACE`).
 
 use glam::DVec3;
 use gpu_allocator::MemoryLocation;
 
 use super::{Pass, PassInputs};
-use crate::effects::metaballs::MetaballGroupParams;
+use crate::effects::metaballs::{CastMethod, MetaballGroupParams};
 use crate::effects::metaballs_f32::{gpu_balls, gpu_group, world_bound, GpuMetaBall, GpuMetaGroup};
 use crate::frame::FrameStats;
 use crate::gpu::barriers::{cmd_barriers, memory_barrier, ImageAccess};
@@ -123,6 +131,8 @@ pub fn sphere_tiles(camera: &Camera, extent: vk::Extent2D, centre: DVec3, radius
 /// a ray passing well inside a ball's lone isosurface sphere (the sphere q·f = T) at t_c has its
 /// first hit before t_c (there F ≥ q·f > T while F(t_min) = 0 < T): the shader stops there.
 pub const RUN_LONE_BOUND: u32 = 1;
+/// `run.w` flag: the group is sphere-traced (`CastMethod::SphereTrace`), else Bézier-clipped.
+pub const RUN_TRACE: u32 = 2;
 
 /// Per-tile ball lists, grouped by metaball group. Keep in sync with `Tiles`/`Entries` in
 /// shaders/metaballs.comp:
@@ -188,7 +198,9 @@ impl GroupBins {
         let near_reach = camera.near * (1.0 + tan_x * tan_x + tan_y * tan_y).sqrt() * (1.0 + 1e-3);
         let clear = bounds.iter().all(|(c, r)| (*c - camera.position).length() - r > near_reach);
         let positive = group.balls.iter().all(|b| b.q >= 0.0);
-        GroupBins { bounds, keys, flags: if clear && positive { RUN_LONE_BOUND } else { 0 } }
+        let trace = if matches!(group.method, CastMethod::SphereTrace { .. }) { RUN_TRACE } else { 0 };
+        let lone = if clear && positive { RUN_LONE_BOUND } else { 0 };
+        GroupBins { bounds, keys, flags: lone | trace }
     }
 }
 
@@ -273,7 +285,7 @@ pub struct MetaballCounts {
     pub dropped: u64,
     /// Pixels where a metaball was the nearest surface.
     pub hits: u64,
-    /// Σ and max of the Bézier-clipping steps of those hits.
+    /// Σ and max of the Bézier-clipping steps of those hits (sphere-traced groups: march steps).
     pub clip_steps: u64,
     pub clip_steps_max: u64,
 }
@@ -302,7 +314,15 @@ impl MetaballsPass {
         compiler: &mut ShaderCompiler,
         scene: &Scene,
     ) -> GpuResult<Self> {
-        let spirv = compiler.compile("metaballs.comp", &[])?;
+        // Only the casts the scene's groups use are compiled in.
+        let trace =
+            |g: &crate::scene::model::MetaballGroup| matches!(g.method, CastMethod::SphereTrace { .. });
+        let with = |b: bool| if b { "1" } else { "0" };
+        let defines = [
+            ("MB_WITH_CLIP", with(scene.metaballs.iter().any(|g| !trace(g)))),
+            ("MB_WITH_TRACE", with(scene.metaballs.iter().any(trace))),
+        ];
+        let spirv = compiler.compile("metaballs.comp", &defines)?;
         let compute = vk::ShaderStageFlags::COMPUTE;
         let mut bindings: Vec<_> =
             (0..4).map(|i| binding(i, vk::DescriptorType::STORAGE_IMAGE, compute)).collect();
@@ -498,7 +518,8 @@ impl Pass for MetaballsPass {
         if c.dropped > 0 {
             log::warn!(
                 "metaballs: {} pixels could not finish their cast (more than {} support spheres overlap \
-                 at a point, or the clipping did not converge): a surface may be missing there",
+                 at a point, the clipping did not converge, or sphere tracing ran out of steps): a \
+                 surface may be missing there",
                 c.dropped,
                 crate::effects::metaballs_f32::MB_MAX_RAY_BALLS
             );
@@ -656,6 +677,7 @@ mod tests {
                 Ball { centre: DVec3::new(1.0, 1.0, -2.0), radius: 0.5, q: 0.7 },
             ],
             transform,
+            method: Default::default(),
         };
         let bins = GroupBins::new(&group, &cam, EXTENT);
         assert_eq!(bins.flags, RUN_LONE_BOUND);

@@ -27,6 +27,11 @@ pub struct PassInputs<'a> {
     pub scene: &'a Scene,
     /// Scene time in seconds.
     pub time: f64,
+    /// Embedded in a game's frame: the background is transparent black (hadou's result is
+    /// composited over the game's colour).
+    pub embedded: bool,
+    /// `Depth` and `Distance` hold the game's imported depth: load them, do not clear them.
+    pub depth_imported: bool,
 }
 
 pub trait Pass {

@@ -5,9 +5,8 @@ use super::{Pass, PassInputs};
 use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::Memory;
 use crate::gpu::pipeline::{
-    binding, create_graphics_pipeline, write_set, Bound, DescriptorPool, GraphicsDesc, Pipeline,
+    binding, create_graphics_pipeline, write_set, Blend, Bound, DescriptorPool, GraphicsDesc, Pipeline,
 };
-use crate::gpu::recorder::ColorTarget;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::scene_gpu::SceneGpu;
@@ -54,6 +53,7 @@ impl RasterPass {
                 fragment: &fragment,
                 bindings: &bindings,
                 push_constant_bytes: 0,
+                push_stages: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                 vertex_bindings: &vertex_bindings,
                 vertex_attributes: &vertex_attributes,
                 color_formats: &color_formats,
@@ -62,6 +62,7 @@ impl RasterPass {
                 depth_compare: vk::CompareOp::GREATER,
                 // No culling: open meshes (planes) and mirrored instances must show both sides.
                 cull_mode: vk::CullModeFlags::NONE,
+                blend: Blend::Replace,
             },
         )?;
         Ok(RasterPass { pipeline, set: vk::DescriptorSet::null() })
@@ -101,26 +102,30 @@ impl Pass for RasterPass {
 
     fn record(&self, inputs: &PassInputs) {
         let rec = inputs.rec;
+        let t = inputs.targets;
         let bg = inputs.scene.render.background.as_vec3();
+        // Embedded: transparent background (composited over the game's colour); with the game's
+        // depth imported, depth and distance are loaded, not cleared.
+        let hdr_clear = if inputs.embedded { [0.0; 4] } else { [bg.x, bg.y, bg.z, 1.0] };
+        let kept = |clear: vk::ClearValue| if inputs.depth_imported { None } else { Some(clear) };
+        let color = |float32| Some(vk::ClearValue { color: vk::ClearColorValue { float32 } });
         let colors = [
-            ColorTarget {
-                image: inputs.targets.image(Target::Hdr),
-                clear: vk::ClearColorValue { float32: [bg.x, bg.y, bg.z, 1.0] },
-            },
-            ColorTarget {
-                image: inputs.targets.image(Target::Normal),
-                clear: vk::ClearColorValue { float32: [0.0; 4] },
-            },
-            ColorTarget {
-                image: inputs.targets.image(Target::Ids),
-                clear: vk::ClearColorValue { uint32: [0; 4] },
-            },
-            ColorTarget {
-                image: inputs.targets.image(Target::Distance),
-                clear: vk::ClearColorValue { float32: [f32::INFINITY, 0.0, 0.0, 0.0] },
-            },
+            (t.image(Target::Hdr).view, color(hdr_clear)),
+            (t.image(Target::Normal).view, color([0.0; 4])),
+            (
+                t.image(Target::Ids).view,
+                Some(vk::ClearValue { color: vk::ClearColorValue { uint32: [0; 4] } }),
+            ),
+            (
+                t.image(Target::Distance).view,
+                kept(vk::ClearValue {
+                    color: vk::ClearColorValue { float32: [f32::INFINITY, 0.0, 0.0, 0.0] },
+                }),
+            ),
         ];
-        rec.begin_rendering(inputs.targets.extent, &colors, inputs.targets.image(Target::Depth), 0.0);
+        let depth_clear =
+            vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: 0.0, stencil: 0 } };
+        rec.begin_rendering_views(t.extent, &colors, Some((t.image(Target::Depth).view, kept(depth_clear))));
         if !inputs.scene_gpu.draws.is_empty() {
             rec.bind_pipeline(&self.pipeline, self.set);
             for draw in &inputs.scene_gpu.draws {

@@ -12,7 +12,7 @@ use super::file::{default_material, material_index, transform};
 use super::file_check::{one_of, show, show_vec, Ctx, Owner, ANY, POSITIVE};
 use super::file_schema::{Array, Int, Num, OpDef, TableList, Tables};
 use super::model::{AnimatedBall, Material, MetaballGroup, MetaballKeyframe};
-use crate::effects::metaballs::Kernel;
+use crate::effects::metaballs::{CastMethod, Kernel};
 
 /// Threshold when `threshold` is not given (the seed's T).
 pub const DEFAULT_THRESHOLD: f64 = 0.5;
@@ -25,6 +25,9 @@ pub(super) struct MetaballsDef {
     pub name: Option<Spanned<String>>,
     pub threshold: Option<Spanned<Num>>,
     pub kernel: Option<Spanned<String>>,
+    pub method: Option<Spanned<String>>,
+    pub tolerance: Option<Spanned<Num>>,
+    pub steps: Option<Spanned<Int>>,
     pub material: Option<Spanned<String>>,
     pub transform: Option<Spanned<Tables<OpDef>>>,
     pub balls: Option<Spanned<Tables<BallDef>>>,
@@ -129,6 +132,7 @@ fn group(o: &Owner, d: &MetaballsDef, materials: &mut Vec<Material>) -> Result<M
         });
     }
     let keyframes = keyframes(o, &d.keyframe, balls.len())?;
+    let method = method(o, d)?;
     Ok(MetaballGroup {
         name: d.name.as_ref().map(|n| n.get_ref().clone()),
         threshold,
@@ -138,7 +142,41 @@ fn group(o: &Owner, d: &MetaballsDef, materials: &mut Vec<Material>) -> Result<M
         transform,
         balls,
         keyframes,
+        method,
     })
+}
+
+/// `method` ("bezier", the default, with an optional `tolerance` > 0 in world units; or
+/// "sphere_trace" with `steps`), refusing the other method's field.
+fn method(o: &Owner, d: &MetaballsDef) -> Result<CastMethod, SceneError> {
+    let names = &CastMethod::NAMES;
+    let name = match &d.method {
+        None => names[0],
+        Some(m) => match names.iter().find(|k| **k == m.get_ref()) {
+            Some(k) => k,
+            None => return Err(o.fail(m.span(), "method", &one_of(names), format!("\"{}\"", m.get_ref()))),
+        },
+    };
+    let (method, other) = if name == "sphere_trace" {
+        let steps =
+            o.count("steps", d.steps.as_ref(), CastMethod::DEFAULT_STEPS, 1, CastMethod::MAX_STEPS)?;
+        (CastMethod::SphereTrace { steps }, ("tolerance", d.tolerance.as_ref().map(Spanned::span), "bezier"))
+    } else {
+        let tolerance = match &d.tolerance {
+            None => 0.0,
+            Some(t) => o.check_num("tolerance", t, POSITIVE)?,
+        };
+        (CastMethod::Bezier { tolerance }, ("steps", d.steps.as_ref().map(Spanned::span), "sphere_trace"))
+    };
+    if let (field, Some(span), owner) = other {
+        let default = if d.method.is_none() { ", the default" } else { "" };
+        let message = format!(
+            "{}: `{field}` is a field of method = \"{owner}\" only (expected no `{field}` when the method is \"{name}\"{default})",
+            o.label
+        );
+        return Err(o.ctx.err(o.ctx.key_start(&span)..span.end, message));
+    }
+    Ok(method)
 }
 
 fn ball(b: &Owner, d: &BallDef) -> Result<AnimatedBall, SceneError> {
@@ -276,6 +314,21 @@ mod tests {
     use crate::scene::parse_scene;
 
     const HEAD: &str = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n";
+
+    #[test]
+    fn methods_and_their_defaults() {
+        use crate::effects::metaballs::CastMethod;
+        let method = |fields: &str| {
+            let text =
+                format!("{HEAD}[[metaballs]]\n{fields}\nballs = [{{ centre = [0, 0, 0], radius = 2 }}]\n");
+            parse_scene(&text, Path::new("m.toml")).unwrap().metaballs[0].method
+        };
+        assert_eq!(method(""), CastMethod::Bezier { tolerance: 0.0 });
+        assert_eq!(method("tolerance = 0.25"), CastMethod::Bezier { tolerance: 0.25 });
+        assert_eq!(method("method = \"bezier\""), CastMethod::Bezier { tolerance: 0.0 });
+        assert_eq!(method("method = \"sphere_trace\""), CastMethod::SphereTrace { steps: 64 });
+        assert_eq!(method("method = \"sphere_trace\"\nsteps = 7"), CastMethod::SphereTrace { steps: 7 });
+    }
 
     #[test]
     fn defaults_and_generator() {

@@ -28,6 +28,7 @@ impl MetaballGroup {
             kernel: self.kernel,
             balls,
             transform: self.transform,
+            method: self.method,
         }
     }
 }
@@ -97,6 +98,7 @@ mod tests {
             transform: Transform::IDENTITY,
             balls: vec![ball(0.0), ball(4.0)],
             keyframes,
+            method: Default::default(),
         }
     }
 

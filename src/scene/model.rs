@@ -184,6 +184,8 @@ pub struct MetaballGroup {
     pub balls: Vec<AnimatedBall>,
     /// Sorted by time, strictly increasing.
     pub keyframes: Vec<MetaballKeyframe>,
+    /// How the metaballs pass casts rays against the group (`method`, `tolerance`, `steps`).
+    pub method: crate::effects::metaballs::CastMethod,
 }
 
 /// One ball of a group: its values at time 0 and its rates.

@@ -1,0 +1,397 @@
+//! The game: its state and loop step (charge, fire, the slime's wobble), its own scene drawn by
+//! its own raster into its own colour and depth, and hadou embedded on its device for the energy
+//! wave, the translucent target and the metaball slime. Windowed (main.rs) or headless
+//! (`Game::offscreen_frame`, used by tests/game_prototype.rs).
+#![allow(dead_code)]
+
+use ash::vk;
+use glam::{DMat4, DVec3};
+use hadou::{Aov, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, Renderer, WaveUpdate};
+
+use super::gpu::{GameImage, GameVk, HostBuffer};
+use super::painter::{BoxDraw, GameCamera, PaintTarget, Painter};
+
+/// hadou's part of the scene: the translucent target (lit from behind), the slime, the wave.
+/// The game's own geometry (floor, player, pillars) is not here: hadou sees it through the depth.
+pub const HADOU_SCENE: &str = r#"
+[render]
+exposure = 1.0
+ambient = [0.06, 0.06, 0.08]
+
+[camera]
+position = [0.5, 3.5, 17]
+look_at = [0.5, 1, 0]
+fov_y_deg = 50
+near = 0.5
+far = 100
+
+[[light]]
+# From behind the target toward the player and the camera: the target glows through.
+direction = [-0.7, -0.35, 0.6]
+color = [1.0, 0.9, 0.75]
+intensity = 4.0
+
+[[mesh]]
+name = "target"
+kind = "cube"
+size = 1.6
+
+[[material]]
+name = "jelly"
+kind = "translucent"
+albedo = [0.95, 0.55, 0.35]
+sigma = [0.6, 1.4, 2.6]
+voxel_res = 12
+
+[[material]]
+name = "slime"
+albedo = [0.25, 0.8, 0.35]
+
+[[instance]]
+name = "target"
+mesh = "target"
+material = "jelly"
+transform = [{ rotate = { angle_deg = 20, axis = [0, 1, 0] } }, { translate = [6.5, 1.0, 0] }]
+
+[[metaballs]]
+name = "slime"
+material = "slime"
+transform = [{ translate = [1.5, 0.55, 0.6] }]
+balls = [
+  { centre = [0, 0, 0], radius = 1.5 },
+  { centre = [0.9, 0.2, 0], radius = 1.2 },
+  { centre = [-0.7, 0.1, 0.4], radius = 1.1 },
+]
+
+[[wave]]
+name = "shot"
+origin = [-5, 1, 0]
+direction = [1, 0, 0]
+a = 0.02
+b = 0.02
+core = 0.05
+length = 0.3
+color = [0.35, 0.65, 1.0]
+# The 1/r kernels glow over the whole view: a small intensity keeps the far glow faint.
+intensity = 0.08
+"#;
+
+/// The slime's balls at rest (object space), as in HADOU_SCENE.
+const SLIME: [[f64; 3]; 3] = [[0.0, 0.0, 0.0], [0.9, 0.2, 0.0], [-0.7, 0.1, 0.4]];
+
+/// The keys held this frame (README: Space charges, releasing fires; A/D or ←/→ move; R resets).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Input {
+    pub charge: bool,
+    pub left: bool,
+    pub right: bool,
+    pub reset: bool,
+}
+
+/// A fired shot: where it started and with what charge.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shot {
+    pub fired_at: f64,
+    pub charge: f64,
+    pub from: DVec3,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct GameState {
+    pub time: f64,
+    pub player_z: f64,
+    /// 0..=1 while Space is held.
+    pub charge: f64,
+    pub shot: Option<Shot>,
+    /// Shots that reached the target.
+    pub hits: u32,
+}
+
+pub const PLAYER_X: f64 = -5.0;
+pub const TARGET_X: f64 = 6.5;
+/// Seconds of holding Space to charge fully.
+pub const CHARGE_TIME: f64 = 1.5;
+/// World units per second of a fired shot.
+pub const SHOT_SPEED: f64 = 9.0;
+
+impl Default for GameState {
+    fn default() -> Self {
+        GameState { time: 0.0, player_z: 0.0, charge: 0.0, shot: None, hits: 0 }
+    }
+}
+
+impl GameState {
+    /// Advances the game by `dt` seconds under `input`.
+    pub fn step(&mut self, input: &Input, dt: f64) {
+        if input.reset {
+            *self = GameState { time: self.time, ..GameState::default() };
+        }
+        self.time += dt;
+        let walk = f64::from(u8::from(input.right)) - f64::from(u8::from(input.left));
+        self.player_z = (self.player_z + 3.0 * walk * dt).clamp(-2.0, 2.0);
+        if let Some(shot) = self.shot {
+            let head = shot.from.x + SHOT_SPEED * (self.time - shot.fired_at);
+            if head > TARGET_X + 2.0 {
+                self.shot = None;
+                self.hits += 1;
+            }
+            return;
+        }
+        if input.charge {
+            self.charge = (self.charge + dt / CHARGE_TIME).min(1.0);
+        } else if self.charge > 0.0 {
+            let from = self.hand();
+            self.shot = Some(Shot { fired_at: self.time, charge: self.charge, from });
+            self.charge = 0.0;
+        }
+    }
+
+    fn hand(&self) -> DVec3 {
+        DVec3::new(PLAYER_X + 0.6, 1.0, self.player_z)
+    }
+
+    /// The wave this frame: while charging a and b grow and the beam extends from the hand; once
+    /// fired, the wave flies toward the target at SHOT_SPEED, its beam trailing.
+    pub fn wave(&self) -> WaveUpdate {
+        let direction = DVec3::X;
+        match self.shot {
+            Some(shot) => {
+                let travelled = SHOT_SPEED * (self.time - shot.fired_at);
+                WaveUpdate {
+                    origin: shot.from + direction * travelled,
+                    direction: -direction,
+                    a: 0.3 + 3.0 * shot.charge,
+                    b: 0.2 + 1.5 * shot.charge,
+                    length: (0.5 + 5.0 * shot.charge).min(travelled.max(0.05)),
+                }
+            }
+            None => WaveUpdate {
+                origin: self.hand(),
+                direction,
+                a: 0.02 + 2.0 * self.charge,
+                b: 0.02 + 1.0 * self.charge,
+                length: 0.3 + 3.0 * self.charge,
+            },
+        }
+    }
+
+    /// The slime's balls this frame: each bobs on its own phase (object-space centre, q).
+    pub fn slime(&self) -> [(DVec3, f64); 3] {
+        let t = self.time;
+        SLIME.map(|c| {
+            let c = DVec3::from(c);
+            let phase = 2.1 * c.x + 1.3 * c.z;
+            let bob = DVec3::new(0.12 * (1.7 * t + phase).sin(), 0.18 * (2.3 * t + phase).sin(), 0.0);
+            (c + bob, 1.0)
+        })
+    }
+
+    /// The game's own scene: floor, player, two pillars.
+    pub fn boxes(&self) -> Vec<BoxDraw> {
+        let place = |at: DVec3, size: DVec3, color: DVec3| BoxDraw {
+            model: DMat4::from_translation(at) * DMat4::from_scale(size),
+            color,
+        };
+        let glow = 0.3 + 0.7 * self.charge;
+        vec![
+            place(DVec3::new(0.0, -0.05, 0.0), DVec3::new(30.0, 0.1, 12.0), DVec3::new(0.25, 0.24, 0.22)),
+            place(
+                DVec3::new(PLAYER_X, 0.75, self.player_z),
+                DVec3::new(0.6, 1.5, 0.6),
+                DVec3::new(0.2, 0.3, glow),
+            ),
+            place(DVec3::new(-1.5, 1.5, -2.5), DVec3::new(0.7, 3.0, 0.7), DVec3::new(0.5, 0.45, 0.4)),
+            place(DVec3::new(4.0, 1.5, -3.0), DVec3::new(0.7, 3.0, 0.7), DVec3::new(0.5, 0.45, 0.4)),
+        ]
+    }
+}
+
+pub fn camera() -> GameCamera {
+    GameCamera {
+        position: DVec3::new(0.5, 3.5, 17.0),
+        look_at: DVec3::new(0.5, 1.0, 0.0),
+        fov_y_deg: 50.0,
+        near: 0.5,
+        far: 100.0,
+        reverse_z: false,
+    }
+}
+
+pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+pub const CLEAR: DVec3 = DVec3::new(0.04, 0.04, 0.07);
+
+/// The image the game draws into this frame (a swapchain image or its offscreen one).
+#[derive(Clone, Copy, Debug)]
+pub struct ColorTarget {
+    pub image: vk::Image,
+    pub view: vk::ImageView,
+    pub format: vk::Format,
+    pub extent: vk::Extent2D,
+    /// The layout the game leaves it in (PRESENT_SRC_KHR for a swapchain image).
+    pub final_layout: vk::ImageLayout,
+}
+
+pub struct Game {
+    pub vk: GameVk,
+    pub hadou: Renderer,
+    pub state: GameState,
+    painter: Option<Painter>,
+    depth: Option<GameImage>,
+    offscreen: Option<GameImage>,
+}
+
+/// What a headless frame read back.
+pub struct OffscreenFrame {
+    pub color: Vec<u8>,
+    pub aovs: Vec<(Aov, hadou::AovImage)>,
+}
+
+impl Game {
+    /// Embeds hadou on the game's device and loads hadou's part of the scene.
+    pub fn new(vk: GameVk) -> Result<Game, String> {
+        // SAFETY: GameVk's handles are valid and enable EnabledFeatures::REQUIRED; Game::destroy
+        // drops hadou before the device is destroyed.
+        let ctx = unsafe { hadou::gpu::GpuContext::from_raw(vk.hadou_raw()) }.map_err(|e| e.to_string())?;
+        let mut hadou = Renderer::new(ctx).map_err(|e| e.to_string())?;
+        let scene = hadou::scene::parse_scene(HADOU_SCENE, "game_prototype.toml".as_ref())
+            .map_err(|e| e.to_string())?;
+        hadou.load_scene(scene).map_err(|e| e.to_string())?;
+        hadou.set_camera(camera().for_hadou()).map_err(|e| e.to_string())?;
+        Ok(Game { vk, hadou, state: GameState::default(), painter: None, depth: None, offscreen: None })
+    }
+
+    /// Steps the state and hands hadou this frame's wave, slime and camera (no pipeline rebuilt).
+    pub fn update(&mut self, input: &Input, dt: f64) -> Result<(), String> {
+        self.state.step(input, dt);
+        self.hadou.set_wave(0, self.state.wave()).map_err(|e| e.to_string())?;
+        for (i, (centre, q)) in self.state.slime().into_iter().enumerate() {
+            self.hadou.set_metaball(0, i, centre, q).map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    }
+
+    fn ensure(&mut self, format: vk::Format, extent: vk::Extent2D) -> Result<(), String> {
+        if self.painter.as_ref().is_none_or(|p| p.color_format != format) {
+            unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
+            if let Some(p) = self.painter.take() {
+                p.destroy(&self.vk);
+            }
+            self.painter = Some(Painter::new(&self.vk, format, DEPTH_FORMAT, false)?);
+        }
+        if self.depth.as_ref().is_none_or(|d| d.extent != extent) {
+            unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
+            if let Some(d) = self.depth.take() {
+                self.vk.destroy_image(d);
+                // hadou remembers the view: a new one may get the same handle.
+                self.hadou.forget_external_views().map_err(|e| e.to_string())?;
+            }
+            let usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
+            self.depth = Some(self.vk.create_image(extent, DEPTH_FORMAT, usage)?);
+        }
+        Ok(())
+    }
+
+    /// Records the frame into the game's command buffer (begun by the caller): the game's raster,
+    /// then hadou (depth import, its passes, composite into `target`). A 0 × 0 target records nothing.
+    pub fn record(&mut self, target: &ColorTarget) -> Result<(), String> {
+        let e = target.extent;
+        if e.width == 0 || e.height == 0 {
+            return Ok(());
+        }
+        self.ensure(target.format, e)?;
+        let (Some(painter), Some(depth)) = (&self.painter, &self.depth) else { return Ok(()) };
+        let g = &self.vk;
+        g.transition(
+            target.image,
+            target.format,
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+        );
+        g.transition(
+            depth.image,
+            DEPTH_FORMAT,
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+        );
+        let paint = PaintTarget { color: target.view, depth: depth.view, extent: e, clear: CLEAR };
+        painter.record(g, &paint, &camera(), &self.state.boxes());
+        let cam = camera();
+        let inputs = FrameInputs {
+            extent: e,
+            time: self.state.time,
+            depth: Some(ExternalDepth {
+                image: depth.image,
+                view: depth.view,
+                format: DEPTH_FORMAT,
+                layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                final_layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                convention: DepthConvention::Standard { near: cam.near, far: cam.far },
+            }),
+            color: Some(ExternalColor {
+                image: target.image,
+                view: target.view,
+                format: target.format,
+                layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                final_layout: target.final_layout,
+            }),
+        };
+        self.hadou.record_frame(g.cmd, &inputs).map_err(|e| e.to_string())?;
+        Ok(())
+    }
+
+    /// One headless frame into the game's own offscreen image: record, read back the colour and
+    /// `aovs`, submit, wait.
+    pub fn offscreen_frame(&mut self, extent: vk::Extent2D, aovs: &[Aov]) -> Result<OffscreenFrame, String> {
+        let format = vk::Format::R8G8B8A8_SRGB;
+        if self.offscreen.as_ref().is_none_or(|o| o.extent != extent) {
+            unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
+            if let Some(o) = self.offscreen.take() {
+                self.vk.destroy_image(o);
+            }
+            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+            self.offscreen = Some(self.vk.create_image(extent, format, usage)?);
+        }
+        let Some(image) = &self.offscreen else { return Err("no offscreen image".into()) };
+        let target = ColorTarget {
+            image: image.image,
+            view: image.view,
+            format,
+            extent,
+            final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+        };
+        self.vk.begin()?;
+        self.record(&target)?;
+        let readback = self.hadou.record_aov_readback(self.vk.cmd, aovs).map_err(|e| e.to_string())?;
+        let buffer: HostBuffer =
+            self.vk.create_host_buffer(extent.width as u64 * extent.height as u64 * 4)?;
+        if let Some(image) = &self.offscreen {
+            self.vk.record_copy_to_host(image, &buffer);
+        }
+        let submitted = self.vk.submit_and_wait(None, None);
+        let frame = OffscreenFrame {
+            color: buffer.bytes().to_vec(),
+            aovs: aovs.iter().filter_map(|&a| readback.aov(a).map(|img| (a, img))).collect(),
+        };
+        self.hadou.release_readback(readback);
+        self.vk.destroy_buffer(buffer);
+        submitted.map(|_| frame)
+    }
+
+    /// hadou's objects first, then the game's, then the device (`from_raw`'s ownership rule).
+    pub fn destroy(self) -> std::sync::Arc<super::gpu::Messages> {
+        let Game { vk, hadou, painter, depth, offscreen, .. } = self;
+        unsafe {
+            let _ = vk.device.device_wait_idle();
+        }
+        drop(hadou);
+        if let Some(p) = painter {
+            p.destroy(&vk);
+        }
+        for image in [depth, offscreen].into_iter().flatten() {
+            vk.destroy_image(image);
+        }
+        let messages = vk.messages.clone();
+        vk.destroy();
+        messages
+    }
+}

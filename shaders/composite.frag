@@ -1,0 +1,33 @@
+#version 460
+// composite: hadou's HDR result over the game's colour target, premultiplied alpha (the blend is
+// src + (1 − src.a)·dst): α = 1 where hadou drew a surface (over), 0 elsewhere, where only the
+// wave's glow remains (added). Tonemap as in tonemap.comp (CPU twin src/effects/tonemap.rs).
+layout(set = 0, binding = 0, rgba16f) uniform readonly image2D hdr;
+layout(location = 0) out vec4 out_color;
+
+layout(push_constant) uniform Params {
+    float exposure;
+    // 0: tonemapped linear (an _SRGB target encodes); 1: tonemapped + sRGB-encoded (_UNORM);
+    // 2: linear HDR × exposure (float targets: the game tonemaps)
+    uint mode;
+} params;
+
+vec3 aces(vec3 x) {
+    return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+}
+
+vec3 srgb_encode(vec3 c) {
+    vec3 lo = c * 12.92;
+    vec3 hi = 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055;
+    return mix(hi, lo, lessThanEqual(c, vec3(0.0031308)));
+}
+
+void main() {
+    vec4 c = imageLoad(hdr, ivec2(gl_FragCoord.xy));
+    vec3 rgb = max(c.rgb * params.exposure, vec3(0.0));
+    if (any(isnan(rgb))) rgb = vec3(0.0);
+    if (params.mode != 2u) rgb = aces(rgb);
+    if (params.mode == 1u) rgb = srgb_encode(rgb);
+    float alpha = isnan(c.a) ? 0.0 : clamp(c.a, 0.0, 1.0);
+    out_color = vec4(rgb, alpha);
+}

@@ -1,0 +1,42 @@
+#version 460
+// depth_import: the game's depth buffer → hadou's view-ray distance (R32F `distance`) and its own
+// reverse-Z depth (a buffer copied into the D32 `depth`), so hadou's instances are depth-tested
+// against the game's scene and the energy wave stops at it. CPU twin (f64):
+// src/renderer/depth_import.rs::import_depth.
+#include "common/camera.glsl"
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0) uniform sampler2D game_depth;
+layout(set = 0, binding = 1, r32f) uniform writeonly image2D distance_image;
+layout(set = 0, binding = 2, std430) writeonly buffer HadouDepth { float hadou_depth[]; };
+
+layout(push_constant) uniform Params {
+    vec4 right;
+    vec4 up;
+    vec4 forward;
+    // width, height, 1 if the game's depth is reverse-Z (nearer is larger), 0
+    uvec4 dims;
+    // the game's projection: stored d = -A + B / z; hadou's near, far
+    vec4 planes;
+} params;
+
+void main() {
+    uvec2 p = gl_GlobalInvocationID.xy;
+    if (p.x >= params.dims.x || p.y >= params.dims.y) return;
+    float d = texelFetch(game_depth, ivec2(p), 0).r;
+    float a = params.planes.x, b = params.planes.y;
+    bool reversed = params.dims.z != 0u;
+    // The far plane (the game's cleared depth) is sky: no surface, as in hadou's own raster.
+    bool sky = reversed ? d <= 0.0 : d >= 1.0;
+    // View depth along the camera's forward axis (the perspective projection inverted).
+    float z = b / (d + a);
+    float ndc_x = 2.0 * (float(p.x) + 0.5) / float(params.dims.x) - 1.0;
+    float ndc_y = 1.0 - 2.0 * (float(p.y) + 0.5) / float(params.dims.y);
+    // The pixel ray's direction has forward component 1, so distance = z · |direction|.
+    float ray_scale = length(params.forward.xyz + ndc_x * params.right.xyz + ndc_y * params.up.xyz);
+    float dist = sky ? uintBitsToFloat(0x7f800000u) : z * ray_scale;
+    float hn = params.planes.z, hf = params.planes.w;
+    float own = sky ? 0.0 : clamp(hn * (hf - z) / (z * (hf - hn)), 0.0, 1.0);
+    imageStore(distance_image, ivec2(p), vec4(dist, 0.0, 0.0, 0.0));
+    hadou_depth[p.y * params.dims.x + p.x] = own;
+}

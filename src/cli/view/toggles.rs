@@ -1,0 +1,160 @@
+//! Which passes the viewer runs and which variant each uses. The toggles rewrite the scene the
+//! runtime loads (a disabled pass's waves, metaball groups or translucent materials are left out,
+//! so the pass is neither built nor run); every change therefore reloads the scene, which rebuilds
+//! the passes (shaders come from the compiler's cache, LUTs from the bake cache).
+
+use hadou::scene::model::{MaterialKind, ThicknessMode, WaveMethod};
+use hadou::scene::Scene;
+
+/// Steps of the raymarch baseline when the scene file gives none.
+pub const DEFAULT_RAYMARCH_STEPS: u32 = 64;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Toggles {
+    pub energy_wave: bool,
+    pub translucency: bool,
+    pub metaballs: bool,
+    /// `None`: as in the file; otherwise every translucent material uses this.
+    pub thickness: Option<ThicknessMode>,
+    /// `None`: as in the file; `Some(true)`: every wave raymarched, `Some(false)`: analytic.
+    pub raymarch: Option<bool>,
+}
+
+impl Default for Toggles {
+    fn default() -> Self {
+        Toggles { energy_wave: true, translucency: true, metaballs: true, thickness: None, raymarch: None }
+    }
+}
+
+impl Toggles {
+    /// T: switches thickness between LUT and TSM, starting from what the file uses.
+    pub fn switch_thickness(&mut self, file: &Scene) {
+        let now = self.thickness.or_else(|| file_thickness(file)).unwrap_or(ThicknessMode::Lut);
+        self.thickness =
+            Some(if now == ThicknessMode::Lut { ThicknessMode::Tsm } else { ThicknessMode::Lut });
+    }
+
+    /// R: switches the energy wave between analytic and raymarch, starting from the file.
+    pub fn switch_wave_method(&mut self, file: &Scene) {
+        let now = self.raymarch.unwrap_or_else(|| {
+            file.waves.first().is_some_and(|w| matches!(w.method, WaveMethod::Raymarch { .. }))
+        });
+        self.raymarch = Some(!now);
+    }
+
+    /// The scene to load: `file` with the disabled passes' inputs left out and the switches applied.
+    pub fn apply(&self, file: &Scene) -> Scene {
+        let mut scene = file.clone();
+        if !self.energy_wave {
+            scene.waves.clear();
+        }
+        if !self.metaballs {
+            scene.metaballs.clear();
+        }
+        let file_steps = file.waves.iter().find_map(|w| match w.method {
+            WaveMethod::Raymarch { steps, .. } => Some(steps),
+            WaveMethod::Analytic => None,
+        });
+        if let Some(raymarch) = self.raymarch {
+            for wave in &mut scene.waves {
+                wave.method = match (raymarch, wave.method) {
+                    (false, _) => WaveMethod::Analytic,
+                    (true, m @ WaveMethod::Raymarch { .. }) => m,
+                    (true, WaveMethod::Analytic) => WaveMethod::Raymarch {
+                        steps: file_steps.unwrap_or(DEFAULT_RAYMARCH_STEPS),
+                        jitter: false,
+                    },
+                };
+            }
+        }
+        for material in &mut scene.materials {
+            if let MaterialKind::Translucent { thickness, .. } = &mut material.kind {
+                if !self.translucency {
+                    // Shaded as an opaque surface of the same albedo: the translucency pass is not built.
+                    material.kind = MaterialKind::Lambert;
+                } else if let Some(mode) = self.thickness {
+                    *thickness = mode;
+                }
+            }
+        }
+        scene
+    }
+
+    /// A short summary for the window title, e.g. "wave:analytic trans:lut meta:on".
+    pub fn summary(&self, file: &Scene) -> String {
+        let scene = self.apply(file);
+        let wave = match scene.waves.first().map(|w| w.method) {
+            _ if !self.energy_wave => "off".to_string(),
+            None => "none".into(),
+            Some(WaveMethod::Analytic) => "analytic".into(),
+            Some(WaveMethod::Raymarch { steps, .. }) => format!("raymarch {steps}"),
+        };
+        let trans = match (self.translucency, file_thickness(&scene)) {
+            (false, _) => "off",
+            (true, None) => "none",
+            (true, Some(ThicknessMode::Lut)) => "lut",
+            (true, Some(ThicknessMode::Tsm)) => "tsm",
+        };
+        let meta = match (self.metaballs, file.metaballs.is_empty()) {
+            (false, _) => "off",
+            (true, true) => "none",
+            (true, false) => "on",
+        };
+        format!("wave:{wave} trans:{trans} meta:{meta}")
+    }
+}
+
+fn file_thickness(scene: &Scene) -> Option<ThicknessMode> {
+    scene.materials.iter().find_map(|m| match m.kind {
+        MaterialKind::Translucent { thickness, .. } => Some(thickness),
+        MaterialKind::Lambert => None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hadou::frame::{plan, PassKind};
+
+    fn showcase() -> Scene {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/showcase.toml");
+        hadou::scene::load_scene(&path).unwrap()
+    }
+
+    #[test]
+    fn a_disabled_pass_is_not_planned() {
+        let file = showcase();
+        let all = plan(&Toggles::default().apply(&file));
+        for kind in [PassKind::EnergyWave, PassKind::Translucency, PassKind::LightId, PassKind::Metaballs] {
+            assert!(all.contains(&kind), "the showcase uses {kind:?}");
+        }
+        let t = Toggles { energy_wave: false, ..Default::default() };
+        assert!(!plan(&t.apply(&file)).contains(&PassKind::EnergyWave));
+        let t = Toggles { translucency: false, ..Default::default() };
+        let p = plan(&t.apply(&file));
+        assert!(!p.contains(&PassKind::Translucency) && !p.contains(&PassKind::LightId));
+        let t = Toggles { metaballs: false, ..Default::default() };
+        assert!(!plan(&t.apply(&file)).contains(&PassKind::Metaballs));
+        assert_eq!(Toggles::default().apply(&file).instances, file.instances, "instances are kept");
+    }
+
+    #[test]
+    fn switches_flip_from_the_file_and_back() {
+        let file = showcase();
+        let mut t = Toggles::default();
+        t.switch_thickness(&file);
+        t.switch_wave_method(&file);
+        let s = t.apply(&file);
+        assert!(s
+            .materials
+            .iter()
+            .any(|m| matches!(m.kind, MaterialKind::Translucent { thickness: ThicknessMode::Tsm, .. })));
+        assert_eq!(s.waves[0].method, WaveMethod::Raymarch { steps: DEFAULT_RAYMARCH_STEPS, jitter: false });
+        assert_eq!(t.summary(&file), format!("wave:raymarch {DEFAULT_RAYMARCH_STEPS} trans:tsm meta:on"));
+        t.switch_thickness(&file);
+        t.switch_wave_method(&file);
+        let s = t.apply(&file);
+        assert_eq!(s.waves[0].method, WaveMethod::Analytic);
+        assert_eq!(s.materials, file.materials);
+    }
+}

@@ -1,0 +1,57 @@
+//! Presenting to a window: a Vulkan surface's swapchain, recreated when the window changes, and the
+//! per-frame semaphores and fences around acquire and present. Generic over ash handles (it knows
+//! nothing about hadou's passes), so a game that owns its device can use it as well as the viewer.
+//!
+//! A frame:
+//! 1. [`Presenter::acquire`] waits until this frame-in-flight slot's previous submission finished,
+//!    then acquires an image. `None` means "draw nothing this time": the window is minimized
+//!    (0×0) or the swapchain was out of date and has been marked for recreation.
+//! 2. The caller records commands that write [`Acquired::image`] (layout `UNDEFINED` on entry,
+//!    `PRESENT_SRC_KHR` on exit) and submits them once, waiting on [`Acquired::wait`], signalling
+//!    [`Acquired::signal`] and [`Acquired::fence`] — the fence is reset by `acquire`, so a
+//!    submission with it must follow.
+//! 3. [`Presenter::present`] queues the image.
+//!
+//! A renderer that allows one frame in flight only (hadou's `Renderer` writes its per-frame data
+//! on the host) sets `PresentConfig::frames_in_flight = 1`: `acquire` then waits for the previous
+//! frame's fence, which is that renderer's contract.
+//!
+//! `VK_ERROR_OUT_OF_DATE_KHR` and `VK_SUBOPTIMAL_KHR` from either call, and
+//! [`Presenter::window_resized`], make the next `acquire` recreate the swapchain (after a device
+//! wait idle: resizes are rare, and it keeps the old images' ownership simple).
+//!
+//! Setting up on a winit window (the caller owns the context and destroys the presenter first):
+//!
+//! ```no_run
+//! use hadou::gpu::{ContextOptions, GpuContext, PresentRequest};
+//! use hadou::present::{PresentConfig, Presenter};
+//! use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
+//!
+//! type Opened = Result<(Presenter, GpuContext), Box<dyn std::error::Error>>;
+//!
+//! fn open(window: &winit::window::Window) -> Opened {
+//!     let display = window.display_handle()?.as_raw();
+//!     let handle = window.window_handle()?.as_raw();
+//!     // SAFETY: the window outlives the surface.
+//!     let create_surface = |entry: &ash::Entry, instance: &ash::Instance| unsafe {
+//!         ash_window::create_surface(entry, instance, display, handle, None)
+//!     };
+//!     let request = PresentRequest {
+//!         instance_extensions: ash_window::enumerate_required_extensions(display)?,
+//!         create_surface: &create_surface,
+//!     };
+//!     let (ctx, surface) = GpuContext::new_presenting(&ContextOptions::from_env(), &request)?;
+//!     // SAFETY: surface and device come from ctx; `Presenter::destroy` runs before ctx is dropped.
+//!     let config = PresentConfig::default();
+//!     let presenter = unsafe {
+//!         Presenter::new(&ctx.entry, &ctx.instance, ctx.physical_device, &ctx.device, surface, config)?
+//!     };
+//!     Ok((presenter, ctx))
+//! }
+//! ```
+
+mod copy;
+mod swapchain;
+
+pub use copy::PixelCopier;
+pub use swapchain::{choose_extent, Acquired, PresentConfig, Presenter};

@@ -1,0 +1,127 @@
+//! What a game hands `Renderer::record_frame` each frame, and what it gets back.
+
+use crate::gpu::vk;
+
+/// How the game's depth buffer maps view depth z (distance along the camera's forward axis) to
+/// the stored value d. Every perspective projection stores d = −A + B / z (A, B from its third
+/// row), which is what the import inverts: z = B / (d + A).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DepthConvention {
+    /// near → 0, far → 1: d = far·(z − near) / (z·(far − near)) (Vulkan's default).
+    Standard { near: f64, far: f64 },
+    /// near → 1, far → 0: d = near·(far − z) / (z·(far − near)) (hadou's own convention).
+    ReverseZ { near: f64, far: f64 },
+    /// The game's view → clip perspective matrix (column-major, clip.w = −z_view, depth in
+    /// [0, 1]: `glam::DMat4::perspective_rh`, `perspective_infinite_reverse_rh`, ...).
+    Projection(glam::DMat4),
+}
+
+impl DepthConvention {
+    /// (A, B) with d = −A + B / z.
+    pub fn coefficients(self) -> (f64, f64) {
+        match self {
+            DepthConvention::Standard { near, far } => (far / (near - far), near * far / (near - far)),
+            DepthConvention::ReverseZ { near, far } => (near / (far - near), near * far / (far - near)),
+            DepthConvention::Projection(m) => (m.z_axis.z, m.w_axis.z),
+        }
+    }
+
+    /// True when nearer is larger (B > 0): the far plane (sky) is then d ≤ 0, else d ≥ 1.
+    pub fn reversed(self) -> bool {
+        self.coefficients().1 > 0.0
+    }
+
+    /// Why this convention cannot be imported, if it cannot.
+    pub fn check(self) -> Result<(), String> {
+        match self {
+            DepthConvention::Standard { near, far } | DepthConvention::ReverseZ { near, far } => {
+                if !(near > 0.0 && far > near && far.is_finite()) {
+                    return Err(format!("near {near} and far {far} must satisfy 0 < near < far < inf"));
+                }
+            }
+            DepthConvention::Projection(m) => {
+                let perspective =
+                    m.z_axis.w == -1.0 && m.w_axis.w == 0.0 && m.x_axis.w == 0.0 && m.y_axis.w == 0.0;
+                let (a, b) = (m.z_axis.z, m.w_axis.z);
+                if !perspective || !a.is_finite() || !b.is_finite() || b == 0.0 {
+                    return Err(format!(
+                        "projection {m:?} is not a perspective projection with clip.w = −z_view and a \
+                         depth that varies with distance (third column w = −1, fourth column w = 0, \
+                         fourth column z ≠ 0)"
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The game's depth image for this frame. hadou samples it in a compute shader, so it needs
+/// `VK_IMAGE_USAGE_SAMPLED_BIT`, and `view` must show the depth aspect only.
+///
+/// Synchronization: hadou's first barrier on it waits for all earlier commands' writes
+/// (`ALL_COMMANDS` / `MEMORY_WRITE`) and moves it from `layout` to `SHADER_READ_ONLY_OPTIMAL`; its
+/// last moves it to `final_layout`, making hadou's reads visible to all later commands. The game
+/// needs no barrier of its own around hadou's commands.
+#[derive(Clone, Copy, Debug)]
+pub struct ExternalDepth {
+    pub image: vk::Image,
+    pub view: vk::ImageView,
+    /// D32_SFLOAT, D16_UNORM or D24_UNORM_S8_UINT.
+    pub format: vk::Format,
+    /// Its layout when hadou's commands start.
+    pub layout: vk::ImageLayout,
+    /// The layout hadou leaves it in.
+    pub final_layout: vk::ImageLayout,
+    pub convention: DepthConvention,
+}
+
+/// The game's colour target: hadou draws its result over it (as a colour attachment, so any
+/// colour-attachment format works). What is written depends on the format:
+/// `*_SRGB`: hadou's tonemapped linear colour (the hardware encodes); `*_UNORM`: the same,
+/// sRGB-encoded by hadou; float formats: hadou's linear HDR × exposure, not tonemapped (the game
+/// tonemaps). Pixels where hadou drew a surface (its instances, metaballs, translucent objects,
+/// with the wave in front) are drawn *over* the game's colour; elsewhere the wave's glow is
+/// *added* to it (premultiplied alpha: src + (1 − α_src)·dst, α = 1 on hadou's surfaces, 0 elsewhere).
+/// Synchronization as for `ExternalDepth` (`layout` → `COLOR_ATTACHMENT_OPTIMAL` → `final_layout`).
+#[derive(Clone, Copy, Debug)]
+pub struct ExternalColor {
+    pub image: vk::Image,
+    pub view: vk::ImageView,
+    pub format: vk::Format,
+    pub layout: vk::ImageLayout,
+    pub final_layout: vk::ImageLayout,
+}
+
+/// One frame to record.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameInputs {
+    /// The frame's size; must match the external images. 0 × 0 (a minimized window) records
+    /// nothing and returns `RecordedFrame { recorded: false, .. }`.
+    pub extent: vk::Extent2D,
+    /// Scene time in seconds (keyframes, velocities).
+    pub time: f64,
+    /// The game's depth: hadou's instances are depth-tested against it and the wave stops at it.
+    /// None: hadou's own depth only (the headless path).
+    pub depth: Option<ExternalDepth>,
+    /// The game's colour target to composite into. None: tonemapped into hadou's own `Ldr` image.
+    pub color: Option<ExternalColor>,
+}
+
+impl FrameInputs {
+    /// A frame with hadou's own images only (the headless runtime's).
+    pub fn headless(width: u32, height: u32, time: f64) -> Self {
+        FrameInputs { extent: vk::Extent2D { width, height }, time, depth: None, color: None }
+    }
+}
+
+/// What `record_frame` recorded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RecordedFrame {
+    /// False when nothing was recorded (0 × 0 extent).
+    pub recorded: bool,
+    /// Counts recorded frames; `FrameTimings::frame` refers to it.
+    pub frame: u64,
+    /// Whether this frame writes timestamps (a query pool was free).
+    pub timed: bool,
+}

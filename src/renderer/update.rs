@@ -1,0 +1,138 @@
+//! Per-frame changes without rebuilding pipelines: camera, instance transforms, waves, metaballs.
+//! Each edits the loaded scene; the next `record_frame` uploads it into the existing buffers.
+
+use glam::{DMat4, DVec3};
+
+use super::Renderer;
+use crate::scene::camera::Camera;
+use crate::scene::transform::{Transform, TransformOp};
+use crate::scene::MaterialKind;
+use crate::Error;
+
+/// A wave's state from now on, at every time: keyframes and velocity are dropped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WaveUpdate {
+    /// M.
+    pub origin: DVec3,
+    /// D (any non-zero length; normalized).
+    pub direction: DVec3,
+    /// Sphere strength a ≥ 0.
+    pub a: f64,
+    /// Line strength b ≥ 0.
+    pub b: f64,
+    /// Beam length ℓ > 0 (may be +inf).
+    pub length: f64,
+}
+
+fn invalid(message: String) -> Error {
+    Error::InvalidRequest(message)
+}
+
+impl Renderer {
+    fn loaded_mut(&mut self) -> Result<&mut super::Loaded, Error> {
+        self.loaded.as_mut().ok_or_else(|| invalid("no scene loaded (call load_scene first)".into()))
+    }
+
+    /// The camera of the following frames (the game's camera, so hadou's pixels line up with its).
+    pub fn set_camera(&mut self, camera: Camera) -> Result<(), Error> {
+        let finite = [camera.position, camera.look_at, camera.up].iter().all(|v| v.is_finite());
+        let forward = camera.look_at - camera.position;
+        if !finite
+            || forward.length() == 0.0
+            || forward.cross(camera.up).length() == 0.0
+            || !(camera.fov_y_deg > 0.0 && camera.fov_y_deg < 180.0)
+            || !(camera.near > 0.0 && camera.far > camera.near && camera.far.is_finite())
+        {
+            return Err(invalid(format!(
+                "camera {camera:?}: needs finite vectors, look_at ≠ position, up not along the view, \
+                 0 < fov_y_deg < 180 and 0 < near < far < inf"
+            )));
+        }
+        self.loaded_mut()?.scene.camera = camera;
+        Ok(())
+    }
+
+    /// Places instance `id` (scene order) by the affine `matrix` (object → world).
+    pub fn set_instance_transform(&mut self, id: usize, matrix: DMat4) -> Result<(), Error> {
+        self.set_instance_ops(id, &[TransformOp::Matrix(matrix)])
+    }
+
+    /// Places instance `id` by transform operations, applied in the order listed (as in scene files).
+    /// Translucent instances keep their load-time transform: their light view and thickness
+    /// tables are fitted to it (reload the scene to move them).
+    pub fn set_instance_ops(&mut self, id: usize, ops: &[TransformOp]) -> Result<(), Error> {
+        let loaded = self.loaded_mut()?;
+        let count = loaded.scene.instances.len();
+        let Some(instance) = loaded.scene.instances.get(id) else {
+            return Err(invalid(format!("instance {id}: the scene has {count} instances")));
+        };
+        if matches!(loaded.scene.materials[instance.material].kind, MaterialKind::Translucent { .. }) {
+            return Err(invalid(format!(
+                "instance {id} is translucent: its transform is fixed at load (its light view and \
+                 thickness tables are fitted to it)"
+            )));
+        }
+        let transform = Transform::from_ops(ops).map_err(|e| invalid(format!("instance {id}: {e}")))?;
+        let instance = &mut loaded.scene.instances[id];
+        instance.ops = ops.to_vec();
+        instance.transform = transform;
+        loaded.instances_dirty = true;
+        Ok(())
+    }
+
+    /// Sets wave `index` (scene order) for every following frame.
+    pub fn set_wave(&mut self, index: usize, update: WaveUpdate) -> Result<(), Error> {
+        let loaded = self.loaded_mut()?;
+        let count = loaded.scene.waves.len();
+        let Some(wave) = loaded.scene.waves.get_mut(index) else {
+            return Err(invalid(format!("wave {index}: the scene has {count} waves")));
+        };
+        let u = update;
+        let ok = u.origin.is_finite()
+            && u.direction.is_finite()
+            && u.direction.length() > 0.0
+            && u.a.is_finite()
+            && u.a >= 0.0
+            && u.b.is_finite()
+            && u.b >= 0.0
+            && u.length > 0.0;
+        if !ok {
+            return Err(invalid(format!(
+                "wave {index}: {u:?}: needs a finite origin, a non-zero finite direction, finite a ≥ 0 \
+                 and b ≥ 0, and length > 0"
+            )));
+        }
+        wave.origin = u.origin;
+        wave.direction = u.direction.normalize();
+        wave.a = u.a;
+        wave.b = u.b;
+        wave.length = u.length;
+        wave.velocity = DVec3::ZERO;
+        wave.keyframes.clear();
+        Ok(())
+    }
+
+    /// Sets ball `ball` of metaball group `group`: its object-space centre and coefficient q, for
+    /// every following frame. The group's keyframes and the ball's rates are dropped (the other
+    /// balls then hold their time-0 values plus their own velocities).
+    pub fn set_metaball(&mut self, group: usize, ball: usize, centre: DVec3, q: f64) -> Result<(), Error> {
+        let loaded = self.loaded_mut()?;
+        let groups = loaded.scene.metaballs.len();
+        let Some(g) = loaded.scene.metaballs.get_mut(group) else {
+            return Err(invalid(format!("metaball group {group}: the scene has {groups}")));
+        };
+        let balls = g.balls.len();
+        let Some(b) = g.balls.get_mut(ball) else {
+            return Err(invalid(format!("metaball group {group} ball {ball}: the group has {balls}")));
+        };
+        if !centre.is_finite() || !q.is_finite() {
+            return Err(invalid(format!("metaball group {group} ball {ball}: centre and q must be finite")));
+        }
+        b.centre = centre;
+        b.q = q;
+        b.velocity = DVec3::ZERO;
+        b.q_rate = 0.0;
+        g.keyframes.clear();
+        Ok(())
+    }
+}

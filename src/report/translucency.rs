@@ -1,0 +1,361 @@
+//! Translucency (seed 003): the thickness LUT at several voxel resolutions against the TSM
+//! baseline on assets/scenes/translucency.toml. Per variant: pass times, LUT bytes and bake
+//! seconds, the GPU thickness against the exact f64 thickness (`effects::thickness`) at the
+//! GPU's own shaded point, and the colour against the f64 shading (`effects::translucency`).
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use crate::effects::bake_cache::BakeCache;
+use crate::effects::raycast::{MeshBvh, SceneCaster};
+use crate::effects::thickness::{exact_thickness, tsm_thickness};
+use crate::effects::thickness_lut::{bake, BakeOptions};
+use crate::effects::translucency::{exit_weight, translucent_colour};
+use crate::profile::Summary;
+use crate::scene::{MaterialKind, Scene, ThicknessMode};
+use crate::{Aov, Error, FrameRequest, Runtime};
+
+use super::ceilings::Ceilings;
+use super::costs::{self, FRACTION_COLUMNS};
+use super::plot::{Plot, PlotPoint};
+use super::table::{Cell, Fmt, Table};
+use super::{ReportError, ReportOptions, Section, Steps};
+
+/// `scene` with every translucent material's thickness taken by `mode`.
+pub fn with_thickness(mut scene: Scene, mode: ThicknessMode) -> Scene {
+    for m in &mut scene.materials {
+        if let MaterialKind::Translucent { thickness, .. } = &mut m.kind {
+            *thickness = mode;
+        }
+    }
+    scene
+}
+
+/// `scene` with every translucent material baked at `res`³.
+pub fn with_voxel_res(mut scene: Scene, res: u32) -> Scene {
+    for m in &mut scene.materials {
+        if let MaterialKind::Translucent { voxel_res, .. } = &mut m.kind {
+            *voxel_res = res;
+        }
+    }
+    scene
+}
+
+/// The world voxel edge of a translucent instance: its mesh's object voxel edge (the bounding
+/// box's longest side / res) times ∛|det M| (the edge of a cube of a voxel's transformed volume).
+pub fn world_voxel(scene: &Scene, instance: usize) -> Option<f64> {
+    let inst = &scene.instances[instance];
+    let MaterialKind::Translucent { voxel_res, .. } = scene.materials[inst.material].kind else {
+        return None;
+    };
+    let (lo, hi) = scene.meshes[inst.mesh].mesh.bounds();
+    let h = (hi - lo).max_element() / voxel_res as f64;
+    Some(h * inst.transform.matrix.determinant().abs().cbrt())
+}
+
+/// A translucent pixel with its f64 references.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    pub pixel: usize,
+    pub instance: usize,
+    /// The shaded point, placed by the GPU's depth.
+    pub point: DVec3,
+    pub gpu: f64,
+    pub exact: f64,
+    pub tsm: f64,
+}
+
+/// Every pixel with a finite GPU thickness whose centre ray hits, in f64, a translucent instance
+/// at the GPU's depth (within 1e-3 relative); pixels on silhouettes, where the two disagree, are
+/// counted (second value) and left out. Only the thickness is compared, not the raster.
+pub fn samples(
+    scene: &Scene,
+    size: (u32, u32),
+    thickness: &[f32],
+    depth: &[f32],
+) -> Result<(Vec<Sample>, usize), Error> {
+    let meshes: Vec<_> = scene.meshes.iter().map(|m| m.mesh.clone()).collect();
+    let instances: Vec<_> = scene.instances.iter().map(|i| (i.mesh, i.transform)).collect();
+    let mesh_error =
+        |e: crate::scene::mesh::MeshError| Error::InvalidRequest(format!("reference ray caster: {e}"));
+    let caster = SceneCaster::new(&meshes, &instances).map_err(mesh_error)?;
+    let bvhs = meshes.iter().map(MeshBvh::new).collect::<Result<Vec<_>, _>>().map_err(mesh_error)?;
+    let Some(light) = scene.lights.first() else { return Ok((Vec::new(), 0)) };
+    let toward_light = -light.direction;
+    let (mut out, mut skipped) = (Vec::new(), 0);
+    for y in 0..size.1 {
+        for x in 0..size.0 {
+            let i = (y * size.0 + x) as usize;
+            let gpu = thickness[i] as f64;
+            if gpu == f64::INFINITY {
+                continue;
+            }
+            let (o, u) = scene.camera.pixel_ray(x, y, size.0, size.1);
+            let d = depth[i] as f64;
+            let Some(hit) = caster.cast(o, u).filter(|h| (h.t - d).abs() <= 1e-3 * d) else {
+                skipped += 1;
+                continue;
+            };
+            let inst = &scene.instances[hit.instance];
+            if !matches!(scene.materials[inst.material].kind, MaterialKind::Translucent { .. }) {
+                skipped += 1;
+                continue;
+            }
+            let point = o + u * d;
+            let bvh = &bvhs[inst.mesh];
+            let exact = exact_thickness(bvh, &inst.transform, point, toward_light);
+            let tsm = tsm_thickness(bvh, &inst.transform, point, toward_light);
+            out.push(Sample { pixel: i, instance: hit.instance, point, gpu, exact, tsm });
+        }
+    }
+    Ok((out, skipped))
+}
+
+/// (mean, nearest-rank p95, max) of |values|; NaN for none. A NaN value sorts last: it is the max.
+pub fn abs_stats(values: impl IntoIterator<Item = f64>) -> (f64, f64, f64) {
+    let mut v: Vec<f64> = values.into_iter().map(f64::abs).collect();
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    v.sort_by(f64::total_cmp);
+    let p95 = v[((v.len() as f64 * 0.95).ceil() as usize).clamp(1, v.len()) - 1];
+    (v.iter().sum::<f64>() / v.len() as f64, p95, v[v.len() - 1])
+}
+
+/// One variant's frame: pass times and the AOVs the errors need.
+struct Rendered {
+    light_id_ms: f64,
+    translucency_ms: f64,
+    thickness: Vec<f32>,
+    depth: Vec<f32>,
+    hdr: Vec<f32>,
+    normal: Vec<f32>,
+}
+
+fn render(
+    runtime: &mut Runtime,
+    scene: &Scene,
+    opts: &ReportOptions,
+    aovs: Vec<Aov>,
+) -> Result<Rendered, Error> {
+    runtime.load_scene(scene.clone())?;
+    let (w, h) = opts.effect_size;
+    let mut req = FrameRequest::new(w, h);
+    req.color = false;
+    let (mut light_id, mut pass) = (Vec::new(), Vec::new());
+    for i in 0..opts.warmup + opts.frames {
+        let stats = runtime.render(&req)?.stats;
+        if i >= opts.warmup {
+            for p in &stats.passes {
+                match p.name.as_str() {
+                    "light_id" => light_id.push(p.gpu_ms),
+                    "translucency" => pass.push(p.gpu_ms),
+                    _ => {}
+                }
+            }
+        }
+    }
+    req.aovs = aovs;
+    let frame = runtime.render(&req)?;
+    let n = (w * h) as usize;
+    let get = |aov: Aov, channels: usize| {
+        frame.aov(aov).map_or(vec![f32::INFINITY; n * channels], |a| a.data.clone())
+    };
+    let p50 = |v: &[f64]| Summary::of(v).map_or(f64::NAN, |s| s.p50);
+    Ok(Rendered {
+        light_id_ms: p50(&light_id),
+        translucency_ms: p50(&pass),
+        thickness: get(Aov::Thickness, 1),
+        depth: get(Aov::Depth, 1),
+        hdr: get(Aov::Hdr, 4),
+        normal: get(Aov::Normal, 4),
+    })
+}
+
+/// Bakes every LUT the scene uses (timed, the sum over its meshes) and stores them in the bake
+/// cache when there is one, so loading the scene does not bake again. Returns (seconds, bytes).
+fn bake_all(scene: &Scene, max_texture_dim: u32) -> Result<(f64, usize), Error> {
+    let mut keys: Vec<(usize, u32)> = Vec::new();
+    for inst in &scene.instances {
+        if let MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Lut, .. } =
+            scene.materials[inst.material].kind
+        {
+            if !keys.contains(&(inst.mesh, voxel_res)) {
+                keys.push((inst.mesh, voxel_res));
+            }
+        }
+    }
+    let options = BakeOptions { max_texture_dim, ..BakeOptions::default() };
+    let cache = BakeCache::from_env();
+    let (mut seconds, mut bytes) = (0.0, 0);
+    for (mesh, res) in keys {
+        let m = &scene.meshes[mesh];
+        let start = Instant::now();
+        let (lut, _) = bake(&m.mesh, res, &options, &|_, _| {}).map_err(|e| {
+            Error::InvalidRequest(format!("thickness LUT of mesh \"{}\" at {res}³: {e}", m.name))
+        })?;
+        seconds += start.elapsed().as_secs_f64();
+        bytes += lut.bytes();
+        if let Some(cache) = &cache {
+            if let Err(e) = cache.store(&m.mesh, &lut, &options) {
+                log::warn!("bake cache not written: {e}");
+            }
+        }
+    }
+    Ok((seconds, bytes))
+}
+
+/// Errors of one variant against the f64 references.
+struct Errors {
+    pixels: usize,
+    /// |d − d*| in voxels of each pixel's instance (mean, p95, max), then in world units.
+    voxels: (f64, f64, f64),
+    world: (f64, f64, f64),
+    /// Largest channel of |HDR − f64 colour| per pixel (mean, p95, max).
+    colour: (f64, f64, f64),
+}
+
+fn errors(scene: &Scene, opts: &ReportOptions, r: &Rendered, surface: &[f32]) -> Result<Errors, Error> {
+    let (samples, _) = samples(scene, opts.effect_size, &r.thickness, &r.depth)?;
+    let voxel = |s: &Sample| world_voxel(scene, s.instance).unwrap_or(f64::NAN);
+    let light = scene.lights.first();
+    let colour = samples.iter().map(|s| {
+        let Some(light) = light else { return 0.0 };
+        let inst = &scene.instances[s.instance];
+        let mat = &scene.materials[inst.material];
+        let MaterialKind::Translucent { sigma, .. } = mat.kind else { return f64::NAN };
+        let px = |img: &[f32]| {
+            DVec3::new(img[s.pixel * 4] as f64, img[s.pixel * 4 + 1] as f64, img[s.pixel * 4 + 2] as f64)
+        };
+        let w = exit_weight(px(&r.normal), light.direction);
+        let cpu =
+            translucent_colour(px(surface), light.color * light.intensity, mat.albedo, sigma, s.exact, w);
+        (px(&r.hdr) - cpu).abs().max_element()
+    });
+    Ok(Errors {
+        pixels: samples.len(),
+        voxels: abs_stats(samples.iter().map(|s| (s.gpu - s.exact) / voxel(s))),
+        world: abs_stats(samples.iter().map(|s| s.gpu - s.exact)),
+        colour: abs_stats(colour.collect::<Vec<_>>()),
+    })
+}
+
+pub fn section(
+    runtime: &mut Runtime,
+    opts: &ReportOptions,
+    ceilings: &Ceilings,
+    steps: &mut Steps,
+) -> Result<Section, ReportError> {
+    let path = opts.scene("translucency.toml");
+    let base = crate::scene::load_scene(&path)?;
+    let limit = runtime.context().limits.max_image_dimension2_d;
+    let aovs = vec![Aov::Thickness, Aov::Depth, Aov::Hdr, Aov::Normal];
+    // The surface term alone: the same scene with every material lambert.
+    steps.next("translucency: surface reference");
+    let mut lambert = base.clone();
+    lambert.materials.iter_mut().for_each(|m| m.kind = MaterialKind::Lambert);
+    let surface = render(runtime, &lambert, opts, vec![Aov::Hdr])?.hdr;
+    let mut columns = vec![
+        "variant",
+        "voxel res",
+        "LUT bytes",
+        "bake s",
+        "light_id ms",
+        "translucency ms",
+        "pixels",
+        "thickness err mean (voxels)",
+        "p95 (voxels)",
+        "max (voxels)",
+        "thickness err mean (world)",
+        "p95 (world)",
+        "max (world)",
+        "colour err mean",
+        "colour p95",
+        "colour max",
+    ];
+    columns.extend(FRACTION_COLUMNS);
+    let mut table = Table::new("translucency", "Translucency: thickness LUT vs TSM", &columns);
+    let mut plot = Plot {
+        id: "translucency".into(),
+        title: format!(
+            "Translucency, {}×{}: pass time against p95 thickness error",
+            opts.effect_size.0, opts.effect_size.1
+        ),
+        x_label: "light_id + translucency ms (p50)".into(),
+        y_label: "p95 |thickness error| (world units)".into(),
+        series: vec!["LUT".into(), "TSM".into()],
+        points: Vec::new(),
+    };
+    let mut variants: Vec<(String, Option<u32>)> =
+        opts.voxel_res.iter().map(|&r| (format!("lut {r}"), Some(r))).collect();
+    variants.push(("tsm".into(), None));
+    let pixels = opts.effect_size.0 as f64 * opts.effect_size.1 as f64;
+    for (label, res) in variants {
+        steps.next(&format!("translucency: {label}"));
+        let (scene, bake) = match res {
+            Some(r) => {
+                let scene = with_thickness(with_voxel_res(base.clone(), r), ThicknessMode::Lut);
+                let bake = bake_all(&scene, limit)?;
+                (scene, Some(bake))
+            }
+            None => (with_thickness(base.clone(), ThicknessMode::Tsm), None),
+        };
+        let r = render(runtime, &scene, opts, aovs.clone())?;
+        let e = errors(&scene, opts, &r, &surface)?;
+        let coverage = e.pixels as f64 / pixels;
+        let num = Cell::Num;
+        let mut row = vec![
+            Cell::text(&label),
+            res.map_or(Cell::Missing, |r| num(r as f64, Fmt::Int)),
+            bake.map_or(Cell::Missing, |b| num(b.1 as f64, Fmt::Int)),
+            bake.map_or(Cell::Missing, |b| num(b.0, Fmt::Fixed(2))),
+            num(r.light_id_ms, Fmt::Fixed(3)),
+            num(r.translucency_ms, Fmt::Fixed(3)),
+            num(e.pixels as f64, Fmt::Int),
+            num(e.voxels.0, Fmt::Fixed(3)),
+            num(e.voxels.1, Fmt::Fixed(3)),
+            num(e.voxels.2, Fmt::Fixed(2)),
+            num(e.world.0, Fmt::Sci(2)),
+            num(e.world.1, Fmt::Sci(2)),
+            num(e.world.2, Fmt::Sci(2)),
+            num(e.colour.0, Fmt::Sci(2)),
+            num(e.colour.1, Fmt::Sci(2)),
+            num(e.colour.2, Fmt::Sci(2)),
+        ];
+        row.extend(costs::fraction_cells(
+            Some(costs::translucency(coverage)),
+            pixels,
+            r.translucency_ms,
+            ceilings,
+        ));
+        table.push(row);
+        plot.points.push(PlotPoint {
+            label: label.clone(),
+            x: r.light_id_ms + r.translucency_ms,
+            y: e.world.1,
+            series: usize::from(res.is_none()),
+        });
+    }
+    let text = format!(
+        "`{}` (cavity cube, upright torus, bottle; back-lit) at {}×{}, every translucent material at the \
+         row's voxel resolution (the scene file's own resolutions are not used). Thickness errors are \
+         |GPU thickness − exact f64 thickness| per translucent pixel at the GPU's own shaded point, in voxel \
+         edges of the pixel's instance (mesh bounding box / res, times ∛|det M|) and in world units; \
+         silhouette pixels where the f64 ray hits another surface are left out. Colour error: the largest \
+         channel of |HDR − f64 colour| (the lambert render's surface term plus the transmitted light with the \
+         exact thickness, `effects::translucency::translucent_colour`), in linear HDR units; it includes \
+         RGBA16F rounding (2⁻¹⁰ relative). Bake s: wall seconds of baking every table of the row (all cores), \
+         before the frames. The TSM row has no table.",
+        path.display(),
+        opts.effect_size.0,
+        opts.effect_size.1
+    );
+    Ok(Section {
+        id: "translucency",
+        title: "Translucency".into(),
+        text,
+        tables: vec![table],
+        plots: vec![plot],
+    })
+}

@@ -1,0 +1,583 @@
+//! Embedding: a "game" with its own ash instance, device, queue and command buffer (the game
+//! prototype's Vulkan code, not hadou's context) rasterizes a tilted wall into its own standard-Z
+//! depth and colour, embeds hadou with `GpuContext::from_raw`, records hadou's frame into its own
+//! command buffer and submits it on its own queue. Checked against the f64 references and against
+//! the headless `Runtime` rendering the same scene with the wall as a hadou instance.
+//! Lavapipe, validation + synchronization validation on (the game's messenger sees hadou's
+//! messages too): zero errors, zero warnings.
+
+mod common;
+
+#[path = "../examples/game_prototype/gpu.rs"]
+mod gpu;
+#[path = "../examples/game_prototype/painter.rs"]
+mod painter;
+
+use ash::vk;
+use glam::{DMat4, DQuat, DVec3};
+use gpu::{GameImage, GameVk, HostBuffer};
+use hadou::effects::energy_wave::line_integral;
+use hadou::effects::tonemap::{aces, srgb_encode};
+use hadou::gpu::{EnabledFeatures, GpuContext};
+use hadou::passes::energy_wave::wave_params;
+use hadou::renderer::depth_import::import_depth;
+use hadou::scene::Scene;
+use hadou::{
+    Aov, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameRequest, Renderer, WaveUpdate,
+};
+use painter::{BoxDraw, GameCamera, PaintTarget, Painter};
+
+const COLOR: vk::Format = vk::Format::R8G8B8A8_UNORM;
+const DEPTH: vk::Format = vk::Format::D32_SFLOAT;
+
+/// The game's camera (near 1, far 60; standard Z unless a test turns reverse-Z on) — hadou gets
+/// the same one.
+fn camera() -> GameCamera {
+    GameCamera {
+        position: DVec3::new(0.0, 1.0, 12.0),
+        look_at: DVec3::ZERO,
+        fov_y_deg: 50.0,
+        near: 1.0,
+        far: 60.0,
+        reverse_z: false,
+    }
+}
+
+/// Side of the wall: small enough that the sky shows around it.
+const WALL: f64 = 16.0;
+
+/// The wall: the `plane` mesh (XZ, WALL × WALL) rotated 70° about x, then moved to z = -1.
+fn wall_matrix() -> DMat4 {
+    DMat4::from_translation(DVec3::new(0.0, 0.0, -1.0))
+        * DMat4::from_quat(DQuat::from_rotation_x(70f64.to_radians()))
+}
+
+const WAVE: &str = r#"
+[[wave]]
+origin = [-4, -0.5, 2]
+direction = [1, 0.1, -0.3]
+a = 2
+b = 1
+core = 0.02
+length = 12
+"#;
+
+/// hadou's part of the scene: a cube that the wall cuts, and a wave. `with_wall` adds the wall as
+/// a hadou instance (the headless twin of the game's wall).
+fn scene(with_wall: bool) -> Scene {
+    let wall = if with_wall {
+        r#"
+        [[mesh]]
+        name = "wall"
+        kind = "plane"
+        size = 16
+        [[instance]]
+        mesh = "wall"
+        transform = [{ rotate = { angle_deg = 70, axis = [1, 0, 0] } }, { translate = [0, 0, -1] }]
+        "#
+    } else {
+        ""
+    };
+    common::parse(&format!(
+        r#"
+        [camera]
+        position = [0, 1, 12]
+        look_at = [0, 0, 0]
+        fov_y_deg = 50
+        near = 1
+        far = 60
+        [[light]]
+        direction = [-0.3, -1, -0.5]
+        intensity = 2
+        [[mesh]]
+        name = "box"
+        kind = "cube"
+        size = 3
+        [[instance]]
+        mesh = "box"
+        transform = [{{ rotate = {{ angle_deg = 30, axis = [0, 1, 0] }} }}, {{ translate = [-2, 0.5, -1] }}]
+        {wall}
+        {WAVE}
+        "#
+    ))
+}
+
+/// The game: its own device, images and raster, and hadou embedded on top.
+struct Game {
+    vk: GameVk,
+    painter: Painter,
+    color: GameImage,
+    depth: GameImage,
+    extent: vk::Extent2D,
+    /// How hadou is told about the game's depth (the same standard-Z projection either way).
+    convention: DepthConvention,
+}
+
+/// What one game frame read back.
+struct Frame {
+    color: Vec<u8>,
+    depth: Vec<f32>,
+    aovs: Vec<(Aov, hadou::AovImage)>,
+    recorded: bool,
+}
+
+impl Frame {
+    fn aov(&self, aov: Aov) -> &[f32] {
+        &self.aovs.iter().find(|(a, _)| *a == aov).unwrap().1.data
+    }
+}
+
+impl Game {
+    /// A game rendering with standard Z, or reverse-Z with `reverse_z`.
+    fn new(extent: vk::Extent2D, reverse_z: bool) -> Game {
+        let vk =
+            GameVk::new(true, &[], &[], &|_, _, _, _| true).unwrap_or_else(|e| panic!("game device: {e}"));
+        let painter = Painter::new(&vk, COLOR, DEPTH, reverse_z).unwrap();
+        let (color, depth) = Self::images(&vk, extent);
+        let (near, far) = (camera().near, camera().far);
+        let convention = if reverse_z {
+            DepthConvention::ReverseZ { near, far }
+        } else {
+            DepthConvention::Standard { near, far }
+        };
+        Game { vk, painter, color, depth, extent, convention }
+    }
+
+    fn images(vk: &GameVk, extent: vk::Extent2D) -> (GameImage, GameImage) {
+        let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+        let color = vk.create_image(extent, COLOR, usage).unwrap();
+        let usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+            | vk::ImageUsageFlags::SAMPLED
+            | vk::ImageUsageFlags::TRANSFER_SRC;
+        let depth = vk.create_image(extent, DEPTH, usage).unwrap();
+        (color, depth)
+    }
+
+    fn resize(&mut self, hadou: &mut Renderer, extent: vk::Extent2D) {
+        unsafe { self.vk.device.device_wait_idle() }.unwrap();
+        let (color, depth) = Self::images(&self.vk, extent);
+        self.vk.destroy_image(std::mem::replace(&mut self.color, color));
+        self.vk.destroy_image(std::mem::replace(&mut self.depth, depth));
+        // The old depth view is gone: a new view may reuse its handle.
+        hadou.forget_external_views().unwrap();
+        self.extent = extent;
+    }
+
+    /// One frame: the game's wall into its colour and depth, then (with `hadou`) hadou's frame in
+    /// the same command buffer, then copies of colour, depth and the AOVs; submit, wait.
+    fn frame(&self, hadou: Option<&mut Renderer>, aovs: &[Aov], time: f64) -> Frame {
+        let g = &self.vk;
+        let e = self.extent;
+        g.begin().unwrap();
+        let undefined = vk::ImageLayout::UNDEFINED;
+        g.transition(self.color.image, COLOR, undefined, vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+        g.transition(self.depth.image, DEPTH, undefined, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL);
+        let wall = BoxDraw {
+            model: wall_matrix() * DMat4::from_scale(DVec3::new(WALL, 0.0, WALL)),
+            color: DVec3::new(0.3, 0.35, 0.4),
+        };
+        let clear = DVec3::new(0.05, 0.05, 0.1);
+        let target = PaintTarget { color: self.color.view, depth: self.depth.view, extent: e, clear };
+        let cam = GameCamera { reverse_z: self.painter.reverse_z, ..camera() };
+        self.painter.record(g, &target, &cam, &[wall]);
+        let mut readback = None;
+        let mut recorded = false;
+        if let Some(hadou) = hadou {
+            let inputs = FrameInputs {
+                extent: e,
+                time,
+                depth: Some(ExternalDepth {
+                    image: self.depth.image,
+                    view: self.depth.view,
+                    format: DEPTH,
+                    layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                    final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    convention: self.convention,
+                }),
+                color: Some(ExternalColor {
+                    image: self.color.image,
+                    view: self.color.view,
+                    format: COLOR,
+                    layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                }),
+            };
+            recorded = hadou.record_frame(g.cmd, &inputs).unwrap().recorded;
+            if recorded {
+                readback = Some((hadou.record_aov_readback(g.cmd, aovs).unwrap(), hadou));
+            }
+        }
+        if !recorded {
+            let src = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+            g.transition(self.color.image, COLOR, vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, src);
+            g.transition(self.depth.image, DEPTH, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL, src);
+        }
+        let pixels = (e.width * e.height) as u64;
+        let color_buf = g.create_host_buffer(pixels * 4).unwrap();
+        let depth_buf = g.create_host_buffer(pixels * 4).unwrap();
+        g.record_copy_to_host(&self.color, &color_buf);
+        g.record_copy_to_host(&self.depth, &depth_buf);
+        g.submit_and_wait(None, None).unwrap();
+        let frame = Frame {
+            color: color_buf.bytes().to_vec(),
+            depth: floats(&depth_buf),
+            aovs: readback
+                .map(|(rb, hadou)| {
+                    let out = aovs.iter().map(|&a| (a, rb.aov(a).unwrap())).collect();
+                    hadou.release_readback(rb);
+                    out
+                })
+                .unwrap_or_default(),
+            recorded,
+        };
+        g.destroy_buffer(color_buf);
+        g.destroy_buffer(depth_buf);
+        frame
+    }
+
+    fn assert_clean(&self) {
+        let (errors, warnings) = self.vk.messages.counts();
+        let texts = self.vk.messages.texts.lock().unwrap().join("\n");
+        assert!(errors == 0 && warnings == 0, "validation: {errors} errors, {warnings} warnings:\n{texts}");
+    }
+
+    /// hadou's objects first, then the game's: the ownership order `from_raw` documents.
+    fn finish(self, hadou: Renderer) {
+        drop(hadou);
+        self.painter.destroy(&self.vk);
+        self.vk.destroy_image(self.color);
+        self.vk.destroy_image(self.depth);
+        let messages = self.vk.messages.clone();
+        self.vk.destroy();
+        let (errors, warnings) = messages.counts();
+        assert!(errors == 0 && warnings == 0, "at shutdown: {:?}", messages.texts.lock().unwrap());
+    }
+}
+
+fn floats(b: &HostBuffer) -> Vec<f32> {
+    b.bytes().chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
+}
+
+fn embed(game: &Game, scene: Scene) -> Renderer {
+    // SAFETY: the game's handles are valid, its features are EnabledFeatures::REQUIRED, and the
+    // renderer is dropped before the game destroys its device (Game::finish).
+    let ctx = unsafe { GpuContext::from_raw(game.vk.hadou_raw()) }.unwrap();
+    let mut hadou = Renderer::new(ctx).unwrap();
+    hadou.load_scene(scene).unwrap();
+    hadou
+}
+
+fn extent(width: u32, height: u32) -> vk::Extent2D {
+    vk::Extent2D { width, height }
+}
+
+/// The f64 distance along pixel (x, y)'s ray to the wall plane (+inf when it misses the
+/// wall), and whether the pixel is safely inside it (away from its border).
+fn wall_distance(x: u32, y: u32, e: vk::Extent2D) -> (f64, bool) {
+    let cam = camera().for_hadou();
+    let (o, u) = cam.pixel_ray(x, y, e.width, e.height);
+    let m = wall_matrix();
+    let p0 = m.transform_point3(DVec3::ZERO);
+    let n = m.transform_vector3(DVec3::Y).normalize();
+    let t = (p0 - o).dot(n) / u.dot(n);
+    let local = m.inverse().transform_point3(o + u * t);
+    let half = WALL / 2.0;
+    let inside = t > 0.0 && local.x.abs() < half && local.z.abs() < half;
+    // A pixel whose ray passes within 0.5 of the border may be covered or not: skipped.
+    let safe = local.x.abs() < half - 0.5 && local.z.abs() < half - 0.5;
+    let clear = local.x.abs() > half + 0.5 || local.z.abs() > half + 0.5 || t <= 0.0;
+    let safe = if inside { safe } else { clear };
+    (if inside { t } else { f64::INFINITY }, safe)
+}
+
+/// Pixels where hadou's cube is visible: the normal AOV is set and not the wall's.
+fn cube_mask(normal: &[f32], wall_normal: Option<DVec3>) -> Vec<bool> {
+    normal
+        .chunks_exact(4)
+        .map(|n| {
+            let hit = n[3] == 1.0;
+            let is_wall = wall_normal.is_some_and(|w| {
+                let v = DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
+                (v - w).length() < 1e-2 || (v + w).length() < 1e-2
+            });
+            hit && !is_wall
+        })
+        .collect()
+}
+
+/// True when a pixel or one of its 8 neighbours differs in `mask` from its neighbour: visibility
+/// may flip there between two depth paths that agree to 1e-5 (the cube–wall intersection line).
+fn near_edge(mask: &[bool], x: u32, y: u32, e: vk::Extent2D) -> bool {
+    let at = |x: i64, y: i64| {
+        let (x, y) = (x.clamp(0, e.width as i64 - 1), y.clamp(0, e.height as i64 - 1));
+        mask[(y * e.width as i64 + x) as usize]
+    };
+    let c = at(x as i64, y as i64);
+    (-2..=2).any(|dy| (-2..=2).any(|dx| at(x as i64 + dx, y as i64 + dy) != c))
+}
+
+/// Relative error, with 0 for two zeros.
+fn rel(a: f64, b: f64) -> f64 {
+    if a == b {
+        0.0
+    } else {
+        (a - b).abs() / a.abs().max(b.abs())
+    }
+}
+
+/// The key check: the embedded frame gives the headless path's numbers (energy, distance, the
+/// cube's visibility) and the f64 references; the depth import matches its f64 twin; the colour
+/// is hadou's tonemapped result over the cube and the game's colour plus the wave's glow elsewhere.
+#[test]
+fn embedded_frame_matches_headless_and_f64() {
+    let e = extent(96, 72);
+    let game = Game::new(e, false);
+    let mut hadou = embed(&game, scene(false));
+    let aovs = [Aov::Energy, Aov::Depth, Aov::Normal, Aov::Hdr];
+    let before = game.frame(None, &[], 0.0);
+    let frame = game.frame(Some(&mut hadou), &aovs, 0.0);
+    assert!(frame.recorded);
+    game.assert_clean();
+
+    let mut rt = common::runtime();
+    rt.load_scene(scene(true)).unwrap();
+    let mut req = FrameRequest::new(e.width, e.height);
+    req.aovs = vec![Aov::Energy, Aov::Depth, Aov::Normal];
+    let headless = rt.render(&req).unwrap();
+    common::assert_clean(&rt);
+
+    let cam = camera().for_hadou();
+    let wall_n = wall_matrix().transform_vector3(DVec3::Y).normalize();
+    let mask_e = cube_mask(frame.aov(Aov::Normal), None);
+    let mask_h = cube_mask(&headless.aov(Aov::Normal).unwrap().data, Some(wall_n));
+    let params = wave_params(&scene(false).waves[0].at(0.0));
+    let frame_ray = cam.ray_frame(e.width, e.height);
+    let conv = DepthConvention::Standard { near: 1.0, far: 60.0 };
+    let u = f32::EPSILON as f64 / 2.0;
+    let (mut cube_px, mut wall_px, mut worst_ref, mut worst_pair, mut worst_import) =
+        (0, 0, 0f64, 0f64, 0f64);
+    for y in 0..e.height {
+        for x in 0..e.width {
+            let i = (y * e.width + x) as usize;
+            // Depth import vs its f64 twin, on the depth the game stored. Bound: the shader's
+            // z = B / (d + A) (standard Z: A = f/(n − f)) cancels in d + A by |A|/|d + A| = z/n
+            // (A rounded to f32 and the sum rounded: ≤ 2 roundings scaled by z/n), plus ~8 in B,
+            // the division, the pixel ray's length and the f32 ray frame.
+            let ndc_x = 2.0 * (x as f64 + 0.5) / e.width as f64 - 1.0;
+            let ndc_y = 1.0 - 2.0 * (y as f64 + 0.5) / e.height as f64;
+            let scale = (frame_ray.forward + frame_ray.right * ndc_x + frame_ray.up * ndc_y).length();
+            let (want, _) = import_depth(frame.depth[i] as f64, conv, scale, &cam);
+            let got_distance = frame.aov(Aov::Depth)[i] as f64;
+            if !mask_e[i] {
+                if want.is_infinite() {
+                    assert!(got_distance.is_infinite(), "({x}, {y}): sky imported as {got_distance}");
+                } else {
+                    let z = want / scale;
+                    let bound = (2.0 * z / 1.0 + 8.0) * u;
+                    let r = rel(got_distance, want);
+                    worst_import = worst_import.max(r / bound);
+                    assert!(
+                        r <= bound,
+                        "({x}, {y}): import {got_distance} vs f64 {want}, rel {r:.2e} > {bound:.2e}"
+                    );
+                }
+            }
+            if near_edge(&mask_h, x, y, e) {
+                continue;
+            }
+            // Away from the cube–wall intersection and the cube's silhouette, the cube's visibility
+            // is the same in both paths.
+            assert_eq!(
+                mask_e[i], mask_h[i],
+                "({x}, {y}): cube visible embedded {} vs headless {}",
+                mask_e[i], mask_h[i]
+            );
+            let (energy_e, energy_h) =
+                (frame.aov(Aov::Energy)[i] as f64, headless.aov(Aov::Energy).unwrap().data[i] as f64);
+            let (dist_e, dist_h) = (got_distance, headless.aov(Aov::Depth).unwrap().data[i] as f64);
+            // Distances: the headless raster's (≤ 1e-5 relative, gpu_raster) and the import's
+            // (the bound above, ≤ 1e-5 for z ≤ 60) agree within 2e-5.
+            if dist_h.is_finite() || dist_e.is_finite() {
+                assert!(rel(dist_e, dist_h) <= 2e-5, "({x}, {y}): distance {dist_e} vs headless {dist_h}");
+            }
+            // Energy: each path is within 1e-4 of the f64 integral up to its own depth
+            // (gpu_energy_wave's bound), and the depths agree within 2e-5 with dH/dL·L/H ≤ 1 — so the
+            // two paths agree within 2e-4.
+            let pair = rel(energy_e, energy_h);
+            worst_pair = worst_pair.max(pair);
+            assert!(pair <= 2e-4, "({x}, {y}): energy {energy_e} embedded vs {energy_h} headless");
+            if mask_e[i] {
+                cube_px += 1;
+                continue;
+            }
+            // On the wall and the sky: the f64 integral up to the f64 wall intersection.
+            let (t_wall, safe) = wall_distance(x, y, e);
+            if !safe {
+                continue;
+            }
+            wall_px += 1;
+            let (o, dir) = cam.pixel_ray(x, y, e.width, e.height);
+            let reference = line_integral(&params, o, dir, t_wall.min(cam.far));
+            let r = rel(energy_e, reference);
+            worst_ref = worst_ref.max(r);
+            assert!(r <= 1e-4, "({x}, {y}): energy {energy_e} vs f64 {reference}, rel {r:.2e}");
+        }
+    }
+    println!(
+        "{cube_px} cube and {wall_px} wall/sky pixels; energy vs f64 {worst_ref:.2e}, embedded vs headless \
+         {worst_pair:.2e}; depth import at {worst_import:.2} of its bound"
+    );
+    assert!(cube_px > 50 && wall_px > 1000, "the scene must show both: {cube_px} cube, {wall_px} wall");
+    check_composite(&before, &frame, &mask_e, e);
+    drop(rt);
+    game.finish(hadou);
+}
+
+/// Over on hadou's surfaces, added elsewhere (UNORM target: sRGB-encoded tonemapped values).
+/// Bound: 1 code — the expected value is computed in f64 from the same f16 HDR texels the shader
+/// read, so only the f32 ACES/pow rounding (< 1e-5) and the final rounding to 8 bits differ.
+fn check_composite(before: &Frame, after: &Frame, cube: &[bool], e: vk::Extent2D) {
+    let hdr = after.aov(Aov::Hdr);
+    let mut worst = 0f64;
+    for i in 0..(e.width * e.height) as usize {
+        for c in 0..3 {
+            let glow = srgb_encode(aces((hdr[i * 4 + c] as f64).max(0.0)));
+            let alpha = hdr[i * 4 + 3] as f64;
+            assert_eq!(alpha, if cube[i] { 1.0 } else { 0.0 }, "pixel {i}: alpha {alpha}");
+            let dst = before.color[i * 4 + c] as f64 / 255.0;
+            let want = ((glow + (1.0 - alpha) * dst).min(1.0) * 255.0).round();
+            let got = after.color[i * 4 + c] as f64;
+            worst = worst.max((got - want).abs());
+            assert!((got - want).abs() <= 1.0, "pixel {i} channel {c}: {got} vs {want}");
+        }
+    }
+    println!("composite: worst {worst} code(s)");
+}
+
+/// A 0 × 0 frame records nothing and is no error; a resize rebuilds hadou's images and the numbers
+/// stay right at the new size (the game renders reverse-Z here: its sky is depth 0); latest_timings
+/// is None until a frame finished, then names every scope, all without waiting on the queries.
+#[test]
+fn zero_extent_resize_and_timings() {
+    let mut game = Game::new(extent(40, 30), true);
+    let mut hadou = embed(&game, scene(false));
+    assert!(hadou.latest_timings().unwrap().is_none(), "no frame has run yet");
+
+    game.vk.begin().unwrap();
+    let inputs = FrameInputs::headless(0, 0, 0.0);
+    let recorded = hadou.record_frame(game.vk.cmd, &inputs).unwrap();
+    assert!(!recorded.recorded);
+    game.vk.submit_and_wait(None, None).unwrap();
+    assert!(hadou.latest_timings().unwrap().is_none());
+
+    for size in [extent(40, 30), extent(56, 20), extent(40, 30)] {
+        game.resize(&mut hadou, size);
+        let frame = game.frame(Some(&mut hadou), &[Aov::Energy, Aov::Normal, Aov::Depth], 0.0);
+        assert!(frame.recorded);
+        let (_, sky) = check_energy_on_wall(&frame, &scene(false), size, 0);
+        assert!(sky > 10, "the game's sky shows at {size:?}: {sky} pixels");
+    }
+    let timings = hadou.latest_timings().unwrap().expect("a finished frame has timings").clone();
+    let names: Vec<&str> = timings.passes.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["depth_import", "raster", "energy_wave", "composite", "readback"]);
+    assert!(timings.passes.iter().all(|p| p.gpu_ms.is_finite() && p.gpu_ms >= 0.0));
+    println!("latest frame {}: {:?}", timings.frame, timings.passes);
+    game.finish(hadou);
+}
+
+/// Distance and energy on wall and sky pixels away from the cube vs the f64 wall distance and the
+/// f64 integral up to it. Returns the number of pixels checked and how many of them were sky.
+fn check_energy_on_wall(frame: &Frame, scene: &Scene, e: vk::Extent2D, wave: usize) -> (usize, usize) {
+    let cam = camera().for_hadou();
+    let params = wave_params(&scene.waves[wave].at(0.0));
+    let mask = cube_mask(frame.aov(Aov::Normal), None);
+    let (mut checked, mut sky) = (0, 0);
+    for y in 0..e.height {
+        for x in 0..e.width {
+            let i = (y * e.width + x) as usize;
+            let (t_wall, safe) = wall_distance(x, y, e);
+            if near_edge(&mask, x, y, e) || mask[i] || !safe {
+                continue;
+            }
+            // The imported distance: +inf for the game's sky (its far-plane depth), else the f64
+            // wall distance within the import bound (≤ 1e-5 for z ≤ 60, see above).
+            let distance = frame.aov(Aov::Depth)[i] as f64;
+            if t_wall.is_infinite() {
+                assert!(distance.is_infinite(), "({x}, {y}) at {e:?}: sky imported as {distance}");
+                sky += 1;
+            } else {
+                assert!(rel(distance, t_wall) <= 2e-5, "({x}, {y}) at {e:?}: {distance} vs f64 {t_wall}");
+            }
+            let (o, dir) = cam.pixel_ray(x, y, e.width, e.height);
+            let reference = line_integral(&params, o, dir, t_wall.min(cam.far));
+            let got = frame.aov(Aov::Energy)[i] as f64;
+            assert!(rel(got, reference) <= 1e-4, "({x}, {y}) at {e:?}: {got} vs f64 {reference}");
+            checked += 1;
+        }
+    }
+    assert!(checked as u32 > e.width * e.height / 2, "{checked} pixels checked");
+    (checked, sky)
+}
+
+/// The update API: a new wave (origin, a, b, length, direction) and a moved cube change the
+/// picture as the f64 reference predicts, with no pipeline rebuilt. The game hands its depth
+/// convention as its projection matrix here.
+#[test]
+fn update_api_changes_the_picture_as_predicted() {
+    let e = extent(48, 36);
+    let mut game = Game::new(e, false);
+    // The game's projection matrix itself, instead of near/far.
+    game.convention = DepthConvention::Projection(camera().projection(e.width as f64 / e.height as f64));
+    let mut hadou = embed(&game, scene(false));
+    let first = game.frame(Some(&mut hadou), &[Aov::Energy, Aov::Normal], 0.0);
+    let cube_before = cube_mask(first.aov(Aov::Normal), None).iter().filter(|&&c| c).count();
+    assert!(cube_before > 20);
+
+    let update = WaveUpdate {
+        origin: DVec3::new(2.0, 1.0, 0.5),
+        direction: DVec3::new(-1.0, 0.4, 0.2),
+        a: 5.0,
+        b: 0.5,
+        length: 4.0,
+    };
+    hadou.set_wave(0, update).unwrap();
+    // Out of view: the cube leaves the picture.
+    hadou.set_instance_transform(0, DMat4::from_translation(DVec3::new(500.0, 0.0, 0.0))).unwrap();
+    let second = game.frame(Some(&mut hadou), &[Aov::Energy, Aov::Normal, Aov::Depth], 0.0);
+    let cube_after = cube_mask(second.aov(Aov::Normal), None).iter().filter(|&&c| c).count();
+    assert_eq!(cube_after, 0, "the moved cube is out of view");
+    let mut moved = scene(false);
+    let w = &mut moved.waves[0];
+    (w.origin, w.direction, w.a, w.b, w.length) =
+        (update.origin, update.direction.normalize(), 5.0, 0.5, 4.0);
+    let (checked, _) = check_energy_on_wall(&second, &moved, e, 0);
+    // The picture did change: the old wave's energy is far from the new one's somewhere.
+    let changed = first
+        .aov(Aov::Energy)
+        .iter()
+        .zip(second.aov(Aov::Energy))
+        .any(|(a, b)| rel(*a as f64, *b as f64) > 0.1);
+    assert!(changed && checked > 0);
+    // Bad updates are refused with a message, not a panic.
+    let bad = WaveUpdate { a: -1.0, ..update };
+    assert!(hadou.set_wave(0, bad).unwrap_err().to_string().contains("wave 0"));
+    assert!(hadou.set_wave(3, update).is_err());
+    assert!(hadou.set_instance_transform(0, DMat4::ZERO).is_err());
+    game.finish(hadou);
+}
+
+/// A device without a feature hadou needs is refused by name, before anything is created.
+#[test]
+fn from_raw_names_a_missing_feature() {
+    let game = Game::new(extent(8, 8), false);
+    let mut raw = game.vk.hadou_raw();
+    raw.enabled = EnabledFeatures { host_query_reset: false, ..EnabledFeatures::REQUIRED };
+    let err = unsafe { GpuContext::from_raw(raw) }.err().expect("refused").to_string();
+    assert!(err.contains("hostQueryReset"), "{err}");
+    let mut raw = game.vk.hadou_raw();
+    raw.queue_family = 99;
+    let err = unsafe { GpuContext::from_raw(raw) }.err().expect("refused").to_string();
+    assert!(err.contains("queue family"), "{err}");
+    let hadou = embed(&game, scene(false));
+    game.finish(hadou);
+}

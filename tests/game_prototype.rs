@@ -1,0 +1,88 @@
+//! The game prototype's frame loop, headless (no window, no swapchain: the game renders into its
+//! own offscreen image), for N frames under validation + synchronization validation: the player
+//! charges a wave, fires it past the slime at the translucent target. Every frame's energy AOV is
+//! checked against the f64 integral of the wave the game state says it set.
+
+#[path = "../examples/game_prototype/game.rs"]
+mod game;
+#[path = "../examples/game_prototype/gpu.rs"]
+mod gpu;
+#[path = "../examples/game_prototype/painter.rs"]
+mod painter;
+
+use ash::vk;
+use game::{Game, Input};
+use hadou::effects::energy_wave::{line_integral, WaveParams};
+use hadou::Aov;
+
+/// Relative error of each pixel's energy against the f64 closed form up to the GPU's own distance
+/// (the game's imported depth, or hadou's surfaces). Bound 1e-4, gpu_energy_wave's: f32 pixel rays
+/// (≈ 3e-7) enter H only logarithmically, and the closed form is a few f32 ulps.
+fn check_energy(g: &Game, frame: &game::OffscreenFrame, e: vk::Extent2D) -> f64 {
+    let aov = |a: Aov| &frame.aovs.iter().find(|(x, _)| *x == a).unwrap().1.data;
+    let (energy, distance) = (aov(Aov::Energy), aov(Aov::Depth));
+    let w = g.state.wave();
+    let params = WaveParams {
+        origin: w.origin,
+        direction: w.direction.normalize(),
+        a: w.a,
+        b: w.b,
+        core: 0.05,
+        length: w.length,
+    };
+    let cam = game::camera().for_hadou();
+    let mut worst = 0f64;
+    for y in 0..e.height {
+        for x in 0..e.width {
+            let i = (y * e.width + x) as usize;
+            let (o, u) = cam.pixel_ray(x, y, e.width, e.height);
+            let reference = line_integral(&params, o, u, (distance[i] as f64).min(cam.far));
+            let got = energy[i] as f64;
+            assert!(got.is_finite(), "({x}, {y}): {got}");
+            let rel = if reference > 0.0 { (got - reference).abs() / reference } else { got };
+            worst = worst.max(rel);
+            assert!(rel <= 1e-4, "t={} ({x}, {y}): {got} vs f64 {reference}", g.state.time);
+        }
+    }
+    worst
+}
+
+#[test]
+fn headless_game_loop_charges_fires_and_hits() {
+    let vk =
+        gpu::GameVk::new(true, &[], &[], &|_, _, _, _| true).unwrap_or_else(|e| panic!("game device: {e}"));
+    let mut g = Game::new(vk).unwrap();
+    let e = vk::Extent2D { width: 64, height: 40 };
+    let dt = 0.1;
+    let (mut worst, mut energy_sums) = (0f64, Vec::new());
+    // 8 frames holding Space, then released: the shot flies until it passes the target.
+    for frame_index in 0..26 {
+        let input = Input { charge: frame_index < 8, right: frame_index % 5 == 0, ..Input::default() };
+        g.update(&input, dt).unwrap();
+        if frame_index == 7 {
+            assert!(g.state.charge > 0.5 && g.state.shot.is_none(), "{:?}", g.state);
+        }
+        if frame_index == 8 {
+            assert!(g.state.shot.is_some() && g.state.charge == 0.0, "released: fired");
+        }
+        let frame = g.offscreen_frame(e, &[Aov::Energy, Aov::Depth]).unwrap();
+        worst = worst.max(check_energy(&g, &frame, e));
+        let energy = &frame.aovs[0].1.data;
+        energy_sums.push(energy.iter().map(|&v| v as f64).sum::<f64>());
+        assert!(frame.color.iter().any(|&c| c > 0), "the frame is not black");
+    }
+    println!("worst energy rel error {worst:.2e}; energy per frame {energy_sums:.3?}");
+    // Charging grows a, b and the beam: more energy every frame while Space is held.
+    assert!(energy_sums[..8].windows(2).all(|w| w[1] > w[0]), "{energy_sums:?}");
+    assert_eq!(g.state.hits, 1, "the shot reached the target: {:?}", g.state);
+    let timings = g.hadou.latest_timings().unwrap().expect("timings of a finished frame").clone();
+    let names: Vec<&str> = timings.passes.iter().map(|p| p.name.as_str()).collect();
+    for pass in
+        ["depth_import", "raster", "light_id", "metaballs", "translucency", "energy_wave", "composite"]
+    {
+        assert!(names.contains(&pass), "{pass} missing from {names:?}");
+    }
+    let messages = g.destroy();
+    let (errors, warnings) = messages.counts();
+    assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
+}

@@ -1,0 +1,178 @@
+//! `hadou report --quick` through the built binary with validation on: every CSV parses and holds
+//! every row the report promises, the numbers that must be finite are, and report.md and the
+//! decodable PNGs exist. A bad `--out` fails clearly and leaves nothing behind.
+
+mod common;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use hadou::report::csv::parse;
+use hadou::report::ReportOptions;
+
+fn hadou() -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
+    cmd.current_dir(common::root()).env("HADOU_VALIDATION", "1").env("XDG_RUNTIME_DIR", "/tmp");
+    cmd
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hadou-test-report-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A CSV as (header, rows as column → value).
+struct Csv {
+    rows: Vec<HashMap<String, String>>,
+}
+
+impl Csv {
+    fn read(path: &Path) -> Csv {
+        let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let mut lines = parse(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(lines.len() >= 2, "{}: no rows", path.display());
+        let header = lines.remove(0);
+        for (i, l) in lines.iter().enumerate() {
+            assert_eq!(l.len(), header.len(), "{} row {i}: width", path.display());
+        }
+        let rows = lines.into_iter().map(|l| header.iter().cloned().zip(l).collect()).collect();
+        Csv { rows }
+    }
+
+    /// The row whose `key` column is `value`.
+    fn row(&self, key: &str, value: &str) -> &HashMap<String, String> {
+        self.rows
+            .iter()
+            .find(|r| r.get(key).map(String::as_str) == Some(value))
+            .unwrap_or_else(|| panic!("no row with {key} = {value}"))
+    }
+}
+
+/// The value of `column` in `row`, which must be a finite number (≥ 0 when `non_negative`).
+fn finite(row: &HashMap<String, String>, column: &str) -> f64 {
+    let text = row.get(column).unwrap_or_else(|| panic!("no column {column} in {row:?}"));
+    let v: f64 = text.parse().unwrap_or_else(|_| panic!("{column} = `{text}` is not a number ({row:?})"));
+    assert!(v.is_finite() && v >= 0.0, "{column} = {v} ({row:?})");
+    v
+}
+
+#[test]
+fn quick_report_has_every_row() {
+    let dir = scratch("quick");
+    let out = dir.join("report");
+    let start = std::time::Instant::now();
+    let run = hadou().args(["report", "--quick", "--out"]).arg(&out).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "hadou report failed:\n{stderr}");
+    println!("hadou report --quick took {:.1} s", start.elapsed().as_secs_f64());
+    assert!(stderr.contains("100.0%"), "no progress shown:\n{stderr}");
+    let opts = ReportOptions::new(true);
+
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    for needle in ["# Speed against error", "quick", "| device |", "| git revision |", "| CPU |"] {
+        assert!(md.contains(needle), "report.md lacks `{needle}`");
+    }
+
+    let energy = Csv::read(&out.join("energy_wave.csv"));
+    let mut labels = vec!["analytic".to_string()];
+    labels.extend(opts.raymarch_steps.iter().map(|n| format!("raymarch N = {n}")));
+    for label in &labels {
+        let row = energy.row("variant", label);
+        for column in ["pass ms p50", "max rel err", "p99 rel err", "GFLOP/s", "% of FMA ceiling"] {
+            finite(row, column);
+        }
+    }
+    assert_eq!(energy.rows.len(), labels.len());
+    // The closed form is accurate to f32 rounding of the pixel ray (docs/PERFORMANCE.md: 6e-6 at
+    // most): 1e-4 only catches a broken measurement, not a regression of the pass.
+    assert!(finite(energy.row("variant", "analytic"), "max rel err") < 1e-4);
+
+    let tl = Csv::read(&out.join("translucency.csv"));
+    let mut labels: Vec<String> = opts.voxel_res.iter().map(|r| format!("lut {r}")).collect();
+    labels.push("tsm".into());
+    for label in &labels {
+        let row = tl.row("variant", label);
+        assert!(finite(row, "pixels") > 0.0, "{label}: no translucent pixel");
+        for column in [
+            "translucency ms",
+            "light_id ms",
+            "thickness err mean (voxels)",
+            "p95 (voxels)",
+            "max (voxels)",
+            "p95 (world)",
+            "colour err mean",
+            "colour max",
+        ] {
+            finite(row, column);
+        }
+        if label != "tsm" {
+            assert!(finite(row, "LUT bytes") > 0.0);
+            finite(row, "bake s");
+        } else {
+            assert_eq!(row["LUT bytes"], "", "TSM has no table");
+        }
+    }
+    assert_eq!(tl.rows.len(), labels.len());
+
+    let mb = Csv::read(&out.join("metaballs.csv"));
+    let variants = hadou::report::metaballs::variant_methods();
+    for (label, _) in &variants {
+        let row = mb.row("variant", label);
+        for column in ["pass ms p50", "hit mismatch %", "depth max rel err", "depth p99 rel err"] {
+            finite(row, column);
+        }
+        assert!(finite(row, "reference hit pixels") > 0.0);
+    }
+    assert_eq!(mb.rows.len(), variants.len());
+
+    let frame = Csv::read(&out.join("frame.csv"));
+    for (w, h) in &opts.frame_sizes {
+        let size = format!("{w}x{h}");
+        for pass in ["raster", "light_id", "metaballs", "translucency", "energy_wave", "tonemap", "gpu frame"]
+        {
+            let row = frame
+                .rows
+                .iter()
+                .find(|r| r["size"] == size && r["pass"] == pass)
+                .unwrap_or_else(|| panic!("frame.csv: no row for {pass} at {size}"));
+            for column in ["ms p50", "ms p95", "ms p99"] {
+                finite(row, column);
+            }
+        }
+    }
+
+    let ceilings = Csv::read(&out.join("ceilings.csv"));
+    for kernel in ["fma", "copy"] {
+        let row = ceilings.row("kernel", kernel);
+        assert!(finite(row, "best") > 0.0 && finite(row, "p50") > 0.0, "{kernel}: {row:?}");
+    }
+
+    for plot in ["energy_wave", "translucency", "metaballs", "metaballs_mismatch"] {
+        let path = out.join(format!("{plot}.png"));
+        let img = image::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(img.width() > 100 && img.height() > 100);
+        assert!(md.contains(&format!("({plot}.png)")), "report.md does not show {plot}.png");
+    }
+    // Nothing but the report is left in the parent folder (no staging folder).
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn out_that_is_a_file_is_refused_before_measuring() {
+    let dir = scratch("bad-out");
+    let file = dir.join("not_a_dir");
+    std::fs::write(&file, b"keep me").unwrap();
+    let run = hadou().args(["report", "--quick", "--out"]).arg(&file).output().unwrap();
+    assert!(!run.status.success());
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("not_a_dir") && stderr.contains("not a directory"), "{stderr}");
+    // Refused before any measurement: no progress line.
+    assert!(!stderr.contains("report: ["), "{stderr}");
+    assert_eq!(std::fs::read(&file).unwrap(), b"keep me");
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "something was left beside the file");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
