@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # Installs what hadou needs on Debian/Ubuntu: Mesa's lavapipe (software Vulkan), the Vulkan
-# loader and tools, the Khronos validation layers, shaderc/glslang static libraries, and Xvfb for
-# window tests. Only missing packages are installed. Needs root or sudo.
+# loader and tools, the Khronos validation layers, shaderc/glslang static libraries, Xvfb for
+# window tests, and the X11 libraries winit opens at run time (viewer, game prototype). Only
+# missing packages are installed. Needs root or sudo.
 set -euo pipefail
 
 packages=(mesa-vulkan-drivers libvulkan1 vulkan-tools vulkan-validationlayers libshaderc-dev glslang-dev
-          spirv-tools glslc xvfb xauth pkg-config gcc g++ make)
+          spirv-tools glslc xvfb xauth pkg-config gcc g++ make
+          libx11-6 libx11-xcb1 libxcursor1 libxi6 libxrandr2 libxkbcommon0 libxkbcommon-x11-0)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
