@@ -9,6 +9,9 @@
 //        and the surface voxel j where the light enters (from the light_id map); entry lies on
 //        P's own light ray, so |M(b - a)| = z(P) - z(entry).
 // Fallbacks are documented in src/passes/translucency.rs. CPU twin: src/effects/translucency.rs.
+// Dispatched over `rect` only (the pixels that can show a translucent instance: lavapipe runs the
+// whole shader for every 8-lane group, taken branches or not); with FILL_ONLY defined, the variant
+// that writes +inf thickness over the whole frame first when `rect` is not all of it.
 #include "common/camera.glsl"
 #include "common/frame.glsl"
 
@@ -30,6 +33,7 @@ struct TranslucencyParams {
     LightViewData view;
     uvec4 dims;     // frame width, height, light map size, scene instances
     uvec4 lut;      // x: LUT image width in texels
+    uvec4 rect;     // the pixels [x, z) × [y, w) that can show a translucent instance (dispatch origin)
 };
 
 layout(set = 0, binding = 0, std140) uniform ParamsBlock { TranslucencyParams params; };
@@ -100,9 +104,17 @@ float thickness_at(vec3 P, uint instance, uint mode) {
     return clamp(tsm - (1.0 - f) * length(span), 0.0, tsm);
 }
 
+#ifdef FILL_ONLY
+// The pixels outside `rect`: no translucent surface there (run over the whole frame first).
 void main() {
     uvec2 p = gl_GlobalInvocationID.xy;
     if (p.x >= params.dims.x || p.y >= params.dims.y) return;
+    imageStore(thickness_image, ivec2(p), vec4(uintBitsToFloat(0x7f800000u), 0.0, 0.0, 0.0));
+}
+#else
+void main() {
+    uvec2 p = gl_GlobalInvocationID.xy + params.rect.xy;
+    if (p.x >= params.rect.z || p.y >= params.rect.w) return;
     uvec2 ids = imageLoad(ids_image, ivec2(p)).xy;
     float d = uintBitsToFloat(0x7f800000u);  // +inf: no translucent surface
     // Instance ids past the scene's instances (metaball groups) have no light map entry.
@@ -122,3 +134,4 @@ void main() {
     }
     imageStore(thickness_image, ivec2(p), vec4(d, 0.0, 0.0, 0.0));
 }
+#endif

@@ -217,6 +217,30 @@ fn samples(scene: &Scene, frame: &Rendered) -> (Vec<Sample>, usize) {
     (out, skipped)
 }
 
+/// The pixels with +inf GPU thickness whose centre ray hits, in f64, a translucent instance at the
+/// GPU's depth: pixels the pass left out (it runs only over the screen bounds of the translucent
+/// instances). Must be none.
+fn missing_translucent_pixels(scene: &Scene, frame: &Rendered) -> Vec<(u32, u32)> {
+    let caster = caster(scene);
+    let mut missing = Vec::new();
+    for y in 0..frame.height {
+        for x in 0..frame.width {
+            let i = (y * frame.width + x) as usize;
+            if frame.thickness[i] != f32::INFINITY {
+                continue;
+            }
+            let (o, u) = scene.camera.pixel_ray(x, y, frame.width, frame.height);
+            let depth = frame.depth[i] as f64;
+            let Some(hit) = caster.cast(o, u).filter(|h| (h.t - depth).abs() <= 1e-3 * depth) else { continue };
+            let material = scene.instances[hit.instance].material;
+            if matches!(scene.materials[material].kind, MaterialKind::Translucent { .. }) {
+                missing.push((x, y));
+            }
+        }
+    }
+    missing
+}
+
 /// (mean, 95th percentile, max) of |values|.
 fn stats(values: impl IntoIterator<Item = f64>) -> (f64, f64, f64) {
     let mut v: Vec<f64> = values.into_iter().map(f64::abs).collect();
@@ -244,6 +268,8 @@ fn thickness_matches_exact_on_the_seed_objects() {
         assert_eq!(frame.passes[..3], ["raster", "light_id", "translucency"]);
         let (samples, skipped) = samples(&scene, &frame);
         println!("{label}: {} translucent pixels, {skipped} silhouette pixels left out", samples.len());
+        let missing = missing_translucent_pixels(&scene, &frame);
+        assert!(missing.is_empty(), "{label}: translucent pixels without a thickness: {missing:?}");
         for (k, inst) in scene.instances.iter().enumerate() {
             if !matches!(scene.materials[inst.material].kind, MaterialKind::Translucent { .. }) {
                 continue;

@@ -42,6 +42,15 @@ impl Recorder<'_> {
         unsafe { self.device().cmd_push_constants(self.cmd, pipeline.layout, stages, 0, bytes) };
     }
 
+    /// Makes one compute dispatch's storage writes visible to the next one's reads and writes.
+    pub fn compute_to_compute_barrier(&self) {
+        use super::barriers::{cmd_barriers, memory_barrier};
+        let (stage, access) =
+            (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE);
+        let read_write = vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
+        cmd_barriers(self.device(), self.cmd, &[], &[memory_barrier(stage, access, stage, read_write)]);
+    }
+
     /// Dispatches enough `group`-sized workgroups to cover width × height.
     pub fn dispatch_2d(&self, width: u32, height: u32, group: (u32, u32)) {
         unsafe { self.device().cmd_dispatch(self.cmd, width.div_ceil(group.0), height.div_ceil(group.1), 1) };

@@ -7,6 +7,13 @@
 //!
 //! # Per pixel
 //!
+//! Only the pixels that can show a translucent instance run this: the screen bounds of the corners
+//! of the translucent instances' transformed mesh boxes (`Camera::pixel_bounds`, the whole frame
+//! when a corner is nearer than the near plane). A one-line variant of the shader (FILL_ONLY)
+//! first writes +inf thickness over the frame when the bounds are not all of it. Lavapipe runs
+//! every line of a shader for each 8-lane group whatever its branches take, so an early return
+//! would not have saved the work.
+//!
 //! The shaded point P = camera + u·distance (the pixel ray as `Camera::pixel_ray` builds it, the
 //! raster's `distance`). Projected into the light's view (`effects::translucency::LightView`) it
 //! falls in texel t of the light_id maps, which hold the instance and the surface voxel of the
@@ -64,6 +71,7 @@
 
 use std::sync::Arc;
 
+use glam::DVec3;
 use gpu_allocator::MemoryLocation;
 
 use super::{Pass, PassInputs};
@@ -77,6 +85,7 @@ use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::upload::{upload_image, Sampler};
 use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
 use crate::passes::gpu_structs::{instance_records, mat4_f32};
+use crate::scene::camera::PixelRect;
 use crate::scene::{MaterialKind, Scene, ThicknessMode};
 use crate::scene_gpu::SceneGpu;
 use crate::targets::{Target, Targets, LIGHT_MAP_SIZE};
@@ -136,6 +145,8 @@ pub struct TranslucencyParams {
     pub dims: [u32; 4],
     /// x: LUT image width.
     pub lut: [u32; 4],
+    /// The pixels [x, z) × [y, w) the main dispatch covers (`translucent_pixels`).
+    pub rect: [u32; 4],
 }
 
 const _: () = {
@@ -143,7 +154,7 @@ const _: () = {
     assert!(std::mem::size_of::<TranslucentInstance>() == 144);
     assert!(std::mem::offset_of!(TranslucentInstance, info) == 128);
     assert!(std::mem::size_of::<LightViewData>() == 64);
-    assert!(std::mem::size_of::<TranslucencyParams>() == 176);
+    assert!(std::mem::size_of::<TranslucencyParams>() == 192);
     assert!(std::mem::offset_of!(TranslucencyParams, view) == 80);
     assert!(std::mem::offset_of!(TranslucencyParams, dims) == 144);
 };
@@ -473,7 +484,11 @@ pub fn needed(scene: &Scene) -> bool {
 
 pub struct TranslucencyPass {
     pipeline: Pipeline,
+    /// The FILL_ONLY variant: +inf thickness over the frame, for the pixels outside `rect`.
+    fill: Pipeline,
     set: vk::DescriptorSet,
+    /// The pixels that can show a translucent instance this frame; `None`: none can.
+    rect: Option<PixelRect>,
     data: Option<Arc<TranslucentData>>,
     params: Option<Buffer>,
 }
@@ -506,21 +521,33 @@ impl TranslucencyPass {
                 D::STORAGE_IMAGE,
             ];
             let bindings: Vec<_> = types.iter().enumerate().map(|(i, &t)| binding(i as u32, t, c)).collect();
+            let fill_spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
             let pipeline = create_compute_pipeline(ctx, "translucency", &spirv, &bindings, 0)?;
+            let pipeline = match create_compute_pipeline(ctx, "translucency fill", &fill_spirv, &bindings, 0)
+            {
+                Ok(fill) => (pipeline, fill),
+                Err(e) => {
+                    pipeline.destroy(ctx);
+                    return Err(e);
+                }
+            };
             let size = std::mem::size_of::<TranslucencyParams>() as u64;
             let usage = vk::BufferUsageFlags::UNIFORM_BUFFER;
             match memory.create_buffer(ctx, "translucency params", size, usage, MemoryLocation::CpuToGpu) {
                 Ok(params) => Ok((pipeline, params)),
                 Err(e) => {
-                    pipeline.destroy(ctx);
+                    pipeline.0.destroy(ctx);
+                    pipeline.1.destroy(ctx);
                     Err(e)
                 }
             }
         })();
         match made {
-            Ok((pipeline, params)) => Ok(TranslucencyPass {
+            Ok(((pipeline, fill), params)) => Ok(TranslucencyPass {
                 pipeline,
+                fill,
                 set: vk::DescriptorSet::null(),
+                rect: None,
                 data: Some(data),
                 params: Some(params),
             }),
@@ -530,6 +557,24 @@ impl TranslucencyPass {
             }
         }
     }
+}
+
+/// The pixels whose rays can meet a translucent instance: the screen bounds of the corners of
+/// their transformed mesh boxes (`Camera::pixel_bounds`; the box's hull holds the mesh). Only
+/// these run the per-pixel thickness work.
+fn translucent_pixels(scene: &Scene, extent: vk::Extent2D) -> Option<PixelRect> {
+    let corners: Vec<DVec3> = (0..scene.instances.len())
+        .filter(|&k| translucent_mode(scene, k).is_some())
+        .flat_map(|k| {
+            let inst = &scene.instances[k];
+            let (lo, hi) = scene.meshes[inst.mesh].mesh.bounds();
+            (0..8).map(move |c| {
+                let p = DVec3::new([lo.x, hi.x][c & 1], [lo.y, hi.y][(c >> 1) & 1], [lo.z, hi.z][c >> 2]);
+                inst.transform.transform_point(p)
+            })
+        })
+        .collect();
+    scene.camera.pixel_bounds(&corners, extent.width, extent.height)
 }
 
 impl Pass for TranslucencyPass {
@@ -550,6 +595,12 @@ impl Pass for TranslucencyPass {
             view: data.view_data(),
             dims: [extent.width, extent.height, LIGHT_MAP_SIZE, scene.instances.len() as u32],
             lut: [data.lut_image.extent.width, 0, 0, 0],
+            rect: [0; 4],
+        };
+        self.rect = translucent_pixels(scene, extent);
+        let params = match self.rect {
+            Some(r) => TranslucencyParams { rect: [r.x0, r.y0, r.x1, r.y1], ..params },
+            None => params,
         };
         buffer.write(0, bytemuck::bytes_of(&params))
     }
@@ -601,12 +652,22 @@ impl Pass for TranslucencyPass {
 
     fn record(&self, inputs: &PassInputs) {
         let extent = inputs.targets.extent;
-        inputs.rec.bind_pipeline(&self.pipeline, self.set);
-        inputs.rec.dispatch_2d(extent.width, extent.height, (8, 8));
+        if self.rect != Some(PixelRect::full(extent.width, extent.height)) {
+            inputs.rec.bind_pipeline(&self.fill, self.set);
+            inputs.rec.dispatch_2d(extent.width, extent.height, (8, 8));
+            if self.rect.is_some() {
+                inputs.rec.compute_to_compute_barrier();
+            }
+        }
+        if let Some(r) = self.rect {
+            inputs.rec.bind_pipeline(&self.pipeline, self.set);
+            inputs.rec.dispatch_2d(r.width(), r.height(), (8, 8));
+        }
     }
 
     fn destroy(&mut self, ctx: &GpuContext, memory: &Memory) {
         self.pipeline.destroy(ctx);
+        self.fill.destroy(ctx);
         if let Some(params) = self.params.take() {
             memory.destroy_buffer(ctx, params);
         }

@@ -2,7 +2,7 @@
 //! aspect = width / height, image row 0 at the top, and the ray of pixel (x, y) through the
 //! pixel centre (x + 0.5, y + 0.5). Depth is reverse-Z (near → 1, far → 0).
 
-use glam::{DMat4, DVec3, DVec4};
+use glam::{DMat4, DVec2, DVec3, DVec4};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -96,9 +96,122 @@ impl Camera {
     }
 }
 
+/// Pixels [x0, x1) × [y0, y1) of an image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelRect {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl PixelRect {
+    pub fn full(width: u32, height: u32) -> Self {
+        PixelRect { x0: 0, y0: 0, x1: width, y1: height }
+    }
+
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+}
+
+impl Camera {
+    /// The pixels of a width × height image whose centre rays can meet the convex hull of
+    /// `points`: the bounding rectangle of their projections, widened by one pixel on each side
+    /// (the raster's f32 projection differs from this f64 one by far less). The whole image when a
+    /// point lies nearer than the near plane (on or behind the camera's plane its projection is not
+    /// bounded) or is not finite; `None` when the rectangle misses the image or `points` is empty.
+    pub fn pixel_bounds(&self, points: &[DVec3], width: u32, height: u32) -> Option<PixelRect> {
+        let b = self.basis();
+        let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
+        let aspect = width as f64 / height as f64;
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        for &p in points {
+            let d = p - self.position;
+            let z = d.dot(b.forward);
+            // In front of the near plane (where nothing is rasterized) the projection stops being
+            // a useful bound; on or behind the camera's plane it is none.
+            if !(z >= self.near) || !d.is_finite() {
+                return Some(PixelRect::full(width, height));
+            }
+            // Inverse of `ray_through`: ndc = (d·right, d·up) / (z·tan), pixels from the top left.
+            let ndc = DVec2::new(d.dot(b.right) / (z * tan_half * aspect), d.dot(b.up) / (z * tan_half));
+            let px = DVec2::new((ndc.x + 1.0) * 0.5 * width as f64, (1.0 - ndc.y) * 0.5 * height as f64);
+            lo = lo.min(px);
+            hi = hi.max(px);
+        }
+        if points.is_empty() {
+            return None;
+        }
+        // Pixel x has its centre at x + 0.5: keep those in [lo − 1, hi + 1].
+        let first = |v: f64, n: u32| (v - 1.5).ceil().clamp(0.0, n as f64) as u32;
+        let end = |v: f64, n: u32| ((v + 0.5).floor() + 1.0).clamp(0.0, n as f64) as u32;
+        let rect = PixelRect {
+            x0: first(lo.x, width),
+            y0: first(lo.y, height),
+            x1: end(hi.x, width),
+            y1: end(hi.y, height),
+        };
+        (rect.x0 < rect.x1 && rect.y0 < rect.y1).then_some(rect)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Whether the ray (o, u) meets the box [lo, hi] (slab test).
+    fn ray_meets_box(o: DVec3, u: DVec3, lo: DVec3, hi: DVec3) -> bool {
+        let (a, b) = ((lo - o) / u, (hi - o) / u);
+        let (near, far) = (a.min(b).max_element(), a.max(b).min_element());
+        near <= far && far >= 0.0
+    }
+
+    #[test]
+    fn pixel_bounds_hold_every_pixel_whose_ray_meets_the_points_box() {
+        let c = cam();
+        let (w, h) = (64, 48);
+        for (lo, hi) in [
+            (DVec3::new(-0.3, 0.2, -0.4), DVec3::new(0.5, 0.9, 0.1)),
+            (DVec3::new(-4.0, -1.0, -2.0), DVec3::new(-2.5, 0.5, -1.0)), // partly off the image
+            (DVec3::new(0.1, 0.4, 0.0), DVec3::new(0.1001, 0.4001, 0.0001)), // under a pixel
+        ] {
+            let corners: Vec<DVec3> = (0..8)
+                .map(|k| DVec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][k >> 2]))
+                .collect();
+            let r = c.pixel_bounds(&corners, w, h).unwrap();
+            assert!(r.width() < w && r.height() < h, "{r:?}");
+            let mut inside = 0;
+            for y in 0..h {
+                for x in 0..w {
+                    let (o, u) = c.pixel_ray(x, y, w, h);
+                    if ray_meets_box(o, u, lo, hi) {
+                        inside += 1;
+                        assert!(x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1, "({x}, {y}) outside {r:?}");
+                    }
+                }
+            }
+            assert!(inside > 0 || r.width() <= 3, "{r:?}");
+        }
+    }
+
+    #[test]
+    fn pixel_bounds_of_points_behind_beside_or_missing() {
+        let c = cam();
+        let full = Some(PixelRect::full(32, 32));
+        // Behind the camera, on its plane, or not finite: the projection is not bounded.
+        assert_eq!(c.pixel_bounds(&[DVec3::ZERO, DVec3::new(1.0, 2.0, 9.0)], 32, 32), full);
+        assert_eq!(c.pixel_bounds(&[c.position + c.basis().right], 32, 32), full);
+        assert_eq!(c.pixel_bounds(&[DVec3::NAN], 32, 32), full);
+        // Far to the side of the view: no pixel.
+        let side = c.position + c.basis().forward + c.basis().right * 50.0;
+        assert_eq!(c.pixel_bounds(&[side, side + DVec3::Y * 0.1], 32, 32), None);
+        assert_eq!(c.pixel_bounds(&[], 32, 32), None);
+    }
 
     fn cam() -> Camera {
         Camera {
