@@ -231,7 +231,9 @@ fn missing_translucent_pixels(scene: &Scene, frame: &Rendered) -> Vec<(u32, u32)
             }
             let (o, u) = scene.camera.pixel_ray(x, y, frame.width, frame.height);
             let depth = frame.depth[i] as f64;
-            let Some(hit) = caster.cast(o, u).filter(|h| (h.t - depth).abs() <= 1e-3 * depth) else { continue };
+            let Some(hit) = caster.cast(o, u).filter(|h| (h.t - depth).abs() <= 1e-3 * depth) else {
+                continue;
+            };
             let material = scene.instances[hit.instance].material;
             if matches!(scene.materials[material].kind, MaterialKind::Translucent { .. }) {
                 missing.push((x, y));
