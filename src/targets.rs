@@ -36,10 +36,6 @@ pub enum Target {
     Thickness,
 }
 
-/// Side of the light_id maps in texels (they do not follow the frame's size): the light's view
-/// is fitted to the translucent instances, so a texel is 1/1024 of their bounding diameter.
-pub const LIGHT_MAP_SIZE: u32 = 1024;
-
 impl Target {
     pub fn name(self) -> &'static str {
         match self {
@@ -76,11 +72,12 @@ impl Target {
         }
     }
 
-    /// The size of a target that does not follow the frame's (the light maps); `None` for the rest.
-    pub fn fixed_extent(self) -> Option<vk::Extent2D> {
+    /// The size of a target that does not follow the frame's (the light maps, `light_map`² texels:
+    /// `effects::translucency::light_map_size`); `None` for the rest.
+    pub fn fixed_extent(self, light_map: u32) -> Option<vk::Extent2D> {
         match self {
             Target::LightIds | Target::LightZ | Target::LightDepth => {
-                Some(vk::Extent2D { width: LIGHT_MAP_SIZE, height: LIGHT_MAP_SIZE })
+                Some(vk::Extent2D { width: light_map, height: light_map })
             }
             _ => None,
         }
@@ -116,16 +113,18 @@ pub struct Targets {
 }
 
 impl Targets {
-    /// Creates the images in `wanted` (those the frame's passes use).
+    /// Creates the images in `wanted` (those the frame's passes use); the light maps are
+    /// `light_map`² texels.
     pub fn new(
         ctx: &GpuContext,
         memory: &Memory,
         extent: vk::Extent2D,
         wanted: &[Target],
+        light_map: u32,
     ) -> GpuResult<Self> {
         let mut targets = Targets { extent, images: Vec::new() };
         for &target in wanted {
-            let size = target.fixed_extent().unwrap_or(extent);
+            let size = target.fixed_extent(light_map).unwrap_or(extent);
             match memory.create_image(ctx, target.name(), size, target.format(), target.usage()) {
                 Ok(image) => targets.images.push((target, Tracked { image, last: ImageAccess::UNDEFINED })),
                 Err(e) => {

@@ -147,6 +147,40 @@ pub fn lut_thickness(lut: &ThicknessLut, m: &Transform, a: DVec3, b: DVec3) -> O
     Some((path - (1.0 - lut.fraction(i, j)) * span).clamp(0.0, path))
 }
 
+/// The smallest and largest side of the light_id maps, in texels.
+pub const LIGHT_MAP_MIN: u32 = 256;
+pub const LIGHT_MAP_MAX: u32 = 1024;
+
+/// The side of the light_id maps: texels of at most a quarter of the finest world voxel edge among
+/// the translucent instances, so the entry point a texel gives lies within a quarter voxel of the
+/// light's own ray, well under the LUT's voxel-scale error; a power of two in [`LIGHT_MAP_MIN`,
+/// `LIGHT_MAP_MAX`] (the smallest map for a scene without a translucent instance or a light).
+/// The map spans the light view's diameter 2R. An instance's finest world voxel edge is its object
+/// edge h = (longest side of the mesh box) / voxel_res shrunk by M's smallest stretch σ_min =
+/// 1/‖M⁻¹‖₂ ≥ 1/‖M⁻¹‖_F (Frobenius, on the linear part): h/‖M⁻¹‖_F is a lower bound of it
+/// (√3 below the true edge for a uniform scale: the map may be one step larger than needed).
+pub fn light_map_size(scene: &Scene) -> u32 {
+    let Some(view) = LightView::fit(scene) else { return LIGHT_MAP_MIN };
+    let mut finest = f64::INFINITY;
+    for inst in &scene.instances {
+        let MaterialKind::Translucent { voxel_res, .. } = scene.materials[inst.material].kind else {
+            continue;
+        };
+        let (lo, hi) = scene.meshes[inst.mesh].mesh.bounds();
+        let inv = inst.transform.inverse;
+        let frobenius = (inv.x_axis.truncate().length_squared()
+            + inv.y_axis.truncate().length_squared()
+            + inv.z_axis.truncate().length_squared())
+        .sqrt();
+        finest = finest.min((hi - lo).max_element() / voxel_res as f64 / frobenius);
+    }
+    let texels = 2.0 * view.radius / (0.25 * finest);
+    if !(texels.is_finite() && texels > 0.0) {
+        return LIGHT_MAP_MAX;
+    }
+    (texels.ceil().min(LIGHT_MAP_MAX as f64) as u32).next_power_of_two().clamp(LIGHT_MAP_MIN, LIGHT_MAP_MAX)
+}
+
 /// The light that crossed d of material: L·albedo·exp(−σ·d) per channel (0 for d = +inf).
 pub fn transmitted(radiance: DVec3, albedo: DVec3, sigma: DVec3, d: f64) -> DVec3 {
     if d == f64::INFINITY {
@@ -245,6 +279,35 @@ mod tests {
         assert_eq!(transmitted(l, a, s, f64::INFINITY), DVec3::ZERO);
         let half = translucent_colour(DVec3::ZERO, l, a, s, 0.5, 0.5);
         assert!((half.z - 0.25).abs() < 1e-15);
+    }
+
+    #[test]
+    fn light_map_texels_are_a_quarter_of_the_finest_voxel() {
+        let load = |name: &str| crate::scene::load_scene(format!("assets/scenes/{name}").as_ref()).unwrap();
+        // The three seed objects side by side need the largest map; the showcase's one cube less.
+        let seed = load("translucency.toml");
+        assert_eq!(light_map_size(&seed), LIGHT_MAP_MAX);
+        let mut showcase = load("showcase.toml");
+        let size = light_map_size(&showcase);
+        let view = LightView::fit(&showcase).unwrap();
+        let jade = showcase.instances.iter().find(|i| i.name.as_deref() == Some("jade cube")).unwrap();
+        let MaterialKind::Translucent { voxel_res, .. } = showcase.materials[jade.material].kind else {
+            panic!()
+        };
+        let (lo, hi) = showcase.meshes[jade.mesh].mesh.bounds();
+        // A uniform scale s: the world voxel is s·h exactly.
+        let world_voxel = 0.55 * (hi - lo).max_element() / voxel_res as f64;
+        let texel = 2.0 * view.radius / size as f64;
+        assert!(texel <= 0.25 * world_voxel * (1.0 + 1e-12), "texel {texel}, voxel {world_voxel}");
+        // The Frobenius bound takes a uniform scale's voxel √3 times smaller: half the size must
+        // not meet that bound, or the size is larger than the rule asks.
+        let bound = 0.25 * world_voxel / 3f64.sqrt();
+        assert!(size == LIGHT_MAP_MIN || 2.0 * texel > bound, "{size} is larger than needed");
+        assert!(size < LIGHT_MAP_MAX);
+        // No translucent instance or no light: the smallest map.
+        assert_eq!(light_map_size(&load("single_cube.toml")), LIGHT_MAP_MIN);
+        showcase.lights.clear();
+        assert_eq!(light_map_size(&showcase), LIGHT_MAP_MIN);
     }
 
     #[test]

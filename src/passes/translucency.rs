@@ -67,7 +67,7 @@
 //!
 //! For assets/scenes/translucency.toml: a 4096×7280 table image (29.8 MB: ring 60³ 5760 surface
 //! voxels 16.6 MB, hollow cube 25³ 3458 voxels 6.0 MB, bottle 56³ 3806 voxels 7.2 MB), 0.5 MB of
-//! grids, 0.2 MB of centres; plus the light_id maps (16 MiB at 1024²).
+//! grids, 0.2 MB of centres; plus the light_id maps (16 MiB at 1024², `light_map_size`).
 
 use std::sync::Arc;
 
@@ -77,7 +77,7 @@ use gpu_allocator::MemoryLocation;
 use super::{Pass, PassInputs};
 use crate::effects::bake_cache::BakeCache;
 use crate::effects::thickness_lut::{bake, BakeOptions, ThicknessLut, LUT_WIDTH};
-use crate::effects::translucency::LightView;
+use crate::effects::translucency::{light_map_size, LightView};
 use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::{Buffer, Image, Memory};
 use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
@@ -88,7 +88,7 @@ use crate::passes::gpu_structs::{instance_records, mat4_f32};
 use crate::scene::camera::PixelRect;
 use crate::scene::{MaterialKind, Scene, ThicknessMode};
 use crate::scene_gpu::SceneGpu;
-use crate::targets::{Target, Targets, LIGHT_MAP_SIZE};
+use crate::targets::{Target, Targets};
 
 /// `TranslucentInstance::info.x` of an instance without a table.
 pub const NO_LUT: u32 = u32::MAX;
@@ -593,7 +593,8 @@ impl Pass for TranslucencyPass {
             camera: v4(cam.position, 1.0),
             radiance: v4(data.radiance, if data.view.is_some() { 1.0 } else { 0.0 }),
             view: data.view_data(),
-            dims: [extent.width, extent.height, LIGHT_MAP_SIZE, scene.instances.len() as u32],
+            // The same function sized the light maps (translucent instances stay where they loaded).
+            dims: [extent.width, extent.height, light_map_size(scene), scene.instances.len() as u32],
             lut: [data.lut_image.extent.width, 0, 0, 0],
             rect: [0; 4],
         };

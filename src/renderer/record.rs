@@ -5,6 +5,7 @@ use super::composite::Composite;
 use super::depth_import::DepthImport;
 use super::inputs::{ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
 use super::Renderer;
+use crate::effects::translucency::LIGHT_MAP_MIN;
 use crate::frame::{record_passes, record_scope, PassRecording, Scope, Timestamps};
 use crate::gpu::barriers::{cmd_barriers, image_barrier, memory_barrier, ImageAccess};
 use crate::gpu::recorder::Recorder;
@@ -115,7 +116,11 @@ impl Renderer {
         }
         self.drop_targets();
         let wanted = self.loaded.as_ref().map(|l| crate::frame::targets_used(&l.passes)).unwrap_or_default();
-        let targets = Targets::new(&self.ctx, &self.memory, extent, &wanted)?;
+        let light_map = self
+            .loaded
+            .as_ref()
+            .map_or(LIGHT_MAP_MIN, |l| crate::effects::translucency::light_map_size(&l.scene));
+        let targets = Targets::new(&self.ctx, &self.memory, extent, &wanted, light_map)?;
         self.pool.reset(&self.ctx)?;
         if let Some(loaded) = &mut self.loaded {
             for pass in &mut loaded.passes {

@@ -135,7 +135,7 @@ impl Camera {
             let z = d.dot(b.forward);
             // In front of the near plane (where nothing is rasterized) the projection stops being
             // a useful bound; on or behind the camera's plane it is none.
-            if !(z >= self.near) || !d.is_finite() {
+            if !d.is_finite() || !z.is_finite() || z < self.near {
                 return Some(PixelRect::full(width, height));
             }
             // Inverse of `ray_through`: ndc = (d·right, d·up) / (z·tan), pixels from the top left.
