@@ -37,6 +37,9 @@
 //!   so an extremum within δ of zero may lie beside it (a graze or a double root);
 //! - a lone ball's field maximum on the ray, q·f(ρ²/R²) − T at the closest approach, is within δ.
 //!
+//! (The last two tests are compiled out of the metaballs pass, `MB_TANGENT_FLAGS 0`: it never
+//! reads the flag. This twin, like `metaball_cast`'s default, raises it.)
+//!
 //! In the tests MB_TANGENT is raised on 99.9% of in-band rays and on ~1–3% of rays outside it.
 //! The f64 [`tangency`] is what tests use to exclude and count pixels.
 //!
@@ -405,11 +408,11 @@ fn v3(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
 }
 
-/// The ray's support chords (`mb_chord_t`, `mb_id` of the shader): slot j holds (entry, exit)
-/// in object-space t′ and the ball; `mask` says which slots belong to the ray.
+/// The ray's support chords (`mb_chord_t`, `mb_ball` of the shader): slot j holds (entry, exit)
+/// in object-space t′ and a copy of the ball; `mask` says which slots belong to the ray.
 struct Slots {
     chord: [[f32; 2]; MB_MAX_RAY_BALLS],
-    id: [u32; MB_MAX_RAY_BALLS],
+    ball: [GpuMetaBall; MB_MAX_RAY_BALLS],
 }
 
 /// `mb_chord`: slot j from ball `id` when its chord crosses (t0, t1).
@@ -440,7 +443,7 @@ fn mb_chord(
         return false;
     }
     slots.chord[j] = [en, ex];
-    slots.id[j] = id;
+    slots.ball[j] = ball;
     true
 }
 
@@ -458,10 +461,9 @@ struct MetaRay {
     ts: f32,
 }
 
-/// What the slot casts share: the group, the balls and the slots.
+/// What the slot casts share: the group and the slots.
 struct Cast<'a> {
     g: &'a GpuMetaGroup,
-    balls: &'a [GpuMetaBall],
     slots: Slots,
     n: usize,
     mask: u32,
@@ -471,7 +473,7 @@ struct Cast<'a> {
 
 impl Cast<'_> {
     fn ball(&self, j: usize) -> GpuMetaBall {
-        self.balls[self.slots.id[j] as usize]
+        self.slots.ball[j]
     }
 
     fn mine(&self, j: usize) -> bool {
@@ -745,7 +747,8 @@ pub fn cast_f32(
         return hit;
     }
 
-    let mut slots = Slots { chord: [[0.0; 2]; MB_MAX_RAY_BALLS], id: [0; MB_MAX_RAY_BALLS] };
+    let mut slots =
+        Slots { chord: [[0.0; 2]; MB_MAX_RAY_BALLS], ball: [GpuMetaBall::zeroed(); MB_MAX_RAY_BALLS] };
     let mut n = 0usize;
     let mut t_limit = t1;
     for &id in list {
@@ -759,14 +762,14 @@ pub fn cast_f32(
                     j = i;
                 }
             }
-            let (chord0, id0) = (slots.chord[j], slots.id[j]);
+            let (chord0, ball0) = (slots.chord[j], slots.ball[j]);
             if !mb_chord(&mut slots, j, balls, id, r.o, r.d, t0, t1) {
                 continue;
             }
             if slots.chord[j][0] >= latest {
                 t_limit = t_limit.min(slots.chord[j][0]);
                 slots.chord[j] = chord0;
-                slots.id[j] = id0;
+                slots.ball[j] = ball0;
             } else {
                 t_limit = t_limit.min(latest);
             }
@@ -776,7 +779,7 @@ pub fn cast_f32(
     }
     let t_end = t1.min(t_limit);
     let mask = if n >= 32 { u32::MAX } else { (1u32 << n) - 1 };
-    let cast = Cast { g, balls, slots, n, mask, r, dir };
+    let cast = Cast { g, slots, n, mask, r, dir };
     hit = if trace { cast.trace(t0, t_end, hit) } else { cast.clip(t0, t_end, hit) };
     if hit.flags & (MB_HIT | MB_NOT_CONVERGED) == 0 && t_limit < t1 {
         hit.flags |= MB_OVERFLOW;
