@@ -35,9 +35,9 @@
 mod common;
 
 use glam::DVec3;
-use hadou::effects::raycast::{MeshBvh, SceneCaster};
-use hadou::effects::thickness::{exact_thickness, tsm_thickness};
+use hadou::effects::raycast::SceneCaster;
 use hadou::effects::translucency::{exit_weight, transmitted};
+use hadou::report::translucency::{self as report, abs_stats as stats, with_thickness, Sample};
 use hadou::scene::transform::{Transform, TransformOp};
 use hadou::scene::{MaterialKind, Scene, ThicknessMode};
 use hadou::{Aov, FrameRequest};
@@ -144,77 +144,10 @@ fn seed_objects_transformed() -> Scene {
     scene
 }
 
-fn with_thickness(mut scene: Scene, mode: ThicknessMode) -> Scene {
-    for m in &mut scene.materials {
-        if let MaterialKind::Translucent { thickness, .. } = &mut m.kind {
-            *thickness = mode;
-        }
-    }
-    scene
-}
-
 fn caster(scene: &Scene) -> SceneCaster {
     let meshes: Vec<_> = scene.meshes.iter().map(|m| m.mesh.clone()).collect();
     let instances: Vec<_> = scene.instances.iter().map(|i| (i.mesh, i.transform)).collect();
     SceneCaster::new(&meshes, &instances).unwrap()
-}
-
-/// The world voxel edge of an instance: its mesh's object voxel edge times ∛|det M|.
-fn world_voxel(scene: &Scene, instance: usize) -> f64 {
-    let inst = &scene.instances[instance];
-    let MaterialKind::Translucent { voxel_res, .. } = scene.materials[inst.material].kind else {
-        panic!("instance {instance} is not translucent")
-    };
-    let (lo, hi) = scene.meshes[inst.mesh].mesh.bounds();
-    let h = (hi - lo).max_element() / voxel_res as f64;
-    h * inst.transform.matrix.determinant().abs().cbrt()
-}
-
-/// A translucent pixel with its CPU reference.
-struct Sample {
-    x: u32,
-    y: u32,
-    instance: usize,
-    /// The shaded point, from the GPU's depth.
-    point: DVec3,
-    gpu: f64,
-    exact: f64,
-    /// TSM's reference (the distance to the light's entry into the instance).
-    tsm: f64,
-}
-
-/// Every pixel with a finite GPU thickness whose centre ray hits, in f64, a translucent instance
-/// at the GPU's depth (pixels on silhouettes, where the two disagree, are counted and left out).
-fn samples(scene: &Scene, frame: &Rendered) -> (Vec<Sample>, usize) {
-    let caster = caster(scene);
-    let bvhs: Vec<MeshBvh> = scene.meshes.iter().map(|m| MeshBvh::new(&m.mesh).unwrap()).collect();
-    let toward_light = -scene.lights[0].direction;
-    let (mut out, mut skipped) = (Vec::new(), 0);
-    for y in 0..frame.height {
-        for x in 0..frame.width {
-            let i = (y * frame.width + x) as usize;
-            let gpu = frame.thickness[i] as f64;
-            if gpu == f64::INFINITY {
-                continue;
-            }
-            assert!(gpu.is_finite() && gpu >= 0.0, "pixel ({x}, {y}): thickness {gpu}");
-            let (o, u) = scene.camera.pixel_ray(x, y, frame.width, frame.height);
-            let depth = frame.depth[i] as f64;
-            let hit = caster.cast(o, u);
-            let Some(hit) = hit.filter(|h| (h.t - depth).abs() <= 1e-3 * depth) else {
-                skipped += 1;
-                continue;
-            };
-            let inst = &scene.instances[hit.instance];
-            assert!(matches!(scene.materials[inst.material].kind, MaterialKind::Translucent { .. }));
-            let point = o + u * depth;
-            let bvh = &bvhs[inst.mesh];
-            let exact = exact_thickness(bvh, &inst.transform, point, toward_light);
-            let tsm = tsm_thickness(bvh, &inst.transform, point, toward_light);
-            out.push(Sample { x, y, instance: hit.instance, point, gpu, exact, tsm });
-        }
-    }
-    (out, skipped)
 }
 
 /// The pixels with +inf GPU thickness whose centre ray hits, in f64, a translucent instance at the
@@ -243,16 +176,19 @@ fn missing_translucent_pixels(scene: &Scene, frame: &Rendered) -> Vec<(u32, u32)
     missing
 }
 
-/// (mean, 95th percentile, max) of |values|.
-fn stats(values: impl IntoIterator<Item = f64>) -> (f64, f64, f64) {
-    let mut v: Vec<f64> = values.into_iter().map(f64::abs).collect();
-    if v.is_empty() {
-        return (0.0, 0.0, 0.0);
+/// The world voxel edge of a translucent instance (`report::translucency::world_voxel`).
+fn world_voxel(scene: &Scene, instance: usize) -> f64 {
+    report::world_voxel(scene, instance).unwrap_or_else(|| panic!("instance {instance} is not translucent"))
+}
+
+/// `report::translucency::samples` over a rendered frame: every pixel with a finite GPU thickness
+/// whose centre ray hits, in f64, a translucent instance at the GPU's depth, with its exact and
+/// TSM references (silhouette pixels counted and left out); every thickness is +inf or finite ≥ 0.
+fn samples(scene: &Scene, frame: &Rendered) -> (Vec<Sample>, usize) {
+    for (i, &d) in frame.thickness.iter().enumerate() {
+        assert!(d == f32::INFINITY || (d.is_finite() && d >= 0.0), "pixel {i}: thickness {d}");
     }
-    v.sort_by(f64::total_cmp);
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    let p95 = v[((v.len() as f64 * 0.95).ceil() as usize).clamp(1, v.len()) - 1];
-    (mean, p95, v[v.len() - 1])
+    report::samples(scene, (frame.width, frame.height), &frame.thickness, &frame.depth).unwrap()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -301,7 +237,7 @@ fn dump(prefix: &str, frame: &Rendered, samples: &[Sample], scene: &Scene) {
     let mut rgba = vec![0u8; (frame.width * frame.height * 4) as usize];
     for s in samples {
         let e = (s.gpu - s.exact) / world_voxel(scene, s.instance) / 4.0;
-        let i = ((s.y * frame.width + s.x) * 4) as usize;
+        let i = s.pixel * 4;
         rgba[i] = (e.clamp(0.0, 1.0) * 255.0) as u8;
         rgba[i + 1] = 40;
         rgba[i + 2] = ((-e).clamp(0.0, 1.0) * 255.0) as u8;
@@ -394,18 +330,17 @@ fn cavity_cube_case(label: &str, transform: &str) {
     assert!(through.len() > 2000, "only {} pixels see the light through the cavity", through.len());
     let (mut lut_err, mut tsm_err, mut tsm_vs_cpu) = (Vec::new(), Vec::new(), Vec::new());
     for (l, t) in &through {
-        assert_eq!((l.x, l.y), (t.x, t.y));
+        assert_eq!(l.pixel, t.pixel);
         let (le, te) = (l.gpu - l.exact, t.gpu - t.exact);
         assert!(
             le.abs() <= bound(l),
-            "({}, {}): LUT {} vs exact {} (bound {})",
-            l.x,
-            l.y,
+            "pixel {}: LUT {} vs exact {} (bound {})",
+            l.pixel,
             l.gpu,
             l.exact,
             bound(l)
         );
-        assert!(te > bound(t), "({}, {}): TSM {} within the bound of exact {}", t.x, t.y, t.gpu, t.exact);
+        assert!(te > bound(t), "pixel {}: TSM {} within the bound of exact {}", t.pixel, t.gpu, t.exact);
         lut_err.push(le / hw);
         tsm_err.push(te / hw);
         // TSM is the TSM reference: its error is the cavity chord the CPU finds.
@@ -465,7 +400,7 @@ fn colour_matches_the_f64_formula() {
         let inst = &scene.instances[s.instance];
         let mat = &scene.materials[inst.material];
         let MaterialKind::Translucent { sigma, .. } = mat.kind else { unreachable!() };
-        let i = ((s.y * w + s.x) * 4) as usize;
+        let i = s.pixel * 4;
         let n = DVec3::new(frame.normal[i] as f64, frame.normal[i + 1] as f64, frame.normal[i + 2] as f64);
         let weight = exit_weight(n, light_dir);
         lit_through += usize::from(weight > 0.5);
@@ -481,9 +416,8 @@ fn colour_matches_the_f64_formula() {
             let err = (gpu - cpu[c]).abs();
             assert!(
                 err <= bound,
-                "({}, {}) channel {c}: gpu {gpu} ({h1} - {h0}), cpu {}, bound {bound}, d {} exact {}",
-                s.x,
-                s.y,
+                "pixel {} channel {c}: gpu {gpu} ({h1} - {h0}), cpu {}, bound {bound}, d {} exact {}",
+                s.pixel,
                 cpu[c],
                 s.gpu,
                 s.exact
