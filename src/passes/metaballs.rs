@@ -305,6 +305,9 @@ pub struct MetaballsPass {
     gpu_groups: Vec<GpuMetaGroup>,
     gpu_balls: Vec<GpuMetaBall>,
     lists: TileLists,
+    /// The previous frame's dropped count: a frame repeating it does not warn again (the count is
+    /// in `FrameStats` every frame).
+    warned_dropped: std::cell::Cell<u64>,
 }
 
 const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
@@ -344,6 +347,7 @@ impl MetaballsPass {
             gpu_groups: Vec::new(),
             gpu_balls: Vec::new(),
             lists: TileLists::default(),
+            warned_dropped: std::cell::Cell::new(0),
         };
         let ball_count: usize = scene.metaballs.iter().map(|g| g.balls.len()).sum();
         let group_bytes = (std::mem::size_of::<GpuMetaGroup>() * scene.metaballs.len().max(1)) as u64;
@@ -517,7 +521,8 @@ impl Pass for MetaballsPass {
         stats.metaball_hits += c.hits;
         stats.metaball_clip_steps += c.clip_steps;
         stats.metaball_clip_steps_max = stats.metaball_clip_steps_max.max(c.clip_steps_max);
-        if c.dropped > 0 {
+        let last = self.warned_dropped.replace(c.dropped);
+        if c.dropped > 0 && c.dropped != last {
             log::warn!(
                 "metaballs: {} pixels could not finish their cast (more than {} support spheres overlap \
                  at a point, the clipping did not converge, or sphere tracing ran out of steps): a \
