@@ -8,7 +8,7 @@
 //
 // Per group present in the tile, each pixel first gathers its candidates: the balls of the
 // tile's run whose support its ray enters in [from, stop), as support chords in the cast's slots
-// (mb_chord_t, mb_ball). The subgroup (always inside one tile, so sharing the run) walks the run
+// (mb_fill_slot). The subgroup (always inside one tile, so sharing the run) walks the run
 // together: each lane loads one ball, a cone test against the subgroup's rays drops the balls no
 // lane can see, and the rest are broadcast to every lane. A ball some lane needs takes the next
 // slot for the whole subgroup (slot indices stay uniform: cheap on lavapipe), each lane marking
@@ -182,6 +182,7 @@ void main() {
                         bits &= bits - 1u;
                         vec4 ball = subgroupBroadcast(mine.centre_radius, j);
                         vec4 coeffs = subgroupBroadcast(mine.coeffs, j);
+                        uint ball_id = subgroupBroadcast(mine_id, j);
                         float rr = coeffs.y;
                         // The support chord, as metaball_cast computes it.
                         vec3 w = ball.xyz - o;
@@ -200,9 +201,10 @@ void main() {
                         }
                         if (subgroupAny(want)) {
                             if (slots < uint(MB_MAX_RAY_BALLS)) {
-                                mb_chord_t[slots] = vec2(en, ex);
-                                mb_ball[slots].centre_radius = ball;
-                                mb_ball[slots].coeffs = coeffs;
+                                MetaBall b;
+                                b.centre_radius = ball;
+                                b.coeffs = coeffs;
+                                mb_fill_slot(slots, b, ball_id, w, tc, h2, en, ex);
                                 if (want) {
                                     mask |= 1u << slots;
                                     max_en = max(max_en, en);

@@ -18,8 +18,8 @@
 // For a group's whole range: #define MB_INDEX(k) (k) and pass list_begin = info.y,
 // list_count = info.z. A list may hold any superset of the balls whose support the ray crosses,
 // in any order, but only balls of the group passed to metaball_cast. metaball_cast fills the chord
-// slots (mb_chord_t, mb_ball) itself; shaders/metaballs.comp fills them per subgroup and calls
-// mb_clip_slots / mb_trace_slots directly.
+// slots (mb_chord_t, mb_shape, mb_iso, mb_meta) itself; shaders/metaballs.comp fills them per
+// subgroup (mb_fill_slot) and calls mb_clip_slots / mb_trace_slots directly.
 #ifndef HADOU_METABALLS_STRUCTS
 #define HADOU_METABALLS_STRUCTS
 
@@ -127,39 +127,53 @@ void mb_chord_bernstein(uint kernel, float a, float q, out float d[7]) {
 }
 
 // The same curve over [u0, u1] ⊂ [0, 1]: de Casteljau's left part at u1, then the right part of
-// that at u0/u1.
+// that at u0/u1. Written out step by step: on lavapipe an array indexed by a loop counter lives in
+// memory and every access is a per-lane gather or scatter, while constant indices keep it in
+// registers (measured: 0.66× the pass time of the two nested loops).
+#define MB_LEFT(j) c[j] = c[j - 1] * w1 + c[j] * u1;
+#define MB_RIGHT(j) c[j] = c[j] * w0 + c[j + 1] * v;
 void mb_restrict(inout float c[7], float u0, float u1) {
     if (u1 < 1.0) {
-        for (int k = 1; k <= 6; ++k) {
-            for (int j = 6; j >= k; --j) c[j] = c[j - 1] * (1.0 - u1) + c[j] * u1;
-        }
+        float w1 = 1.0 - u1;
+        MB_LEFT(6) MB_LEFT(5) MB_LEFT(4) MB_LEFT(3) MB_LEFT(2) MB_LEFT(1)
+        MB_LEFT(6) MB_LEFT(5) MB_LEFT(4) MB_LEFT(3) MB_LEFT(2)
+        MB_LEFT(6) MB_LEFT(5) MB_LEFT(4) MB_LEFT(3)
+        MB_LEFT(6) MB_LEFT(5) MB_LEFT(4)
+        MB_LEFT(6) MB_LEFT(5)
+        MB_LEFT(6)
     }
     if (u0 > 0.0) {
         float v = u1 > 0.0 ? min(u0 / u1, 1.0) : 0.0;
-        for (int k = 1; k <= 6; ++k) {
-            for (int j = 0; j <= 6 - k; ++j) c[j] = c[j] * (1.0 - v) + c[j + 1] * v;
-        }
+        float w0 = 1.0 - v;
+        MB_RIGHT(0) MB_RIGHT(1) MB_RIGHT(2) MB_RIGHT(3) MB_RIGHT(4) MB_RIGHT(5)
+        MB_RIGHT(0) MB_RIGHT(1) MB_RIGHT(2) MB_RIGHT(3) MB_RIGHT(4)
+        MB_RIGHT(0) MB_RIGHT(1) MB_RIGHT(2) MB_RIGHT(3)
+        MB_RIGHT(0) MB_RIGHT(1) MB_RIGHT(2)
+        MB_RIGHT(0) MB_RIGHT(1)
+        MB_RIGHT(0)
     }
 }
 
 // [lo, hi] where the convex hull of the control polygon (k/6, c_k) meets the axis; lo > hi when
-// it does not.
+// it does not: every control point on the axis and every crossing of a segment between two
+// points of opposite signs (all pairs, written out for constant indices as in mb_restrict).
+#define MB_ON_AXIS(i) if (c[i] == 0.0) { lo = min(lo, float(i) / 6.0); hi = max(hi, float(i) / 6.0); }
+#define MB_CROSS(i, j)                                                           \
+    if ((c[i] < 0.0 && c[j] > 0.0) || (c[i] > 0.0 && c[j] < 0.0)) {              \
+        float x = (float(i) + float(j - i) * (c[i] / (c[i] - c[j]))) / 6.0;     \
+        lo = min(lo, x);                                                         \
+        hi = max(hi, x);                                                         \
+    }
 vec2 mb_hull_crossing(float c[7]) {
     float lo = 2.0;
     float hi = -1.0;
-    for (int i = 0; i < 7; ++i) {
-        if (c[i] == 0.0) {
-            lo = min(lo, float(i) / 6.0);
-            hi = max(hi, float(i) / 6.0);
-        }
-        for (int j = i + 1; j < 7; ++j) {
-            if ((c[i] < 0.0 && c[j] > 0.0) || (c[i] > 0.0 && c[j] < 0.0)) {
-                float x = (float(i) + float(j - i) * (c[i] / (c[i] - c[j]))) / 6.0;
-                lo = min(lo, x);
-                hi = max(hi, x);
-            }
-        }
-    }
+    MB_ON_AXIS(0) MB_CROSS(0, 1) MB_CROSS(0, 2) MB_CROSS(0, 3) MB_CROSS(0, 4) MB_CROSS(0, 5) MB_CROSS(0, 6)
+    MB_ON_AXIS(1) MB_CROSS(1, 2) MB_CROSS(1, 3) MB_CROSS(1, 4) MB_CROSS(1, 5) MB_CROSS(1, 6)
+    MB_ON_AXIS(2) MB_CROSS(2, 3) MB_CROSS(2, 4) MB_CROSS(2, 5) MB_CROSS(2, 6)
+    MB_ON_AXIS(3) MB_CROSS(3, 4) MB_CROSS(3, 5) MB_CROSS(3, 6)
+    MB_ON_AXIS(4) MB_CROSS(4, 5) MB_CROSS(4, 6)
+    MB_ON_AXIS(5) MB_CROSS(5, 6)
+    MB_ON_AXIS(6)
     return vec2(clamp(lo, 0.0, 1.0), clamp(hi, 0.0, 1.0));
 }
 
@@ -277,20 +291,56 @@ bool mb_shallow_root(float base[7], float alpha, float delta) {
 }
 
 // The ray's support chords, in slots 0 … slots−1 (object-space t′; a slot's bit in the cast's
-// `mask` says it belongs to this ray). Slots are indexed by subgroup-uniform loop counters only:
-// on lavapipe a per-invocation array indexed by a divergent value is a per-lane gather/scatter,
-// one indexed by a uniform value a single vector access. No sorting: the sweep finds the next
-// chord end by a scan.
-// The slot keeps a copy of its ball: reading it back by a divergent slot index is a per-lane
-// gather from this array, cheaper on lavapipe than a storage-buffer load through an id (measured:
-// 0.88× the pass time of reading MB_BALL(id) in the sweep, the clipping, the normal and the probe).
-vec2 mb_chord_t[MB_MAX_RAY_BALLS];    // x: chord entry, y: chord exit
-MetaBall mb_ball[MB_MAX_RAY_BALLS];  // the ball
+// `mask` says it belongs to this ray). No sorting: the sweep finds the next chord end by a scan.
+// On lavapipe every access to these arrays by a non-constant index (uniform or not) is a per-lane
+// gather or scatter, one per component, so a slot holds only what the cast reads of its ball,
+// computed once when it is filled, in arrays split by who reads them: the sweep's scan reads
+// `mb_chord_t`, the field bound and the Bernstein coefficients `mb_shape`, the lone-ball path
+// `mb_iso`. The normal reads the ball itself through its id (once per hit). (Measured: 0.75× the
+// pass time of slots holding their ball's copy, MetaBall mb_ball[], read back in every part.)
+vec2 mb_chord_t[MB_MAX_RAY_BALLS];  // x: chord entry, y: chord exit
+vec2 mb_shape[MB_MAX_RAY_BALLS];    // x: a = D/R² (seed eq. 16), D = (half the chord)²; y: q
+vec2 mb_iso[MB_MAX_RAY_BALLS];      // the near and far t′ where the ray crosses the ball's lone
+                                    // isosurface sphere (seed section 2.1); MB_NO_ISO when it does not
+vec2 mb_meta[MB_MAX_RAY_BALLS];     // x: |q|·γ/R (coeffs.z); y: the ball's id (uintBitsToFloat)
+
+const float MB_NO_ISO = -3.402823466e38;
 
 // a = D/R² (seed eq. 16) of a chord, D = (half its length)².
 float mb_chord_a(vec2 chord, float R) {
     float half_chord = 0.5 * (chord.y - chord.x);
     return half_chord * half_chord / (R * R);
+}
+
+// The near and far t′ of the ray o + t′·d (d unit) on the lone isosurface sphere of radius rr
+// about o + w (tc = w·d, h2 = |w × d|²), or MB_NO_ISO twice: the nearer root from the product of
+// the two, so neither cancels.
+vec2 mb_iso_sphere(vec3 w, float tc, float h2, float rr) {
+    float disc = rr * rr - h2;
+    if (!(rr > 0.0 && disc >= 0.0)) return vec2(MB_NO_ISO);
+    float root = sqrt(disc);
+    float wl = length(w);
+    float prod = (wl - rr) * (wl + rr);
+    float near_t;
+    float far_t;
+    if (tc > 0.0) {
+        far_t = tc + root;
+        near_t = prod / far_t;
+    } else {
+        near_t = tc - root;
+        far_t = near_t != 0.0 ? prod / near_t : tc + root;
+    }
+    return vec2(near_t, far_t);
+}
+
+// Fills slot j with the chord [en, ex] of `ball` (global index id; w = centre − o, tc = w·d,
+// h2 = |w × d|² as the chord was computed from).
+void mb_fill_slot(uint j, MetaBall ball, uint id, vec3 w, float tc, float h2, float en, float ex) {
+    vec2 chord = vec2(en, ex);
+    mb_chord_t[j] = chord;
+    mb_shape[j] = vec2(mb_chord_a(chord, ball.centre_radius.w), ball.coeffs.x);
+    mb_iso[j] = mb_iso_sphere(w, tc, h2, ball.coeffs.y);
+    mb_meta[j] = vec2(ball.coeffs.z, uintBitsToFloat(id));
 }
 
 // Fills slot j from ball `id` when its support chord crosses (t0, t1); false when it does not.
@@ -299,15 +349,15 @@ bool mb_chord(uint j, uint id, vec3 o, vec3 d, float t0, float t1) {
     vec3 w = ball.centre_radius.xyz - o;
     float tc = dot(w, d);
     vec3 cr = cross(w, d);
+    float h2 = dot(cr, cr);
     float R = ball.centre_radius.w;
-    float D = R * R - dot(cr, cr);
+    float D = R * R - h2;
     if (!(D > 0.0)) return false;
     float half_chord = sqrt(D);
     float en = tc - half_chord;
     float ex = tc + half_chord;
     if (ex <= t0 || en >= t1) return false;
-    mb_chord_t[j] = vec2(en, ex);
-    mb_ball[j] = ball;
+    mb_fill_slot(j, ball, id, w, tc, h2, en, ex);
     return true;
 }
 
@@ -327,15 +377,18 @@ MetaRay mb_object_ray(MetaGroup g, vec3 origin, vec3 dir) {
     return r;
 }
 
-// The hit at object-space t_found: the normal from the gradient (seed eq. 25) over the slots'
-// balls, mapped by M⁻ᵀ.
-void mb_finish(inout MetaHit hit, MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, float t_found) {
+// The hit at object-space t_found: the normal from the gradient (seed eq. 25) over the balls of
+// the slots in `set` (those whose support contains the point; any others add nothing), mapped
+// by M⁻ᵀ.
+void mb_finish(inout MetaHit hit, MetaGroup g, MetaRay r, vec3 dir, uint set, float t_found) {
     uint kernel = g.info.x;
     vec3 p = r.o + r.d * t_found;
     vec3 grad = vec3(0.0);
-    for (uint j = 0u; j < slots; ++j) {
-        if ((mask & (1u << j)) == 0u) continue;
-        MetaBall ball = mb_ball[j];
+    uint m = set;
+    while (m != 0u) {
+        int j = findLSB(m);
+        m &= m - 1u;
+        MetaBall ball = MB_BALL(floatBitsToUint(mb_meta[j].y));
         vec3 w = p - ball.centre_radius.xyz;
         float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
         grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
@@ -357,15 +410,14 @@ float mb_field_bound(uint kernel, uint live, float t_cur, float t_next) {
     while (m != 0u) {
         int j = findLSB(m);
         m &= m - 1u;
-        MetaBall ball = mb_ball[j];
         vec2 ct = mb_chord_t[j];
+        vec2 shape = mb_shape[j];
         float half_chord = 0.5 * (ct.y - ct.x);
         float mid = ct.x + half_chord;
         float s0 = (t_cur - mid) / half_chord;
         float s1 = (t_next - mid) / half_chord;
         float s2 = s0 <= 0.0 && s1 >= 0.0 ? 0.0 : min(s0 * s0, s1 * s1);
-        float a = mb_chord_a(ct, ball.centre_radius.w);
-        B += max(ball.coeffs.x, 0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
+        B += max(shape.y, 0.0) * mb_kernel(kernel, 1.0 - shape.x * (1.0 - s2));
     }
     return B;
 }
@@ -385,10 +437,10 @@ MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, f
     bool found = false;
     bool more = true;  // an interval left to clip
     uint sweep = 0u;   // intervals visited: at most 2·MB_MAX_RAY_BALLS + 1 in all
+    uint live = 0u;    // the chords containing the interval [t_cur, t_next] (at the end: the hit's)
     do {
         // Sweep the intervals between chord ends, nearest first (seed section 2.3), to the next
         // one that needs clipping.
-        uint live = 0u;
         float t_next = t_end;
         bool clip = false;
         while (!found && t_cur < t_end && sweep < uint(2 * MB_MAX_RAY_BALLS + 1)) {
@@ -404,36 +456,24 @@ MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, f
             }
             int count = bitCount(live);
             if (count == 1) {
-                // A lone ball: its isosurface is a sphere of radius ρ*R (seed section 2.1).
-                MetaBall ball = mb_ball[findLSB(live)];
+                // A lone ball: its isosurface is a sphere of radius ρ*R (seed section 2.1), crossed
+                // where the slot says.
+                int j = findLSB(live);
+                vec2 iso = mb_iso[j];
+                if (iso.x >= t_cur && iso.x <= t_next) {
+                    t_found = iso.x;
+                    found = true;
+                } else if (iso.y >= t_cur && iso.y <= t_next) {
+                    t_found = iso.y;
+                    found = true;
+                }
+#if MB_TANGENT_FLAGS
+                MetaBall ball = MB_BALL(floatBitsToUint(mb_meta[j].y));
                 vec3 w = ball.centre_radius.xyz - r.o;
                 float tc = dot(w, r.d);
                 vec3 cr = cross(w, r.d);
                 float h2 = dot(cr, cr);
-                float rr = ball.coeffs.y;
-                float disc = rr * rr - h2;
-                if (rr > 0.0 && disc >= 0.0) {
-                    float root = sqrt(disc);
-                    float wl = length(w);
-                    float prod = (wl - rr) * (wl + rr);
-                    float near_t;
-                    float far_t;
-                    if (tc > 0.0) {
-                        far_t = tc + root;
-                        near_t = prod / far_t;
-                    } else {
-                        near_t = tc - root;
-                        far_t = near_t != 0.0 ? prod / near_t : tc + root;
-                    }
-                    if (near_t >= t_cur && near_t <= t_next) {
-                        t_found = near_t;
-                        found = true;
-                    } else if (far_t >= t_cur && far_t <= t_next) {
-                        t_found = far_t;
-                        found = true;
-                    }
-                }
-                if (MB_TANGENT_FLAGS != 0 && tc >= t_cur && tc <= t_next) {
+                if (tc >= t_cur && tc <= t_next) {
                     // The field's maximum on this ray is at the closest approach: within δ of T
                     // is a graze (a near miss, or a hit on the silhouette).
                     float R = ball.centre_radius.w;
@@ -441,6 +481,7 @@ MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, f
                     float delta = mb_delta(abs(ball.coeffs.x) + T, X + t_next, ball.coeffs.z);
                     if (abs(gmax) <= delta) hit.flags |= MB_TANGENT;
                 }
+#endif
             } else if (count >= 2) {
                 float B = mb_field_bound(kernel, live, t_cur, t_next);
                 // δ of the interval with B + T standing in for its coefficient scale S, and G the
@@ -464,19 +505,19 @@ MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, f
             while (m != 0u) {
                 int j = findLSB(m);
                 m &= m - 1u;
-                MetaBall ball = mb_ball[j];
                 vec2 ct = mb_chord_t[j];
+                vec2 shape = mb_shape[j];
                 float chord = ct.y - ct.x;
                 float sa = clamp((t_cur - ct.x) / chord, 0.0, 1.0);
                 float sb = clamp((t_next - ct.x) / chord, 0.0, 1.0);
                 float dj[7];
-                mb_chord_bernstein(kernel, mb_chord_a(ct, ball.centre_radius.w), ball.coeffs.x, dj);
+                mb_chord_bernstein(kernel, shape.x, shape.y, dj);
                 mb_restrict(dj, sa, sb);
                 for (int k = 0; k < 7; ++k) {
                     c[k] += dj[k];
                     scale[k] += abs(dj[k]);
                 }
-                G += ball.coeffs.z;
+                G += mb_meta[j].x;
             }
             float S = 0.0;
             for (int k = 0; k < 7; ++k) S = max(S, scale[k]);
@@ -499,7 +540,7 @@ MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, f
         }
     } while (more);
     if ((hit.flags & MB_NOT_CONVERGED) != 0u) return hit;
-    if (found) mb_finish(hit, g, r, dir, slots, mask, t_found);
+    if (found) mb_finish(hit, g, r, dir, live, t_found);
     return hit;
 }
 
@@ -513,15 +554,14 @@ vec3 mb_trace_probe(uint kernel, uint slots, uint mask, float t) {
     for (uint j = 0u; j < slots; ++j) {
         bool mine = (mask & (1u << j)) != 0u;
         if (!mine) continue;
-        MetaBall ball = mb_ball[j];
         float en = mb_chord_t[j].x;
         float ex = mb_chord_t[j].y;
+        vec2 shape = mb_shape[j];
         float half_chord = 0.5 * (ex - en);
         float s = (t - (en + half_chord)) / half_chord;
-        float a = mb_chord_a(mb_chord_t[j], ball.centre_radius.w);
-        float v = ball.coeffs.x * mb_kernel(kernel, 1.0 - a * (1.0 - s * s));
+        float v = shape.y * mb_kernel(kernel, 1.0 - shape.x * (1.0 - s * s));
         F += en <= t && t <= ex ? v : 0.0;
-        L += en <= t && t < ex ? ball.coeffs.z : 0.0;
+        L += en <= t && t < ex ? mb_meta[j].x : 0.0;
         if (mine && en > t) next_en = min(next_en, en);
     }
     return vec3(F, L, next_en);
@@ -569,7 +609,7 @@ MetaHit mb_trace_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, 
         if (in_mid == inside) lo = mid;
         else hi = mid;
     }
-    mb_finish(hit, g, r, dir, slots, mask, 0.5 * (lo + hi));
+    mb_finish(hit, g, r, dir, mask, 0.5 * (lo + hi));
     return hit;
 }
 
@@ -606,12 +646,16 @@ MetaHit metaball_cast(vec3 origin, vec3 dir, MetaGroup g, uint list_begin, uint 
                 }
             }
             vec2 chord0 = mb_chord_t[j];
-            MetaBall ball0 = mb_ball[j];
+            vec2 shape0 = mb_shape[j];
+            vec2 iso0 = mb_iso[j];
+            vec2 meta0 = mb_meta[j];
             if (!mb_chord(j, MB_INDEX(list_begin + k), r.o, r.d, t0, t1)) continue;
             if (mb_chord_t[j].x >= latest) {
                 t_limit = min(t_limit, mb_chord_t[j].x);
                 mb_chord_t[j] = chord0;
-                mb_ball[j] = ball0;
+                mb_shape[j] = shape0;
+                mb_iso[j] = iso0;
+                mb_meta[j] = meta0;
             } else {
                 t_limit = min(t_limit, latest);
             }

@@ -408,14 +408,54 @@ fn v3(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
 }
 
-/// The ray's support chords (`mb_chord_t`, `mb_ball` of the shader): slot j holds (entry, exit)
-/// in object-space t′ and a copy of the ball; `mask` says which slots belong to the ray.
+/// `MB_NO_ISO`: no lone isosurface crossing.
+const MB_NO_ISO: f32 = -f32::MAX;
+
+/// The ray's support chords (`mb_chord_t`, `mb_shape`, `mb_iso`, `mb_meta` of the shader): slot j
+/// holds (entry, exit) in object-space t′, (a, q), the lone isosurface crossings (near, far) and
+/// (|q|γ/R, ball id); `mask` says which slots belong to the ray.
 struct Slots {
     chord: [[f32; 2]; MB_MAX_RAY_BALLS],
-    ball: [GpuMetaBall; MB_MAX_RAY_BALLS],
+    shape: [[f32; 2]; MB_MAX_RAY_BALLS],
+    iso: [[f32; 2]; MB_MAX_RAY_BALLS],
+    meta: [(f32, u32); MB_MAX_RAY_BALLS],
 }
 
-/// `mb_chord`: slot j from ball `id` when its chord crosses (t0, t1).
+impl Slots {
+    fn new() -> Slots {
+        let z = [[0.0; 2]; MB_MAX_RAY_BALLS];
+        Slots { chord: z, shape: z, iso: z, meta: [(0.0, 0); MB_MAX_RAY_BALLS] }
+    }
+
+    /// Slot j's four parts, for putting back.
+    fn get(&self, j: usize) -> ([f32; 2], [f32; 2], [f32; 2], (f32, u32)) {
+        (self.chord[j], self.shape[j], self.iso[j], self.meta[j])
+    }
+
+    fn set(&mut self, j: usize, v: ([f32; 2], [f32; 2], [f32; 2], (f32, u32))) {
+        (self.chord[j], self.shape[j], self.iso[j], self.meta[j]) = v;
+    }
+}
+
+/// `mb_iso_sphere`: the near and far t′ on the lone isosurface sphere of radius rr, or MB_NO_ISO.
+fn mb_iso_sphere(w: Vec3, tc: f32, h2: f32, rr: f32) -> [f32; 2] {
+    let disc = rr * rr - h2;
+    if !(rr > 0.0 && disc >= 0.0) {
+        return [MB_NO_ISO; 2];
+    }
+    let root = disc.sqrt();
+    let wl = w.length();
+    let prod = (wl - rr) * (wl + rr);
+    if tc > 0.0 {
+        let far_t = tc + root;
+        [prod / far_t, far_t]
+    } else {
+        let near_t = tc - root;
+        [near_t, if near_t != 0.0 { prod / near_t } else { tc + root }]
+    }
+}
+
+/// `mb_chord` (with `mb_fill_slot`): slot j from ball `id` when its chord crosses (t0, t1).
 #[allow(clippy::too_many_arguments)]
 fn mb_chord(
     slots: &mut Slots,
@@ -431,8 +471,9 @@ fn mb_chord(
     let w = v3(ball.centre_radius) - o;
     let tc = w.dot(d);
     let cr = w.cross(d);
+    let h2 = cr.dot(cr);
     let r = ball.centre_radius[3];
-    let dd = r * r - cr.dot(cr);
+    let dd = r * r - h2;
     if dd.is_nan() || dd <= 0.0 {
         return false;
     }
@@ -443,7 +484,9 @@ fn mb_chord(
         return false;
     }
     slots.chord[j] = [en, ex];
-    slots.ball[j] = ball;
+    slots.shape[j] = [mb_chord_a([en, ex], r), ball.coeffs[0]];
+    slots.iso[j] = mb_iso_sphere(w, tc, h2, ball.coeffs[1]);
+    slots.meta[j] = (ball.coeffs[2], id);
     true
 }
 
@@ -461,9 +504,10 @@ struct MetaRay {
     ts: f32,
 }
 
-/// What the slot casts share: the group and the slots.
+/// What the slot casts share: the group, the ball buffer and the slots.
 struct Cast<'a> {
     g: &'a GpuMetaGroup,
+    balls: &'a [GpuMetaBall],
     slots: Slots,
     n: usize,
     mask: u32,
@@ -472,23 +516,24 @@ struct Cast<'a> {
 }
 
 impl Cast<'_> {
+    /// The ball of slot j (`MB_BALL` through its id).
     fn ball(&self, j: usize) -> GpuMetaBall {
-        self.slots.ball[j]
+        self.balls[self.slots.meta[j].1 as usize]
     }
 
     fn mine(&self, j: usize) -> bool {
         self.mask & (1u32 << j) != 0
     }
 
-    /// `mb_finish`.
-    fn finish(&self, hit: &mut MetaHitF32, t_found: f32) {
+    /// `mb_finish`: the gradient over the slots in `set`.
+    fn finish(&self, hit: &mut MetaHitF32, set: u32, t_found: f32) {
         let kernel = self.g.info[0];
         let p = self.r.o + self.r.d * t_found;
         let mut grad = Vec3::ZERO;
-        for j in 0..self.n {
-            if !self.mine(j) {
-                continue;
-            }
+        let mut m = set;
+        while m != 0 {
+            let j = m.trailing_zeros() as usize;
+            m &= m - 1;
             let ball = self.ball(j);
             let w = p - v3(ball.centre_radius);
             let inv_r2 = 1.0 / (ball.centre_radius[3] * ball.centre_radius[3]);
@@ -509,15 +554,14 @@ impl Cast<'_> {
         while m != 0 {
             let j = m.trailing_zeros() as usize;
             m &= m - 1;
-            let ball = self.ball(j);
             let ct = self.slots.chord[j];
+            let [a, q] = self.slots.shape[j];
             let half_chord = 0.5 * (ct[1] - ct[0]);
             let mid = ct[0] + half_chord;
             let s0 = (t_cur - mid) / half_chord;
             let s1 = (t_next - mid) / half_chord;
             let s2 = if s0 <= 0.0 && s1 >= 0.0 { 0.0 } else { (s0 * s0).min(s1 * s1) };
-            let a = mb_chord_a(ct, ball.centre_radius[3]);
-            bound += ball.coeffs[0].max(0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
+            bound += q.max(0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
         }
         bound
     }
@@ -532,8 +576,9 @@ impl Cast<'_> {
         let mut t_found = 0.0f32;
         let mut found = false;
         let mut sweep = 0usize;
+        // The chords containing [t_cur, t_next] (at the end: the hit's).
+        let mut live = 0u32;
         loop {
-            let mut live = 0u32;
             let mut t_next = t_end;
             let mut clip = false;
             while !found && t_cur < t_end && sweep < 2 * MB_MAX_RAY_BALLS + 1 {
@@ -552,34 +597,20 @@ impl Cast<'_> {
                 }
                 let count = live.count_ones();
                 if count == 1 {
-                    let ball = self.ball(live.trailing_zeros() as usize);
+                    let j = live.trailing_zeros() as usize;
+                    let [near_t, far_t] = self.slots.iso[j];
+                    if near_t >= t_cur && near_t <= t_next {
+                        t_found = near_t;
+                        found = true;
+                    } else if far_t >= t_cur && far_t <= t_next {
+                        t_found = far_t;
+                        found = true;
+                    }
+                    let ball = self.ball(j);
                     let w = v3(ball.centre_radius) - o;
                     let tc = w.dot(d);
                     let cr = w.cross(d);
                     let h2 = cr.dot(cr);
-                    let rr = ball.coeffs[1];
-                    let disc = rr * rr - h2;
-                    if rr > 0.0 && disc >= 0.0 {
-                        let root = disc.sqrt();
-                        let wl = w.length();
-                        let prod = (wl - rr) * (wl + rr);
-                        let near_t;
-                        let far_t;
-                        if tc > 0.0 {
-                            far_t = tc + root;
-                            near_t = prod / far_t;
-                        } else {
-                            near_t = tc - root;
-                            far_t = if near_t != 0.0 { prod / near_t } else { tc + root };
-                        }
-                        if near_t >= t_cur && near_t <= t_next {
-                            t_found = near_t;
-                            found = true;
-                        } else if far_t >= t_cur && far_t <= t_next {
-                            t_found = far_t;
-                            found = true;
-                        }
-                    }
                     if tc >= t_cur && tc <= t_next {
                         let r = ball.centre_radius[3];
                         let gmax = ball.coeffs[0] * mb_kernel(kernel, h2 / (r * r)) - tt;
@@ -610,19 +641,19 @@ impl Cast<'_> {
             while m != 0 {
                 let j = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let ball = self.ball(j);
                 let ct = self.slots.chord[j];
+                let [a, q] = self.slots.shape[j];
                 let chord = ct[1] - ct[0];
                 let sa = ((t_cur - ct[0]) / chord).clamp(0.0, 1.0);
                 let sb = ((t_next - ct[0]) / chord).clamp(0.0, 1.0);
                 let mut dj = [0.0f32; 7];
-                mb_chord_bernstein(kernel, mb_chord_a(ct, ball.centre_radius[3]), ball.coeffs[0], &mut dj);
+                mb_chord_bernstein(kernel, a, q, &mut dj);
                 mb_restrict(&mut dj, sa, sb);
                 for k in 0..7 {
                     c[k] += dj[k];
                     scale[k] += dj[k].abs();
                 }
-                gsum += ball.coeffs[2];
+                gsum += self.slots.meta[j].0;
             }
             let mut s = 0.0f32;
             for &sk in &scale {
@@ -648,7 +679,7 @@ impl Cast<'_> {
             t_cur = t_next;
         }
         if found {
-            self.finish(&mut hit, t_found);
+            self.finish(&mut hit, live, t_found);
         }
         hit
     }
@@ -661,14 +692,13 @@ impl Cast<'_> {
             if !self.mine(j) {
                 continue;
             }
-            let ball = self.ball(j);
             let [en, ex] = self.slots.chord[j];
+            let [a, q] = self.slots.shape[j];
             let half_chord = 0.5 * (ex - en);
             let s = (t - (en + half_chord)) / half_chord;
-            let a = mb_chord_a(self.slots.chord[j], ball.centre_radius[3]);
-            let v = ball.coeffs[0] * mb_kernel(kernel, 1.0 - a * (1.0 - s * s));
+            let v = q * mb_kernel(kernel, 1.0 - a * (1.0 - s * s));
             f += if en <= t && t <= ex { v } else { 0.0 };
-            l += if en <= t && t < ex { ball.coeffs[2] } else { 0.0 };
+            l += if en <= t && t < ex { self.slots.meta[j].0 } else { 0.0 };
             if en > t {
                 next_en = next_en.min(en);
             }
@@ -716,7 +746,7 @@ impl Cast<'_> {
                 hi = mid;
             }
         }
-        self.finish(&mut hit, 0.5 * (lo + hi));
+        self.finish(&mut hit, self.mask, 0.5 * (lo + hi));
         hit
     }
 }
@@ -747,8 +777,7 @@ pub fn cast_f32(
         return hit;
     }
 
-    let mut slots =
-        Slots { chord: [[0.0; 2]; MB_MAX_RAY_BALLS], ball: [GpuMetaBall::zeroed(); MB_MAX_RAY_BALLS] };
+    let mut slots = Slots::new();
     let mut n = 0usize;
     let mut t_limit = t1;
     for &id in list {
@@ -762,14 +791,13 @@ pub fn cast_f32(
                     j = i;
                 }
             }
-            let (chord0, ball0) = (slots.chord[j], slots.ball[j]);
+            let slot0 = slots.get(j);
             if !mb_chord(&mut slots, j, balls, id, r.o, r.d, t0, t1) {
                 continue;
             }
             if slots.chord[j][0] >= latest {
                 t_limit = t_limit.min(slots.chord[j][0]);
-                slots.chord[j] = chord0;
-                slots.ball[j] = ball0;
+                slots.set(j, slot0);
             } else {
                 t_limit = t_limit.min(latest);
             }
@@ -779,7 +807,7 @@ pub fn cast_f32(
     }
     let t_end = t1.min(t_limit);
     let mask = if n >= 32 { u32::MAX } else { (1u32 << n) - 1 };
-    let cast = Cast { g, slots, n, mask, r, dir };
+    let cast = Cast { g, balls, slots, n, mask, r, dir };
     hit = if trace { cast.trace(t0, t_end, hit) } else { cast.clip(t0, t_end, hit) };
     if hit.flags & (MB_HIT | MB_NOT_CONVERGED) == 0 && t_limit < t1 {
         hit.flags |= MB_OVERFLOW;
