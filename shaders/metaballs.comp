@@ -9,15 +9,19 @@
 // Per group present in the tile, each pixel first gathers its candidates: the balls of the
 // tile's run whose support its ray enters in [from, stop), as support chords in the cast's slots
 // (mb_fill_slot). The subgroup (always inside one tile, so sharing the run) walks the run
-// together: each lane loads one ball, a cone test against the subgroup's rays drops the balls no
-// lane can see, and the rest are broadcast to every lane. A ball some lane needs takes the next
-// slot for the whole subgroup (slot indices stay uniform: cheap on lavapipe), each lane marking
-// its own in a bit mask; at most MB_MAX_RAY_BALLS slots per round. (On lavapipe a storage-buffer
-// load whose address is not
-// provably uniform is a scalar loop over the lanes; this loads each ball once per subgroup.)
-// The run is sorted by a lower bound of the entry distance, so the walk stops once every lane's
-// `stop` lies before the next ball. The cast (mb_clip_slots or mb_trace_slots) then runs on the
-// pixel's chords only, with no second pass over the balls and no sorting.
+// together in chunks of 8: each lane tests one ball against a cone around the subgroup's rays,
+// and the balls some ray may meet are then read by every lane, one at a time. A ball some lane
+// needs takes the next slot for the whole subgroup (slot indices stay uniform), each lane marking
+// its own in a bit mask; at most MB_MAX_RAY_BALLS slots per round. The run is sorted by a lower
+// bound of the entry distance, so the walk stops once every lane's `stop` lies before the next
+// ball. The cast (mb_clip_slots or mb_trace_slots) then runs on the pixel's chords only, with no
+// second pass over the balls and no sorting.
+//
+// Lavapipe (Mesa 22.3) runs both sides of every branch for the whole 8-lane SIMD group and every
+// loop body at least once; a storage-buffer load is a loop over the lanes, a texel fetch a
+// gather, and an array indexed by anything but a constant lives in memory. The code is shaped by
+// that: loops are few and uniform, buffers are texel buffers, small arrays are indexed by
+// constants. Measured variants: docs/PERFORMANCE.md.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_vote : require
@@ -33,15 +37,19 @@ layout(set = 0, binding = 2, rgba16f) uniform image2D normal_image;
 layout(set = 0, binding = 3, rg32ui) uniform uimage2D ids;
 layout(set = 0, binding = 4, std140) uniform FrameBlock { FrameUniforms frame; };
 layout(set = 0, binding = 5, std430) readonly buffer Materials { MaterialData materials[]; };
-layout(set = 0, binding = 6, std430) readonly buffer Groups { MetaGroup groups[]; };
-layout(set = 0, binding = 7, std430) readonly buffer Balls { MetaBall balls[]; };
+// The group headers (MetaGroup, 14 texels each), the balls (MetaBall, 2 texels each), the tile
+// lists and their entries, as texel buffers of uints (floats by uintBitsToFloat): on lavapipe a
+// texel fetch is a branch-free gather, a storage-buffer load a loop over the lanes
+// (src/gpu/texel_buffer.rs).
+layout(set = 0, binding = 6) uniform usamplerBuffer group_texels;
+layout(set = 0, binding = 7) uniform usamplerBuffer ball_texels;
 // Keep in sync with `TileLists` in src/passes/metaballs.rs: tiles[0 .. active) are the headers of
 // the tiles holding any ball (x: index of the tile's first run in this array, y: run count,
 // z, w: the tile's column and row); the runs follow (x: group, y: first entry in `entries`,
 // z: entry count, w: RUN_* flags), one per group present in the tile; each run's entries sorted
 // by ‖c − o‖ − R (object space, o the camera).
-layout(set = 0, binding = 8, std430) readonly buffer Tiles { uvec4 tiles[]; };
-layout(set = 0, binding = 9, std430) readonly buffer Entries { uint entries[]; };
+layout(set = 0, binding = 8) uniform usamplerBuffer tile_texels;
+layout(set = 0, binding = 9) uniform usamplerBuffer entry_texels;
 // Keep in sync with the STAT_* indices in src/passes/metaballs.rs.
 layout(set = 0, binding = 10, std430) buffer Stats { uint stats[]; };
 
@@ -53,8 +61,31 @@ layout(set = 0, binding = 10, std430) buffer Stats { uint stats[]; };
 #ifndef MB_WITH_TRACE
 #define MB_WITH_TRACE 1
 #endif
-#define MB_BALL(i) balls[i]
-#define MB_INDEX(k) entries[k]
+MetaBall load_ball(uint id) {
+    MetaBall b;
+    b.centre_radius = uintBitsToFloat(texelFetch(ball_texels, int(2u * id)));
+    b.coeffs = uintBitsToFloat(texelFetch(ball_texels, int(2u * id + 1u)));
+    return b;
+}
+
+MetaGroup load_group(uint i) {
+    int base = int(14u * i);
+    MetaGroup g;
+    for (int k = 0; k < 4; ++k) {
+        g.to_object[k] = uintBitsToFloat(texelFetch(group_texels, base + k));
+        g.to_world[k] = uintBitsToFloat(texelFetch(group_texels, base + 4 + k));
+        g.normal_matrix[k] = uintBitsToFloat(texelFetch(group_texels, base + 8 + k));
+    }
+    g.params = uintBitsToFloat(texelFetch(group_texels, base + 12));
+    g.info = texelFetch(group_texels, base + 13);
+    return g;
+}
+
+uvec4 tiles(uint i) { return texelFetch(tile_texels, int(i)); }
+uint entries(uint k) { return texelFetch(entry_texels, int(k)).x; }
+
+#define MB_BALL(i) load_ball(i)
+#define MB_INDEX(k) entries(k)
 #define MB_TANGENT_FLAGS 0  // this pass never reads MB_TANGENT
 #include "common/metaballs.glsl"
 
@@ -99,7 +130,7 @@ void main() {
     // chords are shared (measured: 0.92–0.93× the pass time of 8×1 rows).
     uint tile = gl_WorkGroupID.y * TILES_PER_ROW + gl_WorkGroupID.x;
     uvec4 header = uvec4(0u);
-    if (tile < params.dims.z) header = tiles[tile];
+    if (tile < params.dims.z) header = tiles(tile);
     uint lane = gl_LocalInvocationIndex;
     uvec2 block = uvec2((lane & 3u) | ((lane >> 1u) & 4u), ((lane >> 2u) & 1u) | ((lane >> 3u) & 6u));
     uvec2 p = header.zw * 8u + block;
@@ -118,8 +149,8 @@ void main() {
     float t_min = params.forward.w / dot(u, params.forward.xyz);
 
     for (uint r = 0u; r < header.y; ++r) {
-        uvec4 run = tiles[header.x + r];
-        MetaGroup g = groups[run.x];
+        uvec4 run = tiles(header.x + r);
+        MetaGroup g = load_group(run.x);
         // The ray in the group's object space, as metaball_cast computes it.
         vec3 o = (g.to_object * vec4(origin, 1.0)).xyz;
         vec3 dv = (g.to_object * vec4(u, 0.0)).xyz;
@@ -151,39 +182,36 @@ void main() {
             float stop = limit;          // min(limit, bound): no ball entering later matters
             float max_en = t0;           // the latest entry kept
             for (uint base = 0u; base < run.z; base += gl_SubgroupSize) {
-                uint k = base + gl_SubgroupInvocationID;
-                MetaBall mine;
-                uint mine_id = 0u;
-                bool seen = false;
-                if (k < run.z) {
-                    mine_id = entries[run.y + k];
-                    mine = balls[mine_id];
-                    // Sphere-cone test, the radius padded for the f32 arithmetic.
-                    vec3 w = mine.centre_radius.xyz - o;
-                    float dist = length(w);
-                    float R = mine.centre_radius.w * 1.001 + 1e-6 * dist;
-                    float sin_s = R / dist;
-                    float cos_s = sqrt(max(1.0 - sin_s * sin_s, 0.0));
-                    seen = !(sin_s < 1.0) || dot(axis, w) >= dist * (cos_half * cos_s - sin_half * sin_s);
-                } else {
-                    mine.centre_radius = vec4(0.0);
-                    mine.coeffs = vec4(0.0);
-                }
                 // ‖c − o‖ − R of the chunk's first ball bounds the entry of all that follow.
-                vec4 first = subgroupBroadcast(mine.centre_radius, 0u);
+                vec4 first = load_ball(entries(run.y + base)).centre_radius;
                 float key = length(first.xyz - o) - first.w;
                 key -= 1e-5 * (abs(key) + 2.0 * first.w);
                 if (subgroupAll(!live || key >= stop)) break;
+                // Each lane tests one ball of the chunk against the subgroup's cone (every lane
+                // stays in the walk to do so: the loops are uniform).
+                uint k = base + gl_SubgroupInvocationID;
+                bool seen = false;
+                if (k < run.z) {
+                    vec4 mine = load_ball(entries(run.y + k)).centre_radius;
+                    // Sphere-cone test, the radius padded for the f32 arithmetic.
+                    vec3 w = mine.xyz - o;
+                    float dist = length(w);
+                    float R = mine.w * 1.001 + 1e-6 * dist;
+                    float sin_s = R / dist;
+                    float cos_s = sqrt(max(1.0 - sin_s * sin_s, 0.0));
+                    seen = !(sin_s < 1.0) || dot(axis, w) >= dist * (cos_half * cos_s - sin_half * sin_s);
+                }
                 uvec4 ballot = subgroupBallot(seen);
                 for (uint word = 0u; word * 32u < gl_SubgroupSize; ++word) {
                     uint bits = ballot[word];
                     while (bits != 0u) {
                         uint j = word * 32u + uint(findLSB(bits));
                         bits &= bits - 1u;
-                        vec4 ball = subgroupBroadcast(mine.centre_radius, j);
-                        vec4 coeffs = subgroupBroadcast(mine.coeffs, j);
-                        uint ball_id = subgroupBroadcast(mine_id, j);
-                        float rr = coeffs.y;
+                        // Every lane reads the ball at the same (uniform) index.
+                        uint ball_id = entries(run.y + base + j);
+                        MetaBall bj = load_ball(ball_id);
+                        vec4 ball = bj.centre_radius;
+                        float rr = bj.coeffs.y;
                         // The support chord, as metaball_cast computes it.
                         vec3 w = ball.xyz - o;
                         float tc = dot(w, d);
@@ -201,10 +229,7 @@ void main() {
                         }
                         if (subgroupAny(want)) {
                             if (slots < uint(MB_MAX_RAY_BALLS)) {
-                                MetaBall b;
-                                b.centre_radius = ball;
-                                b.coeffs = coeffs;
-                                mb_fill_slot(slots, b, ball_id, w, tc, h2, en, ex);
+                                mb_fill_slot(slots, bj, ball_id, w, tc, h2, en, ex);
                                 if (want) {
                                     mask |= 1u << slots;
                                     max_en = max(max_en, en);
@@ -285,7 +310,7 @@ void main() {
         vec3 n = best.normal;
         // Toward the camera, like the raster's normals (the camera may be inside the blob).
         if (dot(n, u) > 0.0) n = -n;
-        MetaGroup g = groups[best_group];
+        MetaGroup g = load_group(best_group);
         MaterialData mat = materials[g.info.w];
         vec3 v = -u;
         vec3 diffuse = frame.ambient.rgb;

@@ -9,6 +9,7 @@ pub mod memory;
 pub mod pipeline;
 pub mod recorder;
 pub mod shader;
+pub mod texel_buffer;
 pub mod timestamps;
 pub mod upload;
 pub mod validation;

@@ -269,6 +269,10 @@ impl DescriptorPool {
                 ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
                 descriptor_count: max_sets * 4,
             },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+                descriptor_count: max_sets * 4,
+            },
         ];
         let info = vk::DescriptorPoolCreateInfo::default().max_sets(max_sets).pool_sizes(&sizes);
         // SAFETY: valid device.
@@ -308,6 +312,8 @@ pub enum Bound {
     Storage(vk::Buffer),
     StorageImage(vk::ImageView),
     Sampled(vk::ImageView, vk::Sampler),
+    /// A uniform texel buffer (`usamplerBuffer`), see `gpu::texel_buffer`.
+    UniformTexel(vk::BufferView),
 }
 
 /// Writes all bindings of `set` in one call.
@@ -334,6 +340,13 @@ pub fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, bindings: &[(u32, Bou
             _ => [vk::DescriptorImageInfo::default()],
         })
         .collect();
+    let texel_views: Vec<[vk::BufferView; 1]> = bindings
+        .iter()
+        .map(|(_, b)| match b {
+            Bound::UniformTexel(view) => [*view],
+            _ => [vk::BufferView::null()],
+        })
+        .collect();
     let writes: Vec<vk::WriteDescriptorSet> = bindings
         .iter()
         .enumerate()
@@ -352,6 +365,9 @@ pub fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, bindings: &[(u32, Bou
                 Bound::Sampled(..) => {
                     w.descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&image_infos[i])
                 }
+                Bound::UniformTexel(_) => w
+                    .descriptor_type(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+                    .texel_buffer_view(&texel_views[i]),
             }
         })
         .collect();

@@ -34,6 +34,7 @@ use crate::gpu::barriers::{cmd_barriers, memory_barrier, ImageAccess};
 use crate::gpu::memory::{Buffer, Memory};
 use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
+use crate::gpu::texel_buffer::TexelBuffer;
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::scene::camera::Camera;
 use crate::scene::Scene;
@@ -295,10 +296,11 @@ pub struct MetaballCounts {
 pub struct MetaballsPass {
     pipeline: Pipeline,
     set: vk::DescriptorSet,
-    groups: Option<Buffer>,
-    balls: Option<Buffer>,
-    tiles: Option<Buffer>,
-    entries: Option<Buffer>,
+    // The shader reads these as texel buffers (see gpu::texel_buffer for why).
+    groups: Option<TexelBuffer>,
+    balls: Option<TexelBuffer>,
+    tiles: Option<TexelBuffer>,
+    entries: Option<TexelBuffer>,
     stats: Option<Buffer>,
     params: MetaballParams,
     // This frame's host data, written by `prepare` and uploaded by `prepare_device`.
@@ -332,7 +334,9 @@ impl MetaballsPass {
         let mut bindings: Vec<_> =
             (0..4).map(|i| binding(i, vk::DescriptorType::STORAGE_IMAGE, compute)).collect();
         bindings.push(binding(4, vk::DescriptorType::UNIFORM_BUFFER, compute));
-        bindings.extend((5..11).map(|i| binding(i, vk::DescriptorType::STORAGE_BUFFER, compute)));
+        bindings.push(binding(5, vk::DescriptorType::STORAGE_BUFFER, compute));
+        bindings.extend((6..10).map(|i| binding(i, vk::DescriptorType::UNIFORM_TEXEL_BUFFER, compute)));
+        bindings.push(binding(10, vk::DescriptorType::STORAGE_BUFFER, compute));
         let push = std::mem::size_of::<MetaballParams>() as u32;
         let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, &bindings, push)?;
         let mut pass = MetaballsPass {
@@ -356,12 +360,11 @@ impl MetaballsPass {
         let tile_bytes = 16 * 1920u64.div_ceil(TILE as u64) * 1080u64.div_ceil(TILE as u64);
         let entry_bytes = 4 * (10 * ball_count as u64).max(1024);
         let made = (|| -> GpuResult<()> {
-            let host = MemoryLocation::CpuToGpu;
-            pass.groups = Some(memory.create_buffer(ctx, "metaballs groups", group_bytes, STORAGE, host)?);
-            pass.balls = Some(memory.create_buffer(ctx, "metaballs balls", ball_bytes, STORAGE, host)?);
-            pass.tiles = Some(memory.create_buffer(ctx, "metaballs tiles", tile_bytes, STORAGE, host)?);
-            pass.entries =
-                Some(memory.create_buffer(ctx, "metaballs entries", entry_bytes, STORAGE, host)?);
+            let (quad, word) = (vk::Format::R32G32B32A32_UINT, vk::Format::R32_UINT);
+            pass.groups = Some(TexelBuffer::new(ctx, memory, "metaballs groups", group_bytes, quad)?);
+            pass.balls = Some(TexelBuffer::new(ctx, memory, "metaballs balls", ball_bytes, quad)?);
+            pass.tiles = Some(TexelBuffer::new(ctx, memory, "metaballs tiles", tile_bytes, quad)?);
+            pass.entries = Some(TexelBuffer::new(ctx, memory, "metaballs entries", entry_bytes, word)?);
             let stat_bytes = (4 * STAT_COUNT) as u64;
             let back = MemoryLocation::GpuToCpu;
             pass.stats = Some(memory.create_buffer(ctx, "metaballs stats", stat_bytes, STORAGE, back)?);
@@ -393,26 +396,28 @@ impl MetaballsPass {
     fn ensure(
         ctx: &GpuContext,
         memory: &Memory,
-        slot: &mut Option<Buffer>,
+        slot: &mut Option<TexelBuffer>,
         name: &str,
         bytes: u64,
+        format: vk::Format,
     ) -> GpuResult<bool> {
-        if slot.as_ref().is_some_and(|b| b.size >= bytes) {
+        if slot.as_ref().is_some_and(|b| b.buffer.size >= bytes) {
             return Ok(false);
         }
         if let Some(old) = slot.take() {
-            memory.destroy_buffer(ctx, old);
+            old.destroy(ctx, memory);
         }
-        let size = bytes + bytes / 2;
-        *slot = Some(memory.create_buffer(ctx, name, size, STORAGE, MemoryLocation::CpuToGpu)?);
+        // Half as large again for the frames to come, within what the device can address.
+        let size = (bytes + bytes / 2).min(TexelBuffer::max_bytes(ctx, format)).max(bytes);
+        *slot = Some(TexelBuffer::new(ctx, memory, name, size, format)?);
         Ok(true)
     }
 }
 
-fn write(buffer: &mut Option<Buffer>, bytes: &[u8]) -> GpuResult<()> {
+fn write(buffer: &mut Option<TexelBuffer>, bytes: &[u8]) -> GpuResult<()> {
     match buffer {
-        Some(b) if !bytes.is_empty() => b.write(0, bytes),
-        _ => Ok(()),
+        Some(b) => b.write(bytes),
+        None => Ok(()),
     }
 }
 
@@ -441,18 +446,24 @@ impl Pass for MetaballsPass {
     fn prepare_device(&mut self, ctx: &GpuContext, memory: &Memory) -> GpuResult<()> {
         let tile_bytes = (16 * self.lists.tiles.len()) as u64;
         let entry_bytes = (4 * self.lists.entries.len()) as u64;
-        let new_tiles = Self::ensure(ctx, memory, &mut self.tiles, "metaballs tiles", tile_bytes)?;
-        let new_entries = Self::ensure(ctx, memory, &mut self.entries, "metaballs entries", entry_bytes)?;
+        let (quad, word) = (vk::Format::R32G32B32A32_UINT, vk::Format::R32_UINT);
+        let new_tiles = Self::ensure(ctx, memory, &mut self.tiles, "metaballs tiles", tile_bytes, quad)?;
+        let new_entries =
+            Self::ensure(ctx, memory, &mut self.entries, "metaballs entries", entry_bytes, word)?;
         if (new_tiles || new_entries) && self.set != vk::DescriptorSet::null() {
             if let (Some(tiles), Some(entries)) = (&self.tiles, &self.entries) {
-                write_set(ctx, self.set, &[(8, Bound::Storage(tiles.raw)), (9, Bound::Storage(entries.raw))]);
+                let views = [(8, Bound::UniformTexel(tiles.view)), (9, Bound::UniformTexel(entries.view))];
+                write_set(ctx, self.set, &views);
             }
         }
         write(&mut self.groups, bytemuck::cast_slice(&self.gpu_groups))?;
         write(&mut self.balls, bytemuck::cast_slice(&self.gpu_balls))?;
         write(&mut self.tiles, bytemuck::cast_slice(&self.lists.tiles))?;
         write(&mut self.entries, bytemuck::cast_slice(&self.lists.entries))?;
-        write(&mut self.stats, &[0u8; 4 * STAT_COUNT])
+        match &mut self.stats {
+            Some(b) => b.write(0, &[0u8; 4 * STAT_COUNT]),
+            None => Ok(()),
+        }
     }
 
     fn uses(&self) -> Vec<(Target, ImageAccess)> {
@@ -485,10 +496,10 @@ impl Pass for MetaballsPass {
                 (3, Bound::StorageImage(targets.image(Target::Ids).view)),
                 (4, Bound::Uniform(scene_gpu.uniforms.raw)),
                 (5, Bound::Storage(scene_gpu.materials.raw)),
-                (6, Bound::Storage(groups.raw)),
-                (7, Bound::Storage(balls.raw)),
-                (8, Bound::Storage(tiles.raw)),
-                (9, Bound::Storage(entries.raw)),
+                (6, Bound::UniformTexel(groups.view)),
+                (7, Bound::UniformTexel(balls.view)),
+                (8, Bound::UniformTexel(tiles.view)),
+                (9, Bound::UniformTexel(entries.view)),
                 (10, Bound::Storage(stats.raw)),
             ],
         );
@@ -535,10 +546,13 @@ impl Pass for MetaballsPass {
 
     fn destroy(&mut self, ctx: &GpuContext, memory: &Memory) {
         self.pipeline.destroy(ctx);
-        for b in [&mut self.groups, &mut self.balls, &mut self.tiles, &mut self.entries, &mut self.stats] {
+        for b in [&mut self.groups, &mut self.balls, &mut self.tiles, &mut self.entries] {
             if let Some(b) = b.take() {
-                memory.destroy_buffer(ctx, b);
+                b.destroy(ctx, memory);
             }
+        }
+        if let Some(b) = self.stats.take() {
+            memory.destroy_buffer(ctx, b);
         }
     }
 }

@@ -1,0 +1,89 @@
+//! Host-visible buffers read by shaders as uniform texel buffers (`usamplerBuffer` + texelFetch).
+//!
+//! Why not storage buffers: on lavapipe a storage-buffer load is a loop over the SIMD lanes with a
+//! branch per lane and component, whether or not the address is uniform, while a texel fetch is a
+//! branch-free gather of whole texels (measured on the metaballs pass: see docs/PERFORMANCE.md).
+//! Data is viewed as `R32G32B32A32_UINT` (or `R32_UINT`) texels and floats are read back with
+//! `uintBitsToFloat`: an integer format carries every bit pattern unchanged, where a float format
+//! could flush denormals.
+
+use gpu_allocator::MemoryLocation;
+
+use super::error::VkResultExt;
+use super::memory::{Buffer, Memory};
+use super::{vk, GpuContext, GpuError, GpuResult};
+
+pub struct TexelBuffer {
+    pub buffer: Buffer,
+    pub view: vk::BufferView,
+    pub format: vk::Format,
+}
+
+/// Bytes per texel of the formats this module views buffers as.
+fn texel_bytes(format: vk::Format) -> u64 {
+    match format {
+        vk::Format::R32_UINT => 4,
+        vk::Format::R32G32B32A32_UINT => 16,
+        _ => unreachable!("texel_bytes: add {format:?}"),
+    }
+}
+
+impl TexelBuffer {
+    /// The most bytes a view of `format` texels can address on this device.
+    pub fn max_bytes(ctx: &GpuContext, format: vk::Format) -> u64 {
+        u64::from(ctx.limits.max_texel_buffer_elements) * texel_bytes(format)
+    }
+
+    /// A host-visible buffer of at least `bytes` and its view as `format` texels; an error naming
+    /// the buffer when the device cannot address that many texels (maxTexelBufferElements).
+    pub fn new(
+        ctx: &GpuContext,
+        memory: &Memory,
+        name: &str,
+        bytes: u64,
+        format: vk::Format,
+    ) -> GpuResult<TexelBuffer> {
+        let texel = texel_bytes(format);
+        let size = bytes.max(texel).div_ceil(texel) * texel;
+        let limit = u64::from(ctx.limits.max_texel_buffer_elements);
+        if size / texel > limit {
+            return Err(GpuError::Limit {
+                what: name.into(),
+                message: format!(
+                    "{} texels of {texel} bytes are needed, but this device reads at most {limit} \
+                     (maxTexelBufferElements); make the scene smaller",
+                    size / texel
+                ),
+            });
+        }
+        let usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+        let buffer = memory.create_buffer(ctx, name, size, usage, MemoryLocation::CpuToGpu)?;
+        let info =
+            vk::BufferViewCreateInfo::default().buffer(buffer.raw).format(format).range(vk::WHOLE_SIZE);
+        // SAFETY: valid device and buffer; the view is destroyed before the buffer (destroy).
+        let view = match unsafe { ctx.device.create_buffer_view(&info, None) }.vk("vkCreateBufferView") {
+            Ok(v) => v,
+            Err(e) => {
+                memory.destroy_buffer(ctx, buffer);
+                return Err(e);
+            }
+        };
+        ctx.name_object(view, name);
+        Ok(TexelBuffer { buffer, view, format })
+    }
+
+    /// Copies `data` to the start of the buffer.
+    pub fn write(&mut self, data: &[u8]) -> GpuResult<()> {
+        if data.is_empty() {
+            return Ok(());
+        }
+        self.buffer.write(0, data)
+    }
+
+    /// Frees the view and the buffer. The caller guarantees the GPU no longer uses them.
+    pub fn destroy(self, ctx: &GpuContext, memory: &Memory) {
+        // SAFETY: not in use by a pending frame (the caller's guarantee).
+        unsafe { ctx.device.destroy_buffer_view(self.view, None) };
+        memory.destroy_buffer(ctx, self.buffer);
+    }
+}
