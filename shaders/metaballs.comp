@@ -84,6 +84,14 @@ MetaGroup load_group(uint i) {
 uvec4 tiles(uint i) { return texelFetch(tile_texels, int(i)); }
 uint entries(uint k) { return texelFetch(entry_texels, int(k)).x; }
 
+// ‖c − o‖ − R of entry k of the run, less a margin for the f32 arithmetic: a lower bound of the
+// distance t′ at which a ray from o enters that ball's support (or any later one of the run's).
+float chunk_key(uvec4 run, uint k, vec3 o) {
+    vec4 ball = load_ball(entries(run.y + k)).centre_radius;
+    float key = length(ball.xyz - o) - ball.w;
+    return key - 1e-5 * (abs(key) + 2.0 * ball.w);
+}
+
 #define MB_BALL(i) load_ball(i)
 #define MB_INDEX(k) entries(k)
 #define MB_TANGENT_FLAGS 0  // this pass never reads MB_TANGENT
@@ -168,7 +176,8 @@ void main() {
         // Each round casts [from, stop): a miss moves `from` to the entry of the first ball left
         // out (past at least one more ball of the run); a pile-up halves the window below `cap`.
         // The guard bounds pathological cases, and counts them.
-        for (uint round = 0u; subgroupAny(live); ++round) {
+        uint round = 0u;
+        do {
             if (round > 2u * run.z + 64u) {
                 if (live) dropped += 1u;
                 break;
@@ -181,12 +190,11 @@ void main() {
             float bound = t1;            // a point inside the surface (RUN_LONE_BOUND)
             float stop = limit;          // min(limit, bound): no ball entering later matters
             float max_en = t0;           // the latest entry kept
-            for (uint base = 0u; base < run.z; base += gl_SubgroupSize) {
-                // ‖c − o‖ − R of the chunk's first ball bounds the entry of all that follow.
-                vec4 first = load_ball(entries(run.y + base)).centre_radius;
-                float key = length(first.xyz - o) - first.w;
-                key -= 1e-5 * (abs(key) + 2.0 * first.w);
-                if (subgroupAll(!live || key >= stop)) break;
+            // The chunks of 8 balls, while some lane may still need one: the chunk's first key
+            // (‖c − o‖ − R, sorted) bounds the entry of every ball in it and after it.
+            uint base = 0u;
+            bool walk = subgroupAny(live && chunk_key(run, base, o) < stop);
+            do {
                 // Each lane tests one ball of the chunk against the subgroup's cone (every lane
                 // stays in the walk to do so: the loops are uniform).
                 uint k = base + gl_SubgroupInvocationID;
@@ -201,14 +209,16 @@ void main() {
                     float cos_s = sqrt(max(1.0 - sin_s * sin_s, 0.0));
                     seen = !(sin_s < 1.0) || dot(axis, w) >= dist * (cos_half * cos_s - sin_half * sin_s);
                 }
-                uvec4 ballot = subgroupBallot(seen);
-                for (uint word = 0u; word * 32u < gl_SubgroupSize; ++word) {
+                uvec4 ballot = subgroupBallot(walk && seen);
+                uint word = 0u;
+                do {
                     uint bits = ballot[word];
-                    while (bits != 0u) {
-                        uint j = word * 32u + uint(findLSB(bits));
+                    do {
+                        bool any = bits != 0u;
+                        uint j = word * 32u + uint(max(findLSB(bits), 0));
                         bits &= bits - 1u;
                         // Every lane reads the ball at the same (uniform) index.
-                        uint ball_id = entries(run.y + base + j);
+                        uint ball_id = entries(run.y + min(base + j, run.z - 1u));
                         MetaBall bj = load_ball(ball_id);
                         vec4 ball = bj.centre_radius;
                         float rr = bj.coeffs.y;
@@ -221,7 +231,7 @@ void main() {
                         float half_chord = sqrt(max(D, 0.0));
                         float en = tc - half_chord;
                         float ex = tc + half_chord;
-                        bool want = live && D > 0.0 && ex > t0 && en < stop;
+                        bool want = any && live && D > 0.0 && ex > t0 && en < stop;
                         // Well inside the lone isosurface sphere at t_c: F > T there.
                         if (want && lone_bound && tc > t0 && h2 < 0.998 * rr * rr) {
                             bound = min(bound, tc);
@@ -240,9 +250,12 @@ void main() {
                                 stop = min(stop, limit);
                             }
                         }
-                    }
-                }
-            }
+                    } while (bits != 0u);
+                    ++word;
+                } while (word * 32u < gl_SubgroupSize);
+                base += gl_SubgroupSize;
+                walk = base < run.z && subgroupAny(live && chunk_key(run, min(base, run.z - 1u), o) < stop);
+            } while (walk);
             if (live) {
                 bool cut = limit < min(t1, bound);
                 if (cut && !(limit > t0)) {
@@ -303,7 +316,8 @@ void main() {
                     }
                 }
             }
-        }
+            ++round;
+        } while (subgroupAny(live));
     }
 
     if (found) {
@@ -315,15 +329,17 @@ void main() {
         vec3 v = -u;
         vec3 diffuse = frame.ambient.rgb;
         vec3 specular = vec3(0.0);
-        for (uint i = 0u; i < frame.counts.x; ++i) {
+        uint i = 0u;
+        do {  // a do-while: see shaders/common/metaballs.glsl on loops
             vec3 l = -frame.lights[i].direction.xyz;
             float nl = dot(n, l);
-            if (nl > 0.0) {
+            if (i < frame.counts.x && nl > 0.0) {
                 diffuse += nl * frame.lights[i].radiance.rgb;
                 vec3 hv = normalize(l + v);
                 specular += SPECULAR * pow(max(dot(n, hv), 0.0), SHININESS) * frame.lights[i].radiance.rgb;
             }
-        }
+            ++i;
+        } while (i < frame.counts.x);
         vec3 color = min(mat.albedo.rgb * diffuse + specular, vec3(HALF_MAX));
         imageStore(hdr, ivec2(p), vec4(color, 1.0));
         imageStore(distance_image, ivec2(p), vec4(best.t, 0.0, 0.0, 0.0));

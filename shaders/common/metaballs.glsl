@@ -79,6 +79,16 @@ const float MB_TRACE_MIN_STEP = 9.765625e-4;      // 2^-10: sphere tracing's lea
 
 #if defined(MB_BALL) && defined(MB_INDEX) && !defined(HADOU_METABALLS_CAST)
 #define HADOU_METABALLS_CAST
+
+// Loops here test their exit at the end of the body (do-while): lavapipe runs a `for` or `while`
+// loop's test at the top of the next pass, so its last pass runs the whole body once more with
+// every lane masked off (measured on the metaballs pass: see docs/PERFORMANCE.md). A body must
+// then be right for a lane with nothing left to do, hence the `any` guards.
+// MB_NEXT_BIT(m, j, any): j = the lowest set bit of m (0 if none, with any = false), cleared.
+#define MB_NEXT_BIT(m, j, any)   \
+    bool any = (m) != 0u;        \
+    int j = max(findLSB(m), 0);  \
+    (m) &= (m) - 1u
 // 0: skip the MB_TANGENT tests of the lone-ball graze and of shallow roots (a caller that never
 // reads the flag, like metaballs.comp, saves their code: lavapipe runs it for every lane). The
 // hit, its t and its normal are the same either way.
@@ -385,14 +395,15 @@ void mb_finish(inout MetaHit hit, MetaGroup g, MetaRay r, vec3 dir, uint set, fl
     vec3 p = r.o + r.d * t_found;
     vec3 grad = vec3(0.0);
     uint m = set;
-    while (m != 0u) {
-        int j = findLSB(m);
-        m &= m - 1u;
-        MetaBall ball = MB_BALL(floatBitsToUint(mb_meta[j].y));
-        vec3 w = p - ball.centre_radius.xyz;
-        float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
-        grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
-    }
+    do {  // over the bits of m (MB_NEXT_BIT)
+        MB_NEXT_BIT(m, j, any);
+        if (any) {
+            MetaBall ball = MB_BALL(floatBitsToUint(mb_meta[j].y));
+            vec3 w = p - ball.centre_radius.xyz;
+            float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
+            grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
+        }
+    } while (m != 0u);
     vec3 nw = mat3(g.normal_matrix) * -grad;
     float len = length(nw);
     hit.normal = len > 0.0 ? nw / len : -dir;
@@ -407,9 +418,8 @@ void mb_finish(inout MetaHit hit, MetaGroup g, MetaRay r, vec3 dir, uint set, fl
 float mb_field_bound(uint kernel, uint live, float t_cur, float t_next) {
     float B = 0.0;
     uint m = live;
-    while (m != 0u) {
-        int j = findLSB(m);
-        m &= m - 1u;
+    do {
+        MB_NEXT_BIT(m, j, any);
         vec2 ct = mb_chord_t[j];
         vec2 shape = mb_shape[j];
         float half_chord = 0.5 * (ct.y - ct.x);
@@ -417,8 +427,8 @@ float mb_field_bound(uint kernel, uint live, float t_cur, float t_next) {
         float s0 = (t_cur - mid) / half_chord;
         float s1 = (t_next - mid) / half_chord;
         float s2 = s0 <= 0.0 && s1 >= 0.0 ? 0.0 : min(s0 * s0, s1 * s1);
-        B += max(shape.y, 0.0) * mb_kernel(kernel, 1.0 - shape.x * (1.0 - s2));
-    }
+        if (any) B += max(shape.y, 0.0) * mb_kernel(kernel, 1.0 - shape.x * (1.0 - s2));
+    } while (m != 0u);
     return B;
 }
 
@@ -443,54 +453,62 @@ MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, f
         // one that needs clipping.
         float t_next = t_end;
         bool clip = false;
-        while (!found && t_cur < t_end && sweep < uint(2 * MB_MAX_RAY_BALLS + 1)) {
-            ++sweep;
-            live = 0u;
-            t_next = t_end;
-            for (uint j = 0u; j < slots; ++j) {
-                float en = mb_chord_t[j].x;
-                float ex = mb_chord_t[j].y;
-                bool mine = (mask & (1u << j)) != 0u;
-                if (mine && en <= t_cur && ex > t_cur) live |= 1u << j;
-                if (mine && ex > t_cur) t_next = min(t_next, en > t_cur ? en : ex);
-            }
-            int count = bitCount(live);
-            if (count == 1) {
-                // A lone ball: its isosurface is a sphere of radius ρ*R (seed section 2.1), crossed
-                // where the slot says.
-                int j = findLSB(live);
-                vec2 iso = mb_iso[j];
-                if (iso.x >= t_cur && iso.x <= t_next) {
-                    t_found = iso.x;
-                    found = true;
-                } else if (iso.y >= t_cur && iso.y <= t_next) {
-                    t_found = iso.y;
-                    found = true;
-                }
+        bool step = !found && t_cur < t_end && sweep < uint(2 * MB_MAX_RAY_BALLS + 1);
+        do {
+            if (step) {
+                ++sweep;
+                live = 0u;
+                t_next = t_end;
+                uint j = 0u;
+                do {
+                    if (j < slots) {
+                        float en = mb_chord_t[j].x;
+                        float ex = mb_chord_t[j].y;
+                        bool mine = (mask & (1u << j)) != 0u;
+                        if (mine && en <= t_cur && ex > t_cur) live |= 1u << j;
+                        if (mine && ex > t_cur) t_next = min(t_next, en > t_cur ? en : ex);
+                    }
+                    ++j;
+                } while (j < slots);
+                int count = bitCount(live);
+                if (count == 1) {
+                    // A lone ball: its isosurface is a sphere of radius ρ*R (seed section 2.1),
+                    // crossed where the slot says.
+                    int lone = findLSB(live);
+                    vec2 iso = mb_iso[lone];
+                    if (iso.x >= t_cur && iso.x <= t_next) {
+                        t_found = iso.x;
+                        found = true;
+                    } else if (iso.y >= t_cur && iso.y <= t_next) {
+                        t_found = iso.y;
+                        found = true;
+                    }
 #if MB_TANGENT_FLAGS
-                MetaBall ball = MB_BALL(floatBitsToUint(mb_meta[j].y));
-                vec3 w = ball.centre_radius.xyz - r.o;
-                float tc = dot(w, r.d);
-                vec3 cr = cross(w, r.d);
-                float h2 = dot(cr, cr);
-                if (tc >= t_cur && tc <= t_next) {
-                    // The field's maximum on this ray is at the closest approach: within δ of T
-                    // is a graze (a near miss, or a hit on the silhouette).
-                    float R = ball.centre_radius.w;
-                    float gmax = ball.coeffs.x * mb_kernel(kernel, h2 / (R * R)) - T;
-                    float delta = mb_delta(abs(ball.coeffs.x) + T, X + t_next, ball.coeffs.z);
-                    if (abs(gmax) <= delta) hit.flags |= MB_TANGENT;
-                }
+                    MetaBall ball = MB_BALL(floatBitsToUint(mb_meta[lone].y));
+                    vec3 w = ball.centre_radius.xyz - r.o;
+                    float tc = dot(w, r.d);
+                    vec3 cr = cross(w, r.d);
+                    float h2 = dot(cr, cr);
+                    if (tc >= t_cur && tc <= t_next) {
+                        // The field's maximum on this ray is at the closest approach: within δ of
+                        // T is a graze (a near miss, or a hit on the silhouette).
+                        float R = ball.centre_radius.w;
+                        float gmax = ball.coeffs.x * mb_kernel(kernel, h2 / (R * R)) - T;
+                        float delta = mb_delta(abs(ball.coeffs.x) + T, X + t_next, ball.coeffs.z);
+                        if (abs(gmax) <= delta) hit.flags |= MB_TANGENT;
+                    }
 #endif
-            } else if (count >= 2) {
-                float B = mb_field_bound(kernel, live, t_cur, t_next);
-                // δ of the interval with B + T standing in for its coefficient scale S, and G the
-                // largest single |q|γ/R (both underestimates: the skip is the stricter for it).
-                clip = B >= T - mb_delta(B + T, X + t_next, 0.0);
+                } else if (count >= 2) {
+                    float B = mb_field_bound(kernel, live, t_cur, t_next);
+                    // δ of the interval with B + T standing in for its coefficient scale S, and G
+                    // the largest single |q|γ/R (both underestimates: the skip is the stricter
+                    // for it).
+                    clip = B >= T - mb_delta(B + T, X + t_next, 0.0);
+                }
+                if (!found && !clip) t_cur = t_next;
             }
-            if (!found && !clip) t_cur = t_next;
-            if (clip) break;
-        }
+            step = step && !clip && !found && t_cur < t_end && sweep < uint(2 * MB_MAX_RAY_BALLS + 1);
+        } while (step);
         more = clip && !found;
         if (more) {
             // Several balls: Σ q·f as one Bernstein polynomial over the interval, minus T (seed 2.2).
@@ -502,23 +520,22 @@ MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, f
             }
             float G = 0.0;
             uint m = live;
-            while (m != 0u) {
-                int j = findLSB(m);
-                m &= m - 1u;
+            do {
+                MB_NEXT_BIT(m, j, any);
                 vec2 ct = mb_chord_t[j];
                 vec2 shape = mb_shape[j];
                 float chord = ct.y - ct.x;
-                float sa = clamp((t_cur - ct.x) / chord, 0.0, 1.0);
-                float sb = clamp((t_next - ct.x) / chord, 0.0, 1.0);
+                float sa = any ? clamp((t_cur - ct.x) / chord, 0.0, 1.0) : 0.0;
+                float sb = any ? clamp((t_next - ct.x) / chord, 0.0, 1.0) : 1.0;
                 float dj[7];
-                mb_chord_bernstein(kernel, shape.x, shape.y, dj);
+                mb_chord_bernstein(kernel, shape.x, any ? shape.y : 0.0, dj);
                 mb_restrict(dj, sa, sb);
                 for (int k = 0; k < 7; ++k) {
                     c[k] += dj[k];
                     scale[k] += abs(dj[k]);
                 }
-                G += mb_meta[j].x;
-            }
+                G += any ? mb_meta[j].x : 0.0;
+            } while (m != 0u);
             float S = 0.0;
             for (int k = 0; k < 7; ++k) S = max(S, scale[k]);
             float delta = mb_delta(S + T, X + t_next, G);
@@ -551,19 +568,20 @@ vec3 mb_trace_probe(uint kernel, uint slots, uint mask, float t) {
     float F = 0.0;
     float L = 0.0;
     float next_en = 3.402823466e38;
-    for (uint j = 0u; j < slots; ++j) {
-        bool mine = (mask & (1u << j)) != 0u;
-        if (!mine) continue;
+    uint j = 0u;
+    do {
+        bool mine = j < slots && (mask & (1u << j)) != 0u;
         float en = mb_chord_t[j].x;
         float ex = mb_chord_t[j].y;
         vec2 shape = mb_shape[j];
         float half_chord = 0.5 * (ex - en);
         float s = (t - (en + half_chord)) / half_chord;
         float v = shape.y * mb_kernel(kernel, 1.0 - shape.x * (1.0 - s * s));
-        F += en <= t && t <= ex ? v : 0.0;
-        L += en <= t && t < ex ? mb_meta[j].x : 0.0;
+        F += mine && en <= t && t <= ex ? v : 0.0;
+        L += mine && en <= t && t < ex ? mb_meta[j].x : 0.0;
         if (mine && en > t) next_en = min(next_en, en);
-    }
+        ++j;
+    } while (j < slots);
     return vec3(F, L, next_en);
 }
 
