@@ -17,11 +17,13 @@
 // ball. The cast (mb_clip_slots or mb_trace_slots) then runs on the pixel's chords only, with no
 // second pass over the balls and no sorting.
 //
-// Lavapipe (Mesa 22.3) runs both sides of every branch for the whole 8-lane SIMD group and every
-// loop body at least once; a storage-buffer load is a loop over the lanes, a texel fetch a
-// gather, and an array indexed by anything but a constant lives in memory. The code is shaped by
-// that: loops are few and uniform, buffers are texel buffers, small arrays are indexed by
-// constants. Measured variants: docs/PERFORMANCE.md.
+// Lavapipe (Mesa 22.3) runs both sides of every branch for the whole 8-lane SIMD group, every
+// loop body at least once, and a `for`/`while` body once more (masked) to find the loop done;
+// inside a branch or a loop a storage-buffer load is a loop over the lanes, where a texel fetch
+// is a gather; an array indexed by anything but a constant lives in memory, each access a
+// per-lane gather or scatter. The code is shaped by that: loops are few, uniform and do-while,
+// buffers are texel buffers, small arrays are indexed by constants. Measured variants:
+// docs/PERFORMANCE.md.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_vote : require
@@ -214,7 +216,7 @@ void main() {
                 do {
                     uint bits = ballot[word];
                     do {
-                        bool any = bits != 0u;
+                        bool some = bits != 0u;
                         uint j = word * 32u + uint(max(findLSB(bits), 0));
                         bits &= bits - 1u;
                         // Every lane reads the ball at the same (uniform) index.
@@ -231,7 +233,7 @@ void main() {
                         float half_chord = sqrt(max(D, 0.0));
                         float en = tc - half_chord;
                         float ex = tc + half_chord;
-                        bool want = any && live && D > 0.0 && ex > t0 && en < stop;
+                        bool want = some && live && D > 0.0 && ex > t0 && en < stop;
                         // Well inside the lone isosurface sphere at t_c: F > T there.
                         if (want && lone_bound && tc > t0 && h2 < 0.998 * rr * rr) {
                             bound = min(bound, tc);

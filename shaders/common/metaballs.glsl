@@ -83,10 +83,10 @@ const float MB_TRACE_MIN_STEP = 9.765625e-4;      // 2^-10: sphere tracing's lea
 // Loops here test their exit at the end of the body (do-while): lavapipe runs a `for` or `while`
 // loop's test at the top of the next pass, so its last pass runs the whole body once more with
 // every lane masked off (measured on the metaballs pass: see docs/PERFORMANCE.md). A body must
-// then be right for a lane with nothing left to do, hence the `any` guards.
-// MB_NEXT_BIT(m, j, any): j = the lowest set bit of m (0 if none, with any = false), cleared.
-#define MB_NEXT_BIT(m, j, any)   \
-    bool any = (m) != 0u;        \
+// then be right for a lane with nothing left to do, hence the `some` guards (MB_NEXT_BIT).
+// MB_NEXT_BIT(m, j, some): j = the lowest set bit of m (0 if none, with some = false), cleared.
+#define MB_NEXT_BIT(m, j, some)  \
+    bool some = (m) != 0u;       \
     int j = max(findLSB(m), 0);  \
     (m) &= (m) - 1u
 // 0: skip the MB_TANGENT tests of the lone-ball graze and of shallow roots (a caller that never
@@ -396,8 +396,8 @@ void mb_finish(inout MetaHit hit, MetaGroup g, MetaRay r, vec3 dir, uint set, fl
     vec3 grad = vec3(0.0);
     uint m = set;
     do {  // over the bits of m (MB_NEXT_BIT)
-        MB_NEXT_BIT(m, j, any);
-        if (any) {
+        MB_NEXT_BIT(m, j, some);
+        if (some) {
             MetaBall ball = MB_BALL(floatBitsToUint(mb_meta[j].y));
             vec3 w = p - ball.centre_radius.xyz;
             float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
@@ -419,7 +419,7 @@ float mb_field_bound(uint kernel, uint live, float t_cur, float t_next) {
     float B = 0.0;
     uint m = live;
     do {
-        MB_NEXT_BIT(m, j, any);
+        MB_NEXT_BIT(m, j, some);
         vec2 ct = mb_chord_t[j];
         vec2 shape = mb_shape[j];
         float half_chord = 0.5 * (ct.y - ct.x);
@@ -427,7 +427,7 @@ float mb_field_bound(uint kernel, uint live, float t_cur, float t_next) {
         float s0 = (t_cur - mid) / half_chord;
         float s1 = (t_next - mid) / half_chord;
         float s2 = s0 <= 0.0 && s1 >= 0.0 ? 0.0 : min(s0 * s0, s1 * s1);
-        if (any) B += max(shape.y, 0.0) * mb_kernel(kernel, 1.0 - shape.x * (1.0 - s2));
+        if (some) B += max(shape.y, 0.0) * mb_kernel(kernel, 1.0 - shape.x * (1.0 - s2));
     } while (m != 0u);
     return B;
 }
@@ -521,20 +521,20 @@ MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, f
             float G = 0.0;
             uint m = live;
             do {
-                MB_NEXT_BIT(m, j, any);
+                MB_NEXT_BIT(m, j, some);
                 vec2 ct = mb_chord_t[j];
                 vec2 shape = mb_shape[j];
                 float chord = ct.y - ct.x;
-                float sa = any ? clamp((t_cur - ct.x) / chord, 0.0, 1.0) : 0.0;
-                float sb = any ? clamp((t_next - ct.x) / chord, 0.0, 1.0) : 1.0;
+                float sa = some ? clamp((t_cur - ct.x) / chord, 0.0, 1.0) : 0.0;
+                float sb = some ? clamp((t_next - ct.x) / chord, 0.0, 1.0) : 1.0;
                 float dj[7];
-                mb_chord_bernstein(kernel, shape.x, any ? shape.y : 0.0, dj);
+                mb_chord_bernstein(kernel, shape.x, some ? shape.y : 0.0, dj);
                 mb_restrict(dj, sa, sb);
                 for (int k = 0; k < 7; ++k) {
                     c[k] += dj[k];
                     scale[k] += abs(dj[k]);
                 }
-                G += any ? mb_meta[j].x : 0.0;
+                G += some ? mb_meta[j].x : 0.0;
             } while (m != 0u);
             float S = 0.0;
             for (int k = 0; k < 7; ++k) S = max(S, scale[k]);

@@ -1,8 +1,8 @@
 //! Host-visible buffers read by shaders as uniform texel buffers (`usamplerBuffer` + texelFetch).
 //!
-//! Why not storage buffers: on lavapipe a storage-buffer load is a loop over the SIMD lanes with a
-//! branch per lane and component, whether or not the address is uniform, while a texel fetch is a
-//! branch-free gather of whole texels (measured on the metaballs pass: see docs/PERFORMANCE.md).
+//! Why not storage buffers: on lavapipe (Mesa 22.3), inside a branch or a loop, a storage-buffer
+//! load is a loop over the SIMD lanes with a branch per lane and component, while a texel fetch is
+//! a branch-free gather of whole texels (measured on the metaballs pass: docs/PERFORMANCE.md).
 //! Data is viewed as `R32G32B32A32_UINT` (or `R32_UINT`) texels and floats are read back with
 //! `uintBitsToFloat`: an integer format carries every bit pattern unchanged, where a float format
 //! could flush denormals.
