@@ -34,14 +34,18 @@ pub enum PassKind {
 pub fn plan(scene: &Scene) -> Vec<PassKind> {
     // The raster always runs: it clears the G-buffer every later pass reads, even with no instances.
     let mut kinds = vec![PassKind::Raster];
+    // After the raster (depth-tested against it), before the wave (which the metaballs clip).
+    // Right after the raster, whose images it binds: on lavapipe a dispatch waits only for the
+    // render passes that wrote what it binds, and timestamps are written by the rasterizer, so
+    // after light_id (which it does not read) the dispatch would overlap light_id's rasterizing
+    // and its timestamps would straddle the wrong work (measured: 0.06 ms for a 2.9 ms pass).
+    if !scene.metaballs.is_empty() {
+        kinds.push(PassKind::Metaballs);
+    }
     // The light's view of the translucent instances (it does not read the raster's images).
     let translucent = translucency::needed(scene);
     if translucent {
         kinds.push(PassKind::LightId);
-    }
-    // After the raster (depth-tested against it), before the wave (which the metaballs clip).
-    if !scene.metaballs.is_empty() {
-        kinds.push(PassKind::Metaballs);
     }
     // Reads the G-buffer the raster and the metaballs wrote; before the wave, which adds on top.
     if translucent {

@@ -78,7 +78,7 @@ fn headless_game_loop_charges_fires_and_hits() {
     let timings = g.hadou.latest_timings().unwrap().expect("timings of a finished frame").clone();
     let names: Vec<&str> = timings.passes.iter().map(|p| p.name.as_str()).collect();
     for pass in
-        ["depth_import", "raster", "light_id", "metaballs", "translucency", "energy_wave", "composite"]
+        ["depth_import", "raster", "metaballs", "light_id", "translucency", "energy_wave", "composite"]
     {
         assert!(names.contains(&pass), "{pass} missing from {names:?}");
     }
