@@ -1,0 +1,34 @@
+//! gpu::texel_buffer: a buffer the device cannot address as texels is a clear error before
+//! anything is allocated; one it can is sized in whole texels, written within its size only, and
+//! freed without a validation message.
+
+mod common;
+
+use hadou::gpu::memory::Memory;
+use hadou::gpu::texel_buffer::TexelBuffer;
+use hadou::gpu::vk;
+
+#[test]
+fn texel_buffers_respect_the_device_limit() {
+    let rt = common::runtime();
+    let ctx = rt.context();
+    let memory = Memory::new(ctx).unwrap();
+    let limit = u64::from(ctx.limits.max_texel_buffer_elements);
+    assert_eq!(TexelBuffer::max_bytes(ctx, vk::Format::R32_UINT), 4 * limit);
+
+    let past = TexelBuffer::new(ctx, &memory, "metaballs entries", 4 * (limit + 1), vk::Format::R32_UINT);
+    let message = past.err().expect("one texel past maxTexelBufferElements").to_string();
+    for part in ["metaballs entries", "maxTexelBufferElements", &limit.to_string(), &(limit + 1).to_string()]
+    {
+        assert!(message.contains(part), "{message:?} does not name {part:?}");
+    }
+
+    let mut texels = TexelBuffer::new(ctx, &memory, "texels", 1000, vk::Format::R32G32B32A32_UINT).unwrap();
+    assert_eq!(texels.buffer.size, 1008, "rounded up to whole 16-byte texels");
+    texels.write(&[7u8; 1008]).unwrap();
+    texels.write(&[]).unwrap();
+    assert!(texels.write(&[0u8; 1009]).is_err(), "a write past the end is refused");
+    texels.destroy(ctx, &memory);
+    drop(memory);
+    common::assert_clean(&rt);
+}
