@@ -27,8 +27,8 @@ impl RasterPass {
         let both = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let bindings = [
             binding(0, vk::DescriptorType::UNIFORM_BUFFER, both),
-            binding(1, vk::DescriptorType::STORAGE_BUFFER, both),
-            binding(2, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::FRAGMENT),
+            binding(1, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::VERTEX),
+            binding(2, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::VERTEX),
         ];
         let vertex_bindings = [vk::VertexInputBindingDescription::default()
             .binding(0)
