@@ -306,7 +306,7 @@ bool mb_shallow_root(float base[7], float alpha, float delta) {
 // gather or scatter, one per component, so a slot holds only what the cast reads of its ball,
 // computed once when it is filled, in arrays split by who reads them: the sweep's scan reads
 // `mb_chord_t`, the field bound and the Bernstein coefficients `mb_shape`, the lone-ball path
-// `mb_iso`. The normal reads the ball itself through its id (once per hit). (Measured: 0.75× the
+// `mb_iso`. The normal reads the ball itself through its id (once per hit). (Measured: 0.73× the
 // pass time of slots holding their ball's copy, MetaBall mb_ball[], read back in every part.)
 vec2 mb_chord_t[MB_MAX_RAY_BALLS];  // x: chord entry, y: chord exit
 vec2 mb_shape[MB_MAX_RAY_BALLS];    // x: a = D/R² (seed eq. 16), D = (half the chord)²; y: q
