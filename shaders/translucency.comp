@@ -17,8 +17,14 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(set = 0, binding = 8, std430) readonly buffer Grid { uint grid[]; };
-layout(set = 0, binding = 12, std430) readonly buffer Centres { vec4 centres[]; };
+// The nearest grids, LutRecords, TranslucentInstances and surface-voxel centres as texel buffers:
+// inside a branch, on lavapipe, a storage-buffer load is a loop over the lanes (src/gpu/texel_buffer.rs).
+layout(set = 0, binding = 8) uniform usamplerBuffer grid_texels;
+layout(set = 0, binding = 9) uniform usamplerBuffer lut_texels;
+layout(set = 0, binding = 10) uniform usamplerBuffer translucent_texels;
+layout(set = 0, binding = 12) uniform usamplerBuffer centre_texels;
+uint grid_word(uint i) { return texelFetch(grid_texels, int(i)).x; }
+vec4 centre_at(uint i) { return uintBitsToFloat(texelFetch(centre_texels, int(i))); }
 #define HADOU_TRANSLUCENCY_GRID
 #define HADOU_TRANSLUCENCY_CENTRES
 #include "common/translucency.glsl"
@@ -44,8 +50,6 @@ layout(set = 0, binding = 4, rg32ui) uniform readonly uimage2D light_ids;
 layout(set = 0, binding = 5, r32f) uniform readonly image2D light_z;
 layout(set = 0, binding = 6, r32f) uniform writeonly image2D thickness_image;
 layout(set = 0, binding = 7) uniform sampler2D lut_image;
-layout(set = 0, binding = 9, std430) readonly buffer Luts { LutRecord luts[]; };
-layout(set = 0, binding = 10, std430) readonly buffer Translucent { TranslucentInstance translucent[]; };
 layout(set = 0, binding = 11, std430) readonly buffer Materials { MaterialData materials[]; };
 layout(set = 0, binding = 13, rgba16f) uniform readonly image2D normal_image;
 
@@ -83,11 +87,11 @@ float thickness_at(vec3 P, uint instance, uint mode) {
         return other ? max(lp.z - imageLoad(light_z, centre).r, 0.0) : 0.0;
     }
     float tsm = max(lp.z - imageLoad(light_z, t).r, 0.0);
-    TranslucentInstance ti = translucent[instance];
+    TranslucentInstance ti = translucent_instance_at(translucent_texels, instance);
     if (mode == THICKNESS_TSM || ti.info.x == NO_LUT || !(tsm > 0.0)) return tsm;
     // effects::translucency::lut_thickness: the path from the light's entry a (on P's own light
     // ray) to b = P, less the gaps the table knows between the surface voxels at its ends.
-    LutRecord r = luts[ti.info.x];
+    LutRecord r = lut_record_at(lut_texels, ti.info.x);
     vec3 l = params.view.dir.xyz;
     vec3 b = (ti.inverse_model * vec4(P, 1.0)).xyz;
     vec3 a = (ti.inverse_model * vec4(P - l * tsm, 1.0)).xyz;
@@ -100,7 +104,7 @@ float thickness_at(vec3 P, uint instance, uint mode) {
     uint i = path_end_voxel(r, model, b, inward, 0.5 * len, l, NO_LUT);
     uint j = path_end_voxel(r, model, a, -inward, 0.5 * len, l, j0 < r.dims.w ? j0 : NO_LUT);
     float f = lut_fraction(r, i, j);
-    vec3 span = model * (centres[r.offsets.z + j].xyz - centres[r.offsets.z + i].xyz);
+    vec3 span = model * (centre_at(r.offsets.z + j).xyz - centre_at(r.offsets.z + i).xyz);
     return clamp(tsm - (1.0 - f) * length(span), 0.0, tsm);
 }
 
@@ -121,7 +125,7 @@ void main() {
     if (ids.x != 0u && ids.x <= params.dims.w && params.radiance.w != 0.0) {
         uint instance = ids.x - 1u;
         MaterialData mat = materials[ids.y];
-        if (mat.kind.x == MATERIAL_TRANSLUCENT && translucent[instance].info.y != 0u) {
+        if (mat.kind.x == MATERIAL_TRANSLUCENT && translucent_instance_at(translucent_texels, instance).info.y != 0u) {
             // The pixel ray as Camera::pixel_ray builds it, to the raster's distance.
             vec3 u = camera_pixel_ray(p, params.dims.xy, params.right.xyz, params.up.xyz, params.forward.xyz);
             vec3 P = params.camera.xyz + u * imageLoad(distance_image, ivec2(p)).r;

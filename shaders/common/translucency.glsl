@@ -35,8 +35,31 @@ vec3 light_project(LightViewData v, vec3 p) {
     return vec3(dot(d, v.right.xyz) / v.centre.w, dot(d, v.up.xyz) / v.centre.w, dot(d, v.dir.xyz) + v.centre.w);
 }
 
+// The records from texel buffers of uints (16-byte texels, floats by uintBitsToFloat; see
+// src/gpu/texel_buffer.rs): a LutRecord is 3 texels, a TranslucentInstance 9.
+LutRecord lut_record_at(usamplerBuffer records, uint i) {
+    int t = int(3u * i);
+    LutRecord r;
+    r.origin = uintBitsToFloat(texelFetch(records, t));
+    r.dims = texelFetch(records, t + 1);
+    r.offsets = texelFetch(records, t + 2);
+    return r;
+}
+
+TranslucentInstance translucent_instance_at(usamplerBuffer instances, uint i) {
+    int t = int(9u * i);
+    TranslucentInstance ti;
+    for (int k = 0; k < 4; ++k) {
+        ti.model[k] = uintBitsToFloat(texelFetch(instances, t + k));
+        ti.inverse_model[k] = uintBitsToFloat(texelFetch(instances, t + 4 + k));
+    }
+    ti.info = texelFetch(instances, t + 8);
+    return ti;
+}
+
 #ifdef HADOU_TRANSLUCENCY_GRID
-// Needs `grid` (uint[]) declared before this file is included with HADOU_TRANSLUCENCY_GRID.
+// Needs `uint grid_word(uint i)` (word i of the nearest grids) defined before this file is
+// included with HADOU_TRANSLUCENCY_GRID.
 
 // The (clamped) voxel containing object point p.
 ivec3 voxel_of(LutRecord r, vec3 p) {
@@ -49,12 +72,12 @@ ivec3 voxel_of(LutRecord r, vec3 p) {
 // The nearest grid at the (clamped) voxel containing object point p (ThicknessLut::surface_voxel_at).
 uint surface_voxel_at(LutRecord r, vec3 p) {
     ivec3 v = voxel_of(r, p);
-    return grid[r.offsets.x + uint(v.x + int(r.dims.x) * (v.y + int(r.dims.y) * v.z))];
+    return grid_word(r.offsets.x + uint(v.x + int(r.dims.x) * (v.y + int(r.dims.y) * v.z)));
 }
 #endif
 
 #ifdef HADOU_TRANSLUCENCY_CENTRES
-// Also needs `centres` (vec4[]) declared before the include.
+// Also needs `vec4 centre_at(uint i)` (surface-voxel centre i) defined before the include.
 
 // effects::translucency::END_SHIFTS, in voxel edges.
 const float END_SHIFTS[4] = float[4](0.0, 0.5, 1.0, 1.5);
@@ -70,7 +93,7 @@ uint path_end_voxel(LutRecord r, mat3 model, vec3 p, vec3 inward, float half_len
         uint id = (k == 0 && first != NO_LUT)
             ? first
             : surface_voxel_at(r, p + inward * min(END_SHIFTS[k] * r.origin.w, half_len));
-        vec3 w = model * (centres[r.offsets.z + id].xyz - p);
+        vec3 w = model * (centre_at(r.offsets.z + id).xyz - p);
         vec3 off = w - l * dot(w, l);
         float d2 = dot(off, off);
         if (best == NO_LUT || d2 < best_d2) {

@@ -78,9 +78,9 @@ impl LightIdPass {
         let frag = vk::ShaderStageFlags::FRAGMENT;
         let bindings = [
             binding(0, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::VERTEX),
-            binding(1, vk::DescriptorType::STORAGE_BUFFER, frag),
-            binding(2, vk::DescriptorType::STORAGE_BUFFER, frag),
-            binding(3, vk::DescriptorType::STORAGE_BUFFER, frag),
+            binding(1, vk::DescriptorType::UNIFORM_TEXEL_BUFFER, frag),
+            binding(2, vk::DescriptorType::UNIFORM_TEXEL_BUFFER, frag),
+            binding(3, vk::DescriptorType::UNIFORM_TEXEL_BUFFER, frag),
         ];
         // The scene's vertex buffers (position, normal); only the position is read.
         let vertex_bindings = [vk::VertexInputBindingDescription::default()
@@ -142,9 +142,9 @@ impl Pass for LightIdPass {
             self.set,
             &[
                 (0, Bound::Storage(scene_gpu.instances.raw)),
-                (1, Bound::Storage(data.grid.raw)),
-                (2, Bound::Storage(data.records.raw)),
-                (3, Bound::Storage(data.instances.raw)),
+                (1, Bound::UniformTexel(data.grid.view)),
+                (2, Bound::UniformTexel(data.records.view)),
+                (3, Bound::UniformTexel(data.instances.view)),
             ],
         );
         Ok(())

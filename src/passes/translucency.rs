@@ -82,6 +82,7 @@ use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::{Buffer, Image, Memory};
 use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
+use crate::gpu::texel_buffer::TexelBuffer;
 use crate::gpu::upload::{upload_image, Sampler};
 use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
 use crate::passes::gpu_structs::{instance_records, mat4_f32};
@@ -217,10 +218,12 @@ pub struct TranslucentData {
     pub draws: Vec<LightDraw>,
     pub lut_image: Image,
     pub sampler: Sampler,
-    pub grid: Buffer,
-    pub records: Buffer,
-    pub instances: Buffer,
-    pub centres: Buffer,
+    // Read as texel buffers (see gpu::texel_buffer for why): the nearest grids (R32_UINT), the
+    // LutRecords (3 texels each), the TranslucentInstances (9) and the surface-voxel centres (1).
+    pub grid: TexelBuffer,
+    pub records: TexelBuffer,
+    pub instances: TexelBuffer,
+    pub centres: TexelBuffer,
 }
 
 /// Host-side contents of `TranslucentData`'s buffers and image.
@@ -362,11 +365,16 @@ pub fn draw_runs(scene: &Scene) -> Vec<LightDraw> {
     runs
 }
 
-fn host_buffer(ctx: &GpuContext, memory: &Memory, name: &str, bytes: &[u8]) -> GpuResult<Buffer> {
-    let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
-    let mut buffer = memory.create_buffer(ctx, name, bytes.len() as u64, usage, MemoryLocation::CpuToGpu)?;
-    if let Err(e) = buffer.write(0, bytes) {
-        memory.destroy_buffer(ctx, buffer);
+fn host_texels(
+    ctx: &GpuContext,
+    memory: &Memory,
+    name: &str,
+    bytes: &[u8],
+    format: vk::Format,
+) -> GpuResult<TexelBuffer> {
+    let mut buffer = TexelBuffer::new(ctx, memory, name, bytes.len() as u64, format)?;
+    if let Err(e) = buffer.write(bytes) {
+        buffer.destroy(ctx, memory);
         return Err(e);
     }
     Ok(buffer)
@@ -377,15 +385,16 @@ impl TranslucentData {
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
         let limit = ctx.limits.max_image_dimension2_d;
         let packed = pack(scene, limit)?;
-        let mut buffers: Vec<Buffer> = Vec::new();
+        let mut buffers: Vec<TexelBuffer> = Vec::new();
         let made = (|| {
-            for (name, bytes) in [
-                ("translucency nearest grids", bytemuck::cast_slice::<u32, u8>(&packed.grid)),
-                ("translucency lut records", bytemuck::cast_slice(&packed.records)),
-                ("translucency instances", bytemuck::cast_slice(&packed.instances)),
-                ("translucency centres", bytemuck::cast_slice(&packed.centres)),
+            let (word, quad) = (vk::Format::R32_UINT, vk::Format::R32G32B32A32_UINT);
+            for (name, bytes, format) in [
+                ("translucency nearest grids", bytemuck::cast_slice::<u32, u8>(&packed.grid), word),
+                ("translucency lut records", bytemuck::cast_slice(&packed.records), quad),
+                ("translucency instances", bytemuck::cast_slice(&packed.instances), quad),
+                ("translucency centres", bytemuck::cast_slice(&packed.centres), quad),
             ] {
-                buffers.push(host_buffer(ctx, memory, name, bytes)?);
+                buffers.push(host_texels(ctx, memory, name, bytes, format)?);
             }
             let format = vk::Format::R8_UNORM;
             let image =
@@ -401,7 +410,7 @@ impl TranslucentData {
         let (lut_image, sampler) = match made {
             Ok(x) => x,
             Err(e) => {
-                buffers.into_iter().for_each(|b| memory.destroy_buffer(ctx, b));
+                buffers.into_iter().for_each(|b| b.destroy(ctx, memory));
                 return Err(e);
             }
         };
@@ -448,10 +457,9 @@ impl TranslucentData {
     fn destroy(self, ctx: &GpuContext, memory: &Memory) {
         self.sampler.destroy(ctx);
         memory.destroy_image(ctx, self.lut_image);
-        memory.destroy_buffer(ctx, self.grid);
-        memory.destroy_buffer(ctx, self.records);
-        memory.destroy_buffer(ctx, self.instances);
-        memory.destroy_buffer(ctx, self.centres);
+        for texels in [self.grid, self.records, self.instances, self.centres] {
+            texels.destroy(ctx, memory);
+        }
     }
 }
 
@@ -513,11 +521,11 @@ impl TranslucencyPass {
                 D::STORAGE_IMAGE,
                 D::STORAGE_IMAGE,
                 D::COMBINED_IMAGE_SAMPLER,
+                D::UNIFORM_TEXEL_BUFFER,
+                D::UNIFORM_TEXEL_BUFFER,
+                D::UNIFORM_TEXEL_BUFFER,
                 D::STORAGE_BUFFER,
-                D::STORAGE_BUFFER,
-                D::STORAGE_BUFFER,
-                D::STORAGE_BUFFER,
-                D::STORAGE_BUFFER,
+                D::UNIFORM_TEXEL_BUFFER,
                 D::STORAGE_IMAGE,
             ];
             let bindings: Vec<_> = types.iter().enumerate().map(|(i, &t)| binding(i as u32, t, c)).collect();
@@ -640,11 +648,11 @@ impl Pass for TranslucencyPass {
                 (5, view(Target::LightZ)),
                 (6, view(Target::Thickness)),
                 (7, Bound::Sampled(data.lut_image.view, data.sampler.raw)),
-                (8, Bound::Storage(data.grid.raw)),
-                (9, Bound::Storage(data.records.raw)),
-                (10, Bound::Storage(data.instances.raw)),
+                (8, Bound::UniformTexel(data.grid.view)),
+                (9, Bound::UniformTexel(data.records.view)),
+                (10, Bound::UniformTexel(data.instances.view)),
                 (11, Bound::Storage(scene_gpu.materials.raw)),
-                (12, Bound::Storage(data.centres.raw)),
+                (12, Bound::UniformTexel(data.centres.view)),
                 (13, view(Target::Normal)),
             ],
         );
