@@ -29,6 +29,15 @@ fn texel_buffers_respect_the_device_limit() {
     texels.write(&[]).unwrap();
     assert!(texels.write(&[0u8; 1009]).is_err(), "a write past the end is refused");
     texels.destroy(ctx, &memory);
+
+    let words =
+        TexelBuffer::from_bytes(ctx, &memory, "words", &[1, 0, 0, 0, 2, 0, 0, 0], vk::Format::R32_UINT);
+    let words = words.unwrap();
+    assert_eq!(&words.buffer.mapped().unwrap()[..8], &[1, 0, 0, 0, 2, 0, 0, 0]);
+    words.destroy(ctx, &memory);
+    let empty = TexelBuffer::from_bytes(ctx, &memory, "empty", &[], vk::Format::R32_UINT).unwrap();
+    assert_eq!(empty.buffer.size, 4, "an empty buffer still holds one texel to bind");
+    empty.destroy(ctx, &memory);
     drop(memory);
     common::assert_clean(&rt);
 }

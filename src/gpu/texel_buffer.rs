@@ -72,6 +72,22 @@ impl TexelBuffer {
         Ok(TexelBuffer { buffer, view, format })
     }
 
+    /// A texel buffer holding `bytes` (at least one texel), freed again if the write fails.
+    pub fn from_bytes(
+        ctx: &GpuContext,
+        memory: &Memory,
+        name: &str,
+        bytes: &[u8],
+        format: vk::Format,
+    ) -> GpuResult<TexelBuffer> {
+        let mut texels = TexelBuffer::new(ctx, memory, name, bytes.len() as u64, format)?;
+        if let Err(e) = texels.write(bytes) {
+            texels.destroy(ctx, memory);
+            return Err(e);
+        }
+        Ok(texels)
+    }
+
     /// Copies `data` to the start of the buffer.
     pub fn write(&mut self, data: &[u8]) -> GpuResult<()> {
         if data.is_empty() {

@@ -365,21 +365,6 @@ pub fn draw_runs(scene: &Scene) -> Vec<LightDraw> {
     runs
 }
 
-fn host_texels(
-    ctx: &GpuContext,
-    memory: &Memory,
-    name: &str,
-    bytes: &[u8],
-    format: vk::Format,
-) -> GpuResult<TexelBuffer> {
-    let mut buffer = TexelBuffer::new(ctx, memory, name, bytes.len() as u64, format)?;
-    if let Err(e) = buffer.write(bytes) {
-        buffer.destroy(ctx, memory);
-        return Err(e);
-    }
-    Ok(buffer)
-}
-
 impl TranslucentData {
     /// Bakes (through the cache) and uploads everything the two passes read.
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
@@ -394,7 +379,7 @@ impl TranslucentData {
                 ("translucency instances", bytemuck::cast_slice(&packed.instances), quad),
                 ("translucency centres", bytemuck::cast_slice(&packed.centres), quad),
             ] {
-                buffers.push(host_texels(ctx, memory, name, bytes, format)?);
+                buffers.push(TexelBuffer::from_bytes(ctx, memory, name, bytes, format)?);
             }
             let format = vk::Format::R8_UNORM;
             let image =
