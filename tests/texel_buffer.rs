@@ -5,8 +5,7 @@
 mod common;
 
 use hadou::gpu::memory::Memory;
-use hadou::gpu::texel_buffer::TexelBuffer;
-use hadou::gpu::vk;
+use hadou::gpu::texel_buffer::{TexelBuffer, Texels};
 
 #[test]
 fn texel_buffers_respect_the_device_limit() {
@@ -14,28 +13,27 @@ fn texel_buffers_respect_the_device_limit() {
     let ctx = rt.context();
     let memory = Memory::new(ctx).unwrap();
     let limit = u64::from(ctx.limits.max_texel_buffer_elements);
-    assert_eq!(TexelBuffer::max_bytes(ctx, vk::Format::R32_UINT), 4 * limit);
+    assert_eq!(TexelBuffer::max_bytes(ctx, Texels::U32), 4 * limit);
 
-    let past = TexelBuffer::new(ctx, &memory, "metaballs entries", 4 * (limit + 1), vk::Format::R32_UINT);
+    let past = TexelBuffer::new(ctx, &memory, "metaballs entries", 4 * (limit + 1), Texels::U32);
     let message = past.err().expect("one texel past maxTexelBufferElements").to_string();
     for part in ["metaballs entries", "maxTexelBufferElements", &limit.to_string(), &(limit + 1).to_string()]
     {
         assert!(message.contains(part), "{message:?} does not name {part:?}");
     }
 
-    let mut texels = TexelBuffer::new(ctx, &memory, "texels", 1000, vk::Format::R32G32B32A32_UINT).unwrap();
+    let mut texels = TexelBuffer::new(ctx, &memory, "texels", 1000, Texels::U32x4).unwrap();
     assert_eq!(texels.buffer.size, 1008, "rounded up to whole 16-byte texels");
     texels.write(&[7u8; 1008]).unwrap();
     texels.write(&[]).unwrap();
     assert!(texels.write(&[0u8; 1009]).is_err(), "a write past the end is refused");
     texels.destroy(ctx, &memory);
 
-    let words =
-        TexelBuffer::from_bytes(ctx, &memory, "words", &[1, 0, 0, 0, 2, 0, 0, 0], vk::Format::R32_UINT);
+    let words = TexelBuffer::from_bytes(ctx, &memory, "words", &[1, 0, 0, 0, 2, 0, 0, 0], Texels::U32);
     let words = words.unwrap();
     assert_eq!(&words.buffer.mapped().unwrap()[..8], &[1, 0, 0, 0, 2, 0, 0, 0]);
     words.destroy(ctx, &memory);
-    let empty = TexelBuffer::from_bytes(ctx, &memory, "empty", &[], vk::Format::R32_UINT).unwrap();
+    let empty = TexelBuffer::from_bytes(ctx, &memory, "empty", &[], Texels::U32).unwrap();
     assert_eq!(empty.buffer.size, 4, "an empty buffer still holds one texel to bind");
     empty.destroy(ctx, &memory);
     drop(memory);

@@ -3,7 +3,7 @@
 //! Why not storage buffers: on lavapipe (Mesa 22.3), inside a branch or a loop, a storage-buffer
 //! load is a loop over the SIMD lanes with a branch per lane and component, while a texel fetch is
 //! a branch-free gather of whole texels (measured on the metaballs pass: docs/PERFORMANCE.md).
-//! Data is viewed as `R32G32B32A32_UINT` (or `R32_UINT`) texels and floats are read back with
+//! Data is viewed as uint texels ([`Texels`]) and floats are read back with
 //! `uintBitsToFloat`: an integer format carries every bit pattern unchanged, where a float format
 //! could flush denormals.
 
@@ -16,34 +16,49 @@ use super::{vk, GpuContext, GpuError, GpuResult};
 pub struct TexelBuffer {
     pub buffer: Buffer,
     pub view: vk::BufferView,
-    pub format: vk::Format,
 }
 
-/// Bytes per texel of the formats this module views buffers as.
-fn texel_bytes(format: vk::Format) -> u64 {
-    match format {
-        vk::Format::R32_UINT => 4,
-        vk::Format::R32G32B32A32_UINT => 16,
-        _ => unreachable!("texel_bytes: add {format:?}"),
+/// How a buffer's bytes are viewed: one uint per texel (`R32_UINT`), or four (`R32G32B32A32_UINT`,
+/// a 16-byte struct field or a vec4 per texel).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Texels {
+    U32,
+    U32x4,
+}
+
+impl Texels {
+    pub fn format(self) -> vk::Format {
+        match self {
+            Texels::U32 => vk::Format::R32_UINT,
+            Texels::U32x4 => vk::Format::R32G32B32A32_UINT,
+        }
+    }
+
+    /// Bytes per texel.
+    pub fn bytes(self) -> u64 {
+        match self {
+            Texels::U32 => 4,
+            Texels::U32x4 => 16,
+        }
     }
 }
 
 impl TexelBuffer {
-    /// The most bytes a view of `format` texels can address on this device.
-    pub fn max_bytes(ctx: &GpuContext, format: vk::Format) -> u64 {
-        u64::from(ctx.limits.max_texel_buffer_elements) * texel_bytes(format)
+    /// The most bytes a view of `texels` can address on this device.
+    pub fn max_bytes(ctx: &GpuContext, texels: Texels) -> u64 {
+        u64::from(ctx.limits.max_texel_buffer_elements) * texels.bytes()
     }
 
-    /// A host-visible buffer of at least `bytes` and its view as `format` texels; an error naming
-    /// the buffer when the device cannot address that many texels (maxTexelBufferElements).
+    /// A host-visible buffer of at least `bytes` and its view as `texels`; an error naming the
+    /// buffer when the device cannot address that many texels (maxTexelBufferElements).
     pub fn new(
         ctx: &GpuContext,
         memory: &Memory,
         name: &str,
         bytes: u64,
-        format: vk::Format,
+        texels: Texels,
     ) -> GpuResult<TexelBuffer> {
-        let texel = texel_bytes(format);
+        let texel = texels.bytes();
         let size = bytes.max(texel).div_ceil(texel) * texel;
         let limit = u64::from(ctx.limits.max_texel_buffer_elements);
         if size / texel > limit {
@@ -58,8 +73,10 @@ impl TexelBuffer {
         }
         let usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
         let buffer = memory.create_buffer(ctx, name, size, usage, MemoryLocation::CpuToGpu)?;
-        let info =
-            vk::BufferViewCreateInfo::default().buffer(buffer.raw).format(format).range(vk::WHOLE_SIZE);
+        let info = vk::BufferViewCreateInfo::default()
+            .buffer(buffer.raw)
+            .format(texels.format())
+            .range(vk::WHOLE_SIZE);
         // SAFETY: valid device and buffer; the view is destroyed before the buffer (destroy).
         let view = match unsafe { ctx.device.create_buffer_view(&info, None) }.vk("vkCreateBufferView") {
             Ok(v) => v,
@@ -69,7 +86,7 @@ impl TexelBuffer {
             }
         };
         ctx.name_object(view, name);
-        Ok(TexelBuffer { buffer, view, format })
+        Ok(TexelBuffer { buffer, view })
     }
 
     /// A texel buffer holding `bytes` (at least one texel), freed again if the write fails.
@@ -78,14 +95,14 @@ impl TexelBuffer {
         memory: &Memory,
         name: &str,
         bytes: &[u8],
-        format: vk::Format,
+        texels: Texels,
     ) -> GpuResult<TexelBuffer> {
-        let mut texels = TexelBuffer::new(ctx, memory, name, bytes.len() as u64, format)?;
-        if let Err(e) = texels.write(bytes) {
-            texels.destroy(ctx, memory);
+        let mut buffer = TexelBuffer::new(ctx, memory, name, bytes.len() as u64, texels)?;
+        if let Err(e) = buffer.write(bytes) {
+            buffer.destroy(ctx, memory);
             return Err(e);
         }
-        Ok(texels)
+        Ok(buffer)
     }
 
     /// Copies `data` to the start of the buffer.

@@ -34,7 +34,7 @@ use crate::gpu::barriers::{cmd_barriers, memory_barrier, ImageAccess};
 use crate::gpu::memory::{Buffer, Memory};
 use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
-use crate::gpu::texel_buffer::TexelBuffer;
+use crate::gpu::texel_buffer::{TexelBuffer, Texels};
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::scene::camera::Camera;
 use crate::scene::Scene;
@@ -360,7 +360,7 @@ impl MetaballsPass {
         let tile_bytes = 16 * 1920u64.div_ceil(TILE as u64) * 1080u64.div_ceil(TILE as u64);
         let entry_bytes = 4 * (10 * ball_count as u64).max(1024);
         let made = (|| -> GpuResult<()> {
-            let (quad, word) = (vk::Format::R32G32B32A32_UINT, vk::Format::R32_UINT);
+            let (quad, word) = (Texels::U32x4, Texels::U32);
             pass.groups = Some(TexelBuffer::new(ctx, memory, "metaballs groups", group_bytes, quad)?);
             pass.balls = Some(TexelBuffer::new(ctx, memory, "metaballs balls", ball_bytes, quad)?);
             pass.tiles = Some(TexelBuffer::new(ctx, memory, "metaballs tiles", tile_bytes, quad)?);
@@ -399,7 +399,7 @@ impl MetaballsPass {
         slot: &mut Option<TexelBuffer>,
         name: &str,
         bytes: u64,
-        format: vk::Format,
+        texels: Texels,
     ) -> GpuResult<bool> {
         if slot.as_ref().is_some_and(|b| b.buffer.size >= bytes) {
             return Ok(false);
@@ -408,8 +408,8 @@ impl MetaballsPass {
             old.destroy(ctx, memory);
         }
         // Half as large again for the frames to come, within what the device can address.
-        let size = (bytes + bytes / 2).min(TexelBuffer::max_bytes(ctx, format)).max(bytes);
-        *slot = Some(TexelBuffer::new(ctx, memory, name, size, format)?);
+        let size = (bytes + bytes / 2).min(TexelBuffer::max_bytes(ctx, texels)).max(bytes);
+        *slot = Some(TexelBuffer::new(ctx, memory, name, size, texels)?);
         Ok(true)
     }
 }
@@ -446,10 +446,10 @@ impl Pass for MetaballsPass {
     fn prepare_device(&mut self, ctx: &GpuContext, memory: &Memory) -> GpuResult<()> {
         let tile_bytes = (16 * self.lists.tiles.len()) as u64;
         let entry_bytes = (4 * self.lists.entries.len()) as u64;
-        let (quad, word) = (vk::Format::R32G32B32A32_UINT, vk::Format::R32_UINT);
-        let new_tiles = Self::ensure(ctx, memory, &mut self.tiles, "metaballs tiles", tile_bytes, quad)?;
+        let new_tiles =
+            Self::ensure(ctx, memory, &mut self.tiles, "metaballs tiles", tile_bytes, Texels::U32x4)?;
         let new_entries =
-            Self::ensure(ctx, memory, &mut self.entries, "metaballs entries", entry_bytes, word)?;
+            Self::ensure(ctx, memory, &mut self.entries, "metaballs entries", entry_bytes, Texels::U32)?;
         if (new_tiles || new_entries) && self.set != vk::DescriptorSet::null() {
             if let (Some(tiles), Some(entries)) = (&self.tiles, &self.entries) {
                 let views = [(8, Bound::UniformTexel(tiles.view)), (9, Bound::UniformTexel(entries.view))];

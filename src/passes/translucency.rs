@@ -82,7 +82,7 @@ use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::{Buffer, Image, Memory};
 use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
-use crate::gpu::texel_buffer::TexelBuffer;
+use crate::gpu::texel_buffer::{TexelBuffer, Texels};
 use crate::gpu::upload::{upload_image, Sampler};
 use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
 use crate::passes::gpu_structs::{instance_records, mat4_f32};
@@ -218,8 +218,9 @@ pub struct TranslucentData {
     pub draws: Vec<LightDraw>,
     pub lut_image: Image,
     pub sampler: Sampler,
-    // Read as texel buffers (see gpu::texel_buffer for why): the nearest grids (R32_UINT), the
-    // LutRecords (3 texels each), the TranslucentInstances (9) and the surface-voxel centres (1).
+    // Read as texel buffers (see gpu::texel_buffer for why): the nearest grids (one uint per
+    // texel), the LutRecords (3 four-uint texels each), the TranslucentInstances (9) and the
+    // surface-voxel centres (1).
     pub grid: TexelBuffer,
     pub records: TexelBuffer,
     pub instances: TexelBuffer,
@@ -372,14 +373,14 @@ impl TranslucentData {
         let packed = pack(scene, limit)?;
         let mut buffers: Vec<TexelBuffer> = Vec::new();
         let made = (|| {
-            let (word, quad) = (vk::Format::R32_UINT, vk::Format::R32G32B32A32_UINT);
-            for (name, bytes, format) in [
+            let (word, quad) = (Texels::U32, Texels::U32x4);
+            for (name, bytes, texels) in [
                 ("translucency nearest grids", bytemuck::cast_slice::<u32, u8>(&packed.grid), word),
                 ("translucency lut records", bytemuck::cast_slice(&packed.records), quad),
                 ("translucency instances", bytemuck::cast_slice(&packed.instances), quad),
                 ("translucency centres", bytemuck::cast_slice(&packed.centres), quad),
             ] {
-                buffers.push(TexelBuffer::from_bytes(ctx, memory, name, bytes, format)?);
+                buffers.push(TexelBuffer::from_bytes(ctx, memory, name, bytes, texels)?);
             }
             let format = vk::Format::R8_UNORM;
             let image =
