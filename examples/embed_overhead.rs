@@ -48,7 +48,7 @@ fn main() -> Result<(), String> {
             if i < WARMUP {
                 continue;
             }
-            let Some(t) = g.hadou.latest_timings().map_err(|e| e.to_string())? else { continue };
+            let Some(t) = g.hadou.latest_timings() else { continue };
             let mut total = 0.0;
             for p in t.passes.iter().filter(|p| p.name != "readback") {
                 per_pass.entry(p.name.clone()).or_default().push(p.gpu_ms);

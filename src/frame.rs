@@ -1,109 +1,20 @@
-//! Builds the pass list the scene needs and records it. Every pass is wrapped the same way:
-//! debug label, barriers, timestamp pair (kajiya's record_pass_cb). Recording only: the caller
-//! (the headless `Runtime` or a game embedding `renderer::Renderer`) submits and waits.
+//! The pass runner: records a frame's passes into a command buffer. Every pass is wrapped the
+//! same way (kajiya's record_pass_cb): the images it declared made and transitioned, the buffers
+//! it writes ordered against their readers, its descriptor set allocated from the slot's pool and
+//! written from its bindings, then debug label and timestamp pair around its commands. The runner
+//! knows nothing of any particular pass. Recording only: the caller submits.
 
-use crate::gpu::barriers::cmd_barriers;
+use crate::gpu::barriers::{cmd_barriers, memory_barrier};
 use crate::gpu::memory::Memory;
+use crate::gpu::pipeline::{bind_set, Bound, BufferRange, DescriptorPool};
 use crate::gpu::recorder::Recorder;
-use crate::gpu::shader::ShaderCompiler;
+use crate::gpu::ring::{TexelView, UploadRing};
 use crate::gpu::timestamps::TimestampPool;
 use crate::gpu::{vk, GpuContext, GpuResult};
-use crate::passes::energy_wave::EnergyWavePass;
-use crate::passes::light_id::LightIdPass;
-use crate::passes::metaballs::MetaballsPass;
-use crate::passes::raster::RasterPass;
-use crate::passes::tonemap::TonemapPass;
-use crate::passes::translucency::{self, shared_data, TranslucencyPass};
-use crate::passes::{Pass, PassInputs};
+use crate::passes::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
-use crate::targets::{Target, Targets};
-
-/// The passes a frame runs, in order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PassKind {
-    Raster,
-    LightId,
-    Metaballs,
-    Translucency,
-    EnergyWave,
-    Tonemap,
-}
-
-/// Only the passes this scene needs.
-pub fn plan(scene: &Scene) -> Vec<PassKind> {
-    // The raster always runs: it clears the G-buffer every later pass reads, even with no instances.
-    let mut kinds = vec![PassKind::Raster];
-    // After the raster (depth-tested against it), before the wave (which the metaballs clip).
-    // Right after the raster, whose images it binds: on lavapipe a dispatch waits only for the
-    // render passes that wrote what it binds, and timestamps are written by the rasterizer, so
-    // after light_id (which it does not read) the dispatch would overlap light_id's rasterizing
-    // and its timestamps would straddle the wrong work (measured: 0.06 ms for a 2.9 ms pass).
-    if !scene.metaballs.is_empty() {
-        kinds.push(PassKind::Metaballs);
-    }
-    // The light's view of the translucent instances (it does not read the raster's images).
-    let translucent = translucency::needed(scene);
-    if translucent {
-        kinds.push(PassKind::LightId);
-    }
-    // Reads the G-buffer the raster and the metaballs wrote; before the wave, which adds on top.
-    if translucent {
-        kinds.push(PassKind::Translucency);
-    }
-    if !scene.waves.is_empty() {
-        kinds.push(PassKind::EnergyWave);
-    }
-    kinds.push(PassKind::Tonemap);
-    kinds
-}
-
-fn boxed<P: Pass + 'static>(pass: GpuResult<P>) -> GpuResult<Box<dyn Pass>> {
-    pass.map(|p| Box::new(p) as Box<dyn Pass>)
-}
-
-pub fn build_passes(
-    ctx: &GpuContext,
-    memory: &Memory,
-    compiler: &mut ShaderCompiler,
-    scene: &Scene,
-    kinds: &[PassKind],
-) -> GpuResult<Vec<Box<dyn Pass>>> {
-    let mut passes: Vec<Box<dyn Pass>> = Vec::new();
-    // One bake and upload of the thickness LUTs, shared by light_id and translucency.
-    let mut translucent = None;
-    for kind in kinds {
-        let pass = match kind {
-            PassKind::Raster => boxed(RasterPass::new(ctx, compiler)),
-            PassKind::LightId => shared_data(&mut translucent, ctx, memory, scene)
-                .and_then(|d| boxed(LightIdPass::new(ctx, memory, compiler, d))),
-            PassKind::Metaballs => boxed(MetaballsPass::new(ctx, memory, compiler, scene)),
-            PassKind::Translucency => shared_data(&mut translucent, ctx, memory, scene)
-                .and_then(|d| boxed(TranslucencyPass::new(ctx, memory, compiler, d))),
-            PassKind::EnergyWave => boxed(EnergyWavePass::new(ctx, memory, compiler, scene)),
-            PassKind::Tonemap => boxed(TonemapPass::new(ctx, compiler)),
-        };
-        match pass {
-            Ok(p) => passes.push(p),
-            Err(e) => {
-                passes.iter_mut().for_each(|p| p.destroy(ctx, memory));
-                translucency::release(translucent, ctx, memory);
-                return Err(e);
-            }
-        }
-    }
-    // The passes hold their own references.
-    translucency::release(translucent, ctx, memory);
-    Ok(passes)
-}
-
-/// The images the passes touch: only these are created.
-pub fn targets_used(passes: &[Box<dyn Pass>]) -> Vec<Target> {
-    let mut used: Vec<Target> = passes.iter().flat_map(|p| p.uses()).map(|(t, _)| t).collect();
-    used.sort();
-    used.dedup();
-    used
-}
+use crate::targets::Targets;
 
 /// GPU time of one pass in one frame.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -165,39 +76,121 @@ pub fn record_scope(
     Scope { name, begin, end }
 }
 
-/// What recording the scene's passes needs.
-pub struct PassRecording<'a> {
+/// A frame being recorded into one slot.
+pub(crate) struct SlotFrame<'a> {
     pub ctx: &'a GpuContext,
+    pub memory: &'a Memory,
     pub cmd: vk::CommandBuffer,
-    pub passes: &'a [Box<dyn Pass>],
+    pub slot: usize,
+    /// The slot's descriptor pool, reset for this frame.
+    pub pool: &'a DescriptorPool,
+    pub ring: &'a mut UploadRing,
     pub targets: &'a mut Targets,
-    pub scene_gpu: &'a SceneGpu,
     pub scene: &'a Scene,
+    pub scene_gpu: &'a SceneGpu,
+    pub uniforms: BufferRange,
+    pub instances: BufferRange,
     pub time: f64,
-    /// See `PassInputs::embedded` and `PassInputs::depth_imported`.
     pub embedded: bool,
     pub depth_imported: bool,
-    /// Passes not to record this frame (e.g. tonemap when the game's colour is the output).
-    pub skip: &'a [&'static str],
 }
 
-/// Records every pass of the frame, each as one scope.
-pub fn record_passes(r: PassRecording, timestamps: &mut Timestamps, scopes: &mut Vec<Scope>) {
-    let rec = Recorder { ctx: r.ctx, cmd: r.cmd };
-    for pass in r.passes.iter().filter(|p| !r.skip.contains(&p.name())) {
-        let barriers: Vec<_> =
-            pass.uses().into_iter().filter_map(|(t, access)| r.targets.transition(t, access)).collect();
-        let inputs = PassInputs {
-            rec: &rec,
-            targets: r.targets,
-            scene_gpu: r.scene_gpu,
-            scene: r.scene,
-            time: r.time,
-            embedded: r.embedded,
-            depth_imported: r.depth_imported,
+/// A prepared pass: its descriptor set and the buffers it writes.
+struct Prepared {
+    sets: Vec<vk::DescriptorSet>,
+    written: Vec<(BufferRange, Reader)>,
+}
+
+/// Records `passes` in order, each as one scope.
+pub(crate) fn record_passes(
+    f: &mut SlotFrame,
+    passes: &mut [&mut dyn Pass],
+    timestamps: &mut Timestamps,
+    scopes: &mut Vec<Scope>,
+) -> GpuResult<()> {
+    let extent = f.targets.extent;
+    let mut views: Vec<TexelView> = Vec::new();
+    let mut prepared = Vec::with_capacity(passes.len());
+    for pass in passes.iter_mut() {
+        for image in pass.images() {
+            f.targets.ensure(f.ctx, f.memory, image.target, image.extent)?;
+        }
+        let mut frame = FrameContext {
+            ctx: f.ctx,
+            memory: f.memory,
+            scene: f.scene,
+            scene_gpu: f.scene_gpu,
+            uniforms: f.uniforms,
+            instances: f.instances,
+            time: f.time,
+            extent,
+            slot: f.slot,
+            embedded: f.embedded,
+            depth_imported: f.depth_imported,
+            ring: &mut *f.ring,
+            views: &mut views,
         };
-        scopes.push(record_scope(r.ctx, r.cmd, timestamps, pass.name(), &barriers, || pass.record(&inputs)));
+        let bindings = pass.prepare(&mut frame)?;
+        let mut written = Vec::new();
+        let bound: Vec<Bound> = bindings
+            .iter()
+            .map(|b| match *b {
+                Binding::Image(t) => Bound::StorageImage(f.targets.image(t).view),
+                Binding::SampledImage(t, sampler) => Bound::Sampled(f.targets.image(t).view, sampler),
+                Binding::Bound(b) => b,
+                Binding::Written(range, reader) => {
+                    written.push((range, reader));
+                    Bound::Storage(range)
+                }
+            })
+            .collect();
+        let sets = pass
+            .pipelines()
+            .into_iter()
+            .map(|p| bind_set(f.ctx, f.pool, p, &bound))
+            .collect::<Result<_, _>>()?;
+        prepared.push(Prepared { sets, written });
     }
+    // The sets are written: the views may go (they are retired with the frame).
+    drop(views);
+    let rec = Recorder { ctx: f.ctx, cmd: f.cmd };
+    for (pass, p) in passes.iter().zip(&prepared) {
+        let barriers: Vec<_> =
+            pass.images().into_iter().filter_map(|u| f.targets.transition(u.target, u.access)).collect();
+        let stage = match pass.pipelines().first().map(|p| p.bind_point) {
+            Some(vk::PipelineBindPoint::COMPUTE) => vk::PipelineStageFlags2::COMPUTE_SHADER,
+            _ => vk::PipelineStageFlags2::ALL_GRAPHICS,
+        };
+        let write = vk::AccessFlags2::SHADER_STORAGE_WRITE;
+        // Written buffers: wait for their readers in earlier frames (write after read).
+        let before: Vec<_> = p
+            .written
+            .iter()
+            .map(|(_, reader)| memory_barrier(reader.stage().0, vk::AccessFlags2::NONE, stage, write))
+            .collect();
+        let recording = PassRecording {
+            rec: &rec,
+            targets: f.targets,
+            scene_gpu: f.scene_gpu,
+            scene: f.scene,
+            sets: p.sets.clone(),
+            embedded: f.embedded,
+            depth_imported: f.depth_imported,
+        };
+        scopes.push(record_scope(f.ctx, f.cmd, timestamps, pass.name(), &barriers, || {
+            cmd_barriers(&f.ctx.device, f.cmd, &[], &before);
+            pass.record(&recording);
+            // Host readers see the writes after the frame's fence.
+            let after: Vec<_> = p
+                .written
+                .iter()
+                .filter(|(_, r)| *r == Reader::Host)
+                .map(|(_, r)| memory_barrier(stage, write, r.stage().0, r.stage().1))
+                .collect();
+            cmd_barriers(&f.ctx.device, f.cmd, &[], &after);
+        }));
+    }
+    Ok(())
 }
 
 /// Per-scope GPU times from the frame's timestamps (nanoseconds, in write order).

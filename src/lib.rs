@@ -19,22 +19,65 @@ pub mod testing;
 
 pub use aov::{Aov, AovImage};
 pub use frame::{FrameStats, PassTiming};
-pub use gpu::{DeviceInfo, GpuError, ValidationCounts};
+pub use gpu::{DeviceInfo, GpuError, HostWaits, ValidationCounts};
 pub use renderer::{
     DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameTimings, RecordedFrame, Renderer,
-    WaveUpdate,
+    RendererOptions, WaveUpdate,
 };
 pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};
 
 /// Everything the library can fail with.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// The device, the driver, a shader or a GPU limit.
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// A scene file or a scene description that is not valid.
     #[error(transparent)]
     Scene(#[from] scene::SceneError),
+    /// An output file that could not be written.
     #[error(transparent)]
     Output(#[from] output::OutputError),
-    #[error("invalid request: {0}")]
-    InvalidRequest(String),
+    /// A frame was requested before `load_scene`.
+    #[error("no scene loaded (call load_scene first)")]
+    NoScene,
+    /// `RendererOptions::frames_in_flight` outside 1..=4.
+    #[error("frames_in_flight {0} is outside 1..={max}", max = renderer::MAX_FRAMES_IN_FLIGHT)]
+    FramesInFlight(usize),
+    /// A frame size the device cannot hold.
+    #[error("frame size {width}x{height} outside 1..={max} (the device's maxImageDimension2D)")]
+    FrameSize { width: u32, height: u32, max: u32 },
+    /// `frame_finished` named a frame that was never recorded.
+    #[error("frame {frame} was not recorded (frames 0..{recorded} were)")]
+    FrameNotRecorded { frame: u64, recorded: u64 },
+    /// A read-back was asked for before any frame was recorded.
+    #[error("no frame recorded yet (or it was 0 × 0)")]
+    NoFrameRecorded,
+    /// An image the scene's passes do not write was asked for (an AOV of an effect it lacks).
+    #[error("AOV {target} is not produced by this scene's passes ({passes}): it needs {needs}")]
+    NotProduced { target: &'static str, passes: String, needs: &'static str },
+    /// The game's depth convention cannot be inverted.
+    #[error("external depth: {0}")]
+    DepthConvention(String),
+    /// The game's depth image has a format hadou does not sample.
+    #[error(
+        "external depth: format {0:?} is not a depth format hadou samples (D32_SFLOAT, D16_UNORM, \
+         D24_UNORM_S8_UINT)"
+    )]
+    DepthFormat(ash::vk::Format),
+    /// An update named an instance, wave, metaball group or ball the scene does not have.
+    #[error("{kind} {index}: the scene has {count}")]
+    UnknownId { kind: &'static str, index: usize, count: usize },
+    /// An update with values hadou cannot use; `expected` says what is.
+    #[error("{what}: {expected}")]
+    InvalidUpdate { what: String, expected: String },
+    /// A translucent instance was moved (its light view and tables are fitted at load).
+    #[error(
+        "instance {0} is translucent: its transform is fixed at load (its light view and thickness \
+         tables are fitted to it)"
+    )]
+    TranslucentFixed(usize),
+    /// `hadou report`: a measurement could not be made (the reason).
+    #[error("report: {0}")]
+    Report(String),
 }

@@ -1,6 +1,7 @@
 //! The headless runtime: create it, load a scene, render frames, read back colour and AOVs. A thin
-//! owner around the recording core (`renderer::Renderer`): its own device, one command buffer and
-//! fence, and the read-back.
+//! owner around the recording core (`renderer::Renderer`, 2 frame slots): its own device, a
+//! command buffer and fence per slot, and the read-back. `render` waits for its frame (it returns
+//! the pixels); `submit` does not (a frame loop that only needs the timings, like `hadou profile`).
 
 use std::time::Instant;
 
@@ -8,10 +9,8 @@ use crate::aov::{Aov, AovImage};
 use crate::frame::{ms, FrameStats};
 use crate::gpu::commands::FrameCommands;
 use crate::gpu::{ContextOptions, DeviceInfo, GpuContext, ValidationCounts};
-use crate::renderer::readback::not_read_back;
-use crate::renderer::{AovReadback, FrameInputs, Renderer};
+use crate::renderer::{AovReadback, FrameInputs, Renderer, RendererOptions};
 use crate::scene::Scene;
-use crate::scene_gpu::SceneGpu;
 use crate::targets::Target;
 use crate::Error;
 
@@ -82,7 +81,8 @@ impl FrameOutput {
 /// # Ok::<(), hadou::Error>(())
 /// ```
 pub struct Runtime {
-    commands: FrameCommands,
+    /// One per frame slot (frame n records into `commands[n % slots]`).
+    commands: Vec<FrameCommands>,
     renderer: Renderer,
 }
 
@@ -98,9 +98,11 @@ impl Runtime {
     /// A runtime on a context the caller created, e.g. `GpuContext::new_presenting` for a window
     /// (`hadou view`). The runtime owns the context from here on.
     pub fn with_context(ctx: GpuContext) -> Result<Self, Error> {
-        // The renderer first: if the command buffer fails, dropping it frees everything it made.
-        let renderer = Renderer::new(ctx)?;
-        let commands = FrameCommands::new(renderer.context(), "frame")?;
+        // The renderer first: if a command buffer fails, dropping it frees everything it made.
+        let renderer = Renderer::with_options(ctx, &RendererOptions::default())?;
+        let commands = (0..renderer.frames_in_flight())
+            .map(|i| FrameCommands::new(renderer.context(), &format!("frame slot {i}")))
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(Runtime { commands, renderer })
     }
 
@@ -137,11 +139,6 @@ impl Runtime {
         self.renderer.scene()
     }
 
-    /// The loaded scene's GPU buffers: one vertex/index buffer pair per mesh, and the draws.
-    pub fn scene_gpu(&self) -> Option<&SceneGpu> {
-        self.renderer.scene_gpu()
-    }
-
     /// Evaluates the energy-wave shader code for explicit rays (not pixels): H for every
     /// (ray, wave), ray-major. Tests use it to feed the GPU exact hard rays.
     pub fn energy_probe(
@@ -150,8 +147,30 @@ impl Runtime {
         rays: &[crate::passes::energy_probe::ProbeRay],
         method: crate::passes::energy_probe::ProbeMethod,
     ) -> Result<Vec<f32>, Error> {
+        if waves.is_empty() || rays.is_empty() {
+            return Ok(Vec::new());
+        }
         let (ctx, memory, compiler) = self.renderer.parts();
-        Ok(crate::passes::energy_probe::run_probe(ctx, memory, compiler, waves, rays, method)?)
+        let mut probe =
+            crate::passes::energy_probe::ProbePass::new(ctx, memory, compiler, waves, rays, method)?;
+        let slot = self.next_slot();
+        self.commands[slot].begin(self.renderer.context())?;
+        let cmd = self.commands[slot].cmd;
+        let frame = match self.renderer.record_one_off(cmd, &mut probe) {
+            Ok(f) => f,
+            Err(e) => {
+                let _ = self.commands[slot].end(self.renderer.context());
+                return Err(e);
+            }
+        };
+        self.commands[slot].submit_and_wait(self.renderer.context(), "energy_probe")?;
+        self.renderer.frame_finished(frame)?;
+        Ok(probe.results())
+    }
+
+    /// The slot the next frame records into.
+    fn next_slot(&self) -> usize {
+        (self.renderer.next_frame() % self.commands.len() as u64) as usize
     }
 
     /// The passes the loaded scene runs, in order.
@@ -165,67 +184,94 @@ impl Runtime {
     }
 
     /// Renders one frame and reads back what was requested: records through the same core a game
-    /// uses (`Renderer::record_frame`), submits, waits on the fence.
+    /// uses (`Renderer::record_frame`), submits, waits on the frame's fence.
     pub fn render(&mut self, request: &FrameRequest) -> Result<FrameOutput, Error> {
         let frame_start = Instant::now();
+        let (frame, readback, cpu_record_ms) = self.record(request)?;
+        let submit_start = Instant::now();
+        let slot = (frame % self.commands.len() as u64) as usize;
+        let last_pass = self.renderer.pass_names().last().copied().unwrap_or("none");
+        self.commands[slot].submit_and_wait(self.renderer.context(), last_pass)?;
+        let cpu_submit_wait_ms = ms(submit_start.elapsed());
+        self.renderer.frame_finished(frame)?;
+        let mut stats =
+            self.renderer.latest_stats().filter(|(f, _)| *f == frame).map(|(_, s)| s).unwrap_or_default();
+        stats.cpu_record_ms = cpu_record_ms;
+        stats.cpu_submit_wait_ms = cpu_submit_wait_ms;
+        let (color, aovs) = collect_output(request, &readback)?;
+        stats.cpu_frame_ms = ms(frame_start.elapsed());
+        Ok(FrameOutput { width: request.width, height: request.height, color, aovs, stats })
+    }
+
+    /// Records and submits one frame without waiting for it (frames overlap the CPU's work on the
+    /// next one, up to the slots): for loops that only need timings. Returns the frame's number;
+    /// its statistics come with `Runtime::finished_stats` once a later frame (or `wait_all`)
+    /// finished it.
+    pub fn submit(&mut self, request: &FrameRequest) -> Result<u64, Error> {
+        let request = FrameRequest { color: false, aovs: Vec::new(), ..request.clone() };
+        let (frame, _readback, _) = self.record(&request)?;
+        let slot = (frame % self.commands.len() as u64) as usize;
+        let last_pass = self.renderer.pass_names().last().copied().unwrap_or("none");
+        self.commands[slot].submit(self.renderer.context(), last_pass)?;
+        Ok(frame)
+    }
+
+    /// Waits for every submitted frame and reports them finished.
+    pub fn wait_all(&mut self) -> Result<(), Error> {
+        for c in &mut self.commands {
+            c.wait(self.renderer.context(), "the last frame")?;
+        }
+        if let Some(last) = self.renderer.next_frame().checked_sub(1) {
+            self.renderer.frame_finished(last)?;
+        }
+        Ok(())
+    }
+
+    /// Records frame `request` into its slot's command buffer (waiting for that slot's previous
+    /// submission: the frame contract) with the read-backs it asks for.
+    fn record(&mut self, request: &FrameRequest) -> Result<(u64, AovReadback, f64), Error> {
         let max = self.context().limits.max_image_dimension2_d;
         if request.width == 0 || request.height == 0 || request.width > max || request.height > max {
-            return Err(Error::InvalidRequest(format!(
-                "frame size {}x{} outside 1..={max} (the device's maxImageDimension2D)",
-                request.width, request.height
-            )));
+            return Err(Error::FrameSize { width: request.width, height: request.height, max });
         }
         if self.renderer.scene().is_none() {
-            return Err(Error::InvalidRequest("no scene loaded (call load_scene first)".into()));
+            return Err(Error::NoScene);
         }
         let mut wanted: Vec<Target> = request.aovs.iter().map(|a| a.target()).collect();
         if request.color {
             wanted.push(Target::Ldr);
         }
         if let Some(missing) = wanted.iter().find(|t| !self.renderer.produces(**t)) {
-            return Err(Error::InvalidRequest(format!(
-                "AOV {} is not produced by this scene's passes ({}): e.g. `energy` needs a [[wave]]",
-                missing.name(),
-                self.renderer.pass_names().join(", ")
-            )));
+            return Err(Error::NotProduced {
+                target: missing.name(),
+                passes: self.renderer.pass_names().join(", "),
+                needs: missing.needs(),
+            });
         }
+        let slot = self.next_slot();
+        // The slot's previous frame must have finished before it is recorded again.
+        self.commands[slot].begin(self.renderer.context())?;
         let record_start = Instant::now();
-        self.commands.begin(self.renderer.context())?;
-        let cmd = self.commands.cmd;
+        let cmd = self.commands[slot].cmd;
         let inputs = FrameInputs::headless(request.width, request.height, request.time);
         let recorded = self
             .renderer
             .record_frame(cmd, &inputs)
             .and_then(|frame| self.renderer.record_readback(cmd, &wanted).map(|readback| (frame, readback)));
-        let (frame, readback) = match recorded {
-            Ok(r) => r,
+        match recorded {
+            Ok((frame, readback)) => Ok((frame.frame, readback, ms(record_start.elapsed()))),
             Err(e) => {
                 // Close the command buffer so the next frame can reset it; nothing is submitted.
-                let _ = self.commands.end(self.renderer.context());
+                let _ = self.commands[slot].end(self.renderer.context());
                 self.renderer.abandon_frame();
-                return Err(e);
+                Err(e)
             }
-        };
-        let cpu_record_ms = ms(record_start.elapsed());
-        let submit_start = Instant::now();
-        let last_pass = self.renderer.pass_names().last().copied().unwrap_or("none");
-        if let Err(e) = self.commands.submit_and_wait(self.renderer.context(), last_pass) {
-            self.renderer.release_readback(readback);
-            return Err(e.into());
         }
-        let cpu_submit_wait_ms = ms(submit_start.elapsed());
-        let mut stats = FrameStats { cpu_record_ms, cpu_submit_wait_ms, ..Default::default() };
-        // The fence signalled, so this frame's timestamps are written: the poll finds them.
-        if let Some(t) = self.renderer.latest_timings()?.filter(|t| t.frame == frame.frame) {
-            stats.passes = t.passes.clone();
-            stats.gpu_frame_ms = t.gpu_frame_ms;
-        }
-        self.renderer.report(&mut stats);
-        let output = collect_output(request, &readback);
-        self.renderer.release_readback(readback);
-        let (color, aovs) = output?;
-        stats.cpu_frame_ms = ms(frame_start.elapsed());
-        Ok(FrameOutput { width: request.width, height: request.height, color, aovs, stats })
+    }
+
+    /// What the device measured and counted in frame `frame`, once it is known finished.
+    pub fn finished_stats(&self, frame: u64) -> Option<FrameStats> {
+        self.renderer.latest_stats().filter(|(f, _)| *f == frame).map(|(_, s)| s)
     }
 }
 
@@ -233,21 +279,34 @@ type Collected = (Option<Vec<u8>>, Vec<(Aov, AovImage)>);
 
 fn collect_output(request: &FrameRequest, readback: &AovReadback) -> Result<Collected, Error> {
     let color = if request.color {
-        Some(readback.bytes(Target::Ldr).ok_or_else(|| not_read_back(Target::Ldr))?.to_vec())
+        Some(
+            readback
+                .bytes(Target::Ldr)
+                .ok_or(Error::NotProduced {
+                    target: "ldr",
+                    passes: String::new(),
+                    needs: Target::Ldr.needs(),
+                })?
+                .to_vec(),
+        )
     } else {
         None
     };
     let mut aovs = Vec::new();
     for &aov in &request.aovs {
-        aovs.push((aov, readback.aov(aov).ok_or_else(|| not_read_back(aov.target()))?));
+        let missing =
+            Error::NotProduced { target: aov.name(), passes: String::new(), needs: aov.target().needs() };
+        aovs.push((aov, readback.aov(aov).ok_or(missing)?));
     }
     Ok((color, aovs))
 }
 
 impl Drop for Runtime {
     fn drop(&mut self) {
-        let _ = self.renderer.context().wait_idle();
-        self.commands.destroy(self.renderer.context());
-        // The renderer (declared after) then destroys its resources and the context.
+        for c in &mut self.commands {
+            let _ = c.wait(self.renderer.context(), "shutdown");
+        }
+        // The command buffers go first (the renderer, declared after, then its context).
+        self.commands.clear();
     }
 }

@@ -1,9 +1,11 @@
-//! The scene on the GPU: one vertex and index buffer per mesh (shared by all its instances),
-//! the instance and material tables, and the frame uniforms. Built once per loaded scene.
+//! The scene on the GPU: one vertex and index buffer per mesh (shared by all its instances) and
+//! the material table, built once per loaded scene; the instance table is kept on the host and
+//! uploaded each frame through the frame slot's ring (transforms change per frame).
 
 use crate::gpu::memory::{Buffer, Memory};
+use crate::gpu::pipeline::BufferRange;
 use crate::gpu::{vk, GpuContext, GpuResult};
-use crate::passes::gpu_structs::{instance_records, material_records, FrameUniforms};
+use crate::passes::gpu_structs::{instance_records, material_records, InstanceData};
 use crate::scene::Scene;
 use gpu_allocator::MemoryLocation;
 
@@ -24,13 +26,14 @@ pub struct Draw {
 pub struct SceneGpu {
     pub meshes: Vec<GpuMesh>,
     pub draws: Vec<Draw>,
-    pub instances: Buffer,
     pub materials: Buffer,
-    pub uniforms: Buffer,
+    /// The instance table as the raster reads it (grouped by mesh), rebuilt when transforms change.
+    instances: Vec<InstanceData>,
 }
 
-/// Host-visible buffer holding `bytes`. Scene data is small and written once, so it lives in
-/// host-visible memory (device-local on integrated GPUs and lavapipe, BAR memory elsewhere).
+/// Host-visible buffer holding `bytes` (at least one word: an empty table still binds). Scene data
+/// is small and written once, so it lives in host-visible memory (device-local on integrated GPUs
+/// and lavapipe, BAR memory elsewhere).
 fn upload(
     ctx: &GpuContext,
     memory: &Memory,
@@ -39,37 +42,13 @@ fn upload(
     bytes: &[u8],
 ) -> GpuResult<Buffer> {
     let mut buffer = memory.create_buffer(ctx, name, bytes.len() as u64, usage, MemoryLocation::CpuToGpu)?;
-    if let Err(e) = buffer.write(0, bytes) {
-        memory.destroy_buffer(ctx, buffer);
-        return Err(e);
-    }
+    buffer.write(0, bytes)?;
     Ok(buffer)
-}
-
-/// Non-empty bytes for a storage buffer: an empty table still needs a valid binding.
-fn at_least_one_word(bytes: &[u8]) -> &[u8] {
-    if bytes.is_empty() {
-        &[0; 4]
-    } else {
-        bytes
-    }
 }
 
 impl SceneGpu {
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
-        // Collect every buffer as it is made so a failure part-way frees the ones before it.
-        let mut made: Vec<Buffer> = Vec::new();
-        let result = Self::build(ctx, memory, scene, &mut made);
-        if result.is_err() {
-            for b in made {
-                memory.destroy_buffer(ctx, b);
-            }
-        }
-        result
-    }
-
-    fn build(ctx: &GpuContext, memory: &Memory, scene: &Scene, made: &mut Vec<Buffer>) -> GpuResult<Self> {
-        let mut mesh_index_counts = Vec::new();
+        let mut meshes = Vec::with_capacity(scene.meshes.len());
         for m in &scene.meshes {
             let vertices: Vec<[f32; 6]> = m
                 .mesh
@@ -78,75 +57,43 @@ impl SceneGpu {
                 .zip(&m.mesh.normals)
                 .map(|(p, n)| [p[0], p[1], p[2], n[0], n[1], n[2]])
                 .collect();
-            let usage = vk::BufferUsageFlags::VERTEX_BUFFER;
-            made.push(upload(
+            let name = format!("mesh {} vertices", m.name);
+            let vertices = upload(
                 ctx,
                 memory,
-                &format!("mesh {} vertices", m.name),
-                usage,
+                &name,
+                vk::BufferUsageFlags::VERTEX_BUFFER,
                 bytemuck::cast_slice(&vertices),
-            )?);
-            let usage = vk::BufferUsageFlags::INDEX_BUFFER;
-            let indices = bytemuck::cast_slice(&m.mesh.indices);
-            made.push(upload(ctx, memory, &format!("mesh {} indices", m.name), usage, indices)?);
-            mesh_index_counts.push(m.mesh.indices.len() as u32);
+            )?;
+            let name = format!("mesh {} indices", m.name);
+            let index_bytes = bytemuck::cast_slice(&m.mesh.indices);
+            let indices = upload(ctx, memory, &name, vk::BufferUsageFlags::INDEX_BUFFER, index_bytes)?;
+            meshes.push(GpuMesh { vertices, indices, index_count: m.mesh.indices.len() as u32 });
         }
-        let (records, ranges) = instance_records(scene);
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let instances =
-            upload(ctx, memory, "instances", storage, at_least_one_word(bytemuck::cast_slice(&records)))?;
-        made.push(instances);
         let materials = material_records(scene);
-        made.push(upload(
-            ctx,
-            memory,
-            "materials",
-            storage,
-            at_least_one_word(bytemuck::cast_slice(&materials)),
-        )?);
-        let uniforms = FrameUniforms::new(scene, 1, 1);
-        let usage = vk::BufferUsageFlags::UNIFORM_BUFFER;
-        made.push(upload(ctx, memory, "frame uniforms", usage, bytemuck::bytes_of(&uniforms))?);
-
-        let uniforms = made.pop().expect("pushed above");
-        let materials = made.pop().expect("pushed above");
-        let instances = made.pop().expect("pushed above");
-        let mut buffers = std::mem::take(made).into_iter();
-        let meshes = mesh_index_counts
-            .into_iter()
-            .filter_map(|index_count| {
-                Some(GpuMesh { vertices: buffers.next()?, indices: buffers.next()?, index_count })
-            })
-            .collect();
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let materials = upload(ctx, memory, "materials", storage, bytemuck::cast_slice(&materials))?;
+        let (instances, ranges) = instance_records(scene);
         let draws = ranges
             .iter()
             .enumerate()
             .filter(|(_, (_, count))| *count > 0)
             .map(|(mesh, &(first_instance, instance_count))| Draw { mesh, first_instance, instance_count })
             .collect();
-        Ok(SceneGpu { meshes, draws, instances, materials, uniforms })
+        Ok(SceneGpu { meshes, draws, materials, instances })
     }
 
-    /// Writes this frame's uniforms (the previous frame has finished: headless frames wait).
-    pub fn update_uniforms(&mut self, scene: &Scene, width: u32, height: u32) -> GpuResult<()> {
-        let uniforms = FrameUniforms::new(scene, width, height);
-        self.uniforms.write(0, bytemuck::bytes_of(&uniforms))
+    pub fn materials_range(&self) -> BufferRange {
+        BufferRange::whole(self.materials.raw)
     }
 
-    /// Rewrites the instance table after transforms changed (same instances, same order; the
-    /// previous frame has finished).
-    pub fn upload_instances(&mut self, scene: &Scene) -> GpuResult<()> {
-        let (records, _) = instance_records(scene);
-        self.instances.write(0, at_least_one_word(bytemuck::cast_slice(&records)))
+    /// The instance table to upload this frame.
+    pub fn instance_table(&self) -> &[InstanceData] {
+        &self.instances
     }
 
-    pub fn destroy(self, ctx: &GpuContext, memory: &Memory) {
-        for m in self.meshes {
-            memory.destroy_buffer(ctx, m.vertices);
-            memory.destroy_buffer(ctx, m.indices);
-        }
-        memory.destroy_buffer(ctx, self.instances);
-        memory.destroy_buffer(ctx, self.materials);
-        memory.destroy_buffer(ctx, self.uniforms);
+    /// Rebuilds the instance table after transforms changed (same instances, same order).
+    pub fn refresh_instances(&mut self, scene: &Scene) {
+        self.instances = instance_records(scene).0;
     }
 }

@@ -2,6 +2,7 @@
 //! Each remembers its last use so the pass runner can place the barriers.
 
 use crate::gpu::barriers::ImageAccess;
+pub use crate::gpu::memory::ImageHandles;
 use crate::gpu::memory::{Image, Memory};
 use crate::gpu::{vk, GpuContext, GpuResult};
 
@@ -34,6 +35,10 @@ pub enum Target {
     /// translucency: world thickness of material the light crossed to reach the pixel's
     /// translucent surface, +inf elsewhere; R32F.
     Thickness,
+    /// The game's depth image of this frame (embedding), imported for the frame.
+    GameDepth,
+    /// The game's colour target of this frame (embedding), imported for the frame.
+    GameColor,
 }
 
 impl Target {
@@ -50,6 +55,8 @@ impl Target {
             Target::LightZ => "light_z",
             Target::LightDepth => "light_depth",
             Target::Thickness => "thickness",
+            Target::GameDepth => "game depth",
+            Target::GameColor => "game colour",
         }
     }
 
@@ -60,6 +67,8 @@ impl Target {
             Target::Ids | Target::LightIds => vk::Format::R32G32_UINT,
             Target::Distance | Target::Energy | Target::LightZ | Target::Thickness => vk::Format::R32_SFLOAT,
             Target::Ldr => vk::Format::R8G8B8A8_UNORM,
+            // The game's images carry their own format (`Targets::import`).
+            Target::GameDepth | Target::GameColor => vk::Format::UNDEFINED,
         }
     }
 
@@ -69,18 +78,25 @@ impl Target {
             Target::Depth | Target::Distance | Target::Ldr | Target::Energy => 4,
             Target::LightZ | Target::LightDepth | Target::Thickness => 4,
             Target::Hdr | Target::Normal | Target::Ids | Target::LightIds => 8,
+            Target::GameDepth | Target::GameColor => 0,
         }
     }
 
-    /// The size of a target that does not follow the frame's (the light maps, `light_map`² texels:
-    /// `effects::translucency::light_map_size`); `None` for the rest.
-    pub fn fixed_extent(self, light_map: u32) -> Option<vk::Extent2D> {
+    /// What a scene needs for its passes to write this image (for error messages).
+    pub fn needs(self) -> &'static str {
         match self {
-            Target::LightIds | Target::LightZ | Target::LightDepth => {
-                Some(vk::Extent2D { width: light_map, height: light_map })
+            Target::Energy => "a [[wave]]",
+            Target::Thickness | Target::LightIds | Target::LightZ | Target::LightDepth => {
+                "an instance with a translucent material"
             }
-            _ => None,
+            Target::GameDepth | Target::GameColor => "a game's image handed to record_frame",
+            _ => "a frame recorded first",
         }
+    }
+
+    /// Whether the image is the game's, imported each frame rather than made by hadou.
+    pub fn is_external(self) -> bool {
+        matches!(self, Target::GameDepth | Target::GameColor)
     }
 
     fn usage(self) -> vk::ImageUsageFlags {
@@ -96,57 +112,117 @@ impl Target {
                 base | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED
             }
             Target::Ldr | Target::Energy | Target::Thickness => base | vk::ImageUsageFlags::STORAGE,
+            Target::GameDepth | Target::GameColor => vk::ImageUsageFlags::empty(),
             _ => base | vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
         }
     }
 }
 
+/// A frame image and how it was last used; `image` is None for the game's images (their raw
+/// handles are in `external`).
 struct Tracked {
-    image: Image,
+    image: Option<Image>,
+    /// Sized by a pass (the light maps) rather than to the frame.
+    fixed: bool,
+    external: Option<External>,
     last: ImageAccess,
 }
 
+/// A game image imported for one frame.
+#[derive(Clone, Copy, Debug)]
+struct External {
+    raw: vk::Image,
+    view: vk::ImageView,
+    format: vk::Format,
+}
+
+/// The frame's images, made on first use by a pass at the sizes the passes ask for; shared by
+/// every frame slot (frames are ordered on the GPU by the barriers the runner places).
 pub struct Targets {
-    /// The frame's size; a target with a `fixed_extent` has its own (`Image::extent`).
+    /// The frame's size; a target a pass sizes itself has its own (`ImageHandles::extent`).
     pub extent: vk::Extent2D,
     images: Vec<(Target, Tracked)>,
 }
 
 impl Targets {
-    /// Creates the images in `wanted` (those the frame's passes use); the light maps are
-    /// `light_map`² texels.
-    pub fn new(
+    pub fn new(extent: vk::Extent2D) -> Self {
+        Targets { extent, images: Vec::new() }
+    }
+
+    /// Makes `target` (at the frame's size, or `fixed` when given) unless it exists at that size.
+    /// A pass that gives no size takes a fixed-size target as another pass made it. A target made
+    /// anew at another size retires the old image with the frame.
+    pub fn ensure(
+        &mut self,
         ctx: &GpuContext,
         memory: &Memory,
-        extent: vk::Extent2D,
-        wanted: &[Target],
-        light_map: u32,
-    ) -> GpuResult<Self> {
-        let mut targets = Targets { extent, images: Vec::new() };
-        for &target in wanted {
-            let size = target.fixed_extent(light_map).unwrap_or(extent);
-            match memory.create_image(ctx, target.name(), size, target.format(), target.usage()) {
-                Ok(image) => targets.images.push((target, Tracked { image, last: ImageAccess::UNDEFINED })),
-                Err(e) => {
-                    targets.destroy(ctx, memory);
-                    return Err(e);
-                }
-            }
+        target: Target,
+        fixed: Option<vk::Extent2D>,
+    ) -> GpuResult<()> {
+        if target.is_external() {
+            return Ok(());
         }
-        Ok(targets)
+        let size = fixed.unwrap_or(self.extent);
+        let found = self.images.iter().position(|(t, _)| *t == target);
+        if let Some(i) = found {
+            let t = &self.images[i].1;
+            let keep = fixed.is_none() && t.fixed;
+            if keep || t.image.as_ref().is_some_and(|im| im.extent == size) {
+                return Ok(());
+            }
+            self.images.remove(i);
+        }
+        let image = memory.create_image(ctx, target.name(), size, target.format(), target.usage())?;
+        let fixed = fixed.is_some();
+        let tracked = Tracked { image: Some(image), fixed, external: None, last: ImageAccess::UNDEFINED };
+        self.images.push((target, tracked));
+        Ok(())
+    }
+
+    /// The game's image `target` for this frame, found in `layout` after any earlier command.
+    pub fn import(
+        &mut self,
+        target: Target,
+        raw: vk::Image,
+        view: vk::ImageView,
+        format: vk::Format,
+        last: ImageAccess,
+    ) {
+        self.images.retain(|(t, _)| *t != target);
+        let external = Some(External { raw, view, format });
+        self.images.push((target, Tracked { image: None, fixed: false, external, last }));
+    }
+
+    /// Drops the images no pass of the frame uses any more (retired with the frame).
+    pub fn retain_only(&mut self, wanted: &[Target]) {
+        self.images.retain(|(t, _)| wanted.contains(t));
+    }
+
+    /// Forgets the game's images at the end of a frame (a game may hand other ones next frame).
+    pub fn drop_imports(&mut self) {
+        self.images.retain(|(t, _)| !t.is_external());
     }
 
     pub fn contains(&self, target: Target) -> bool {
         self.images.iter().any(|(t, _)| *t == target)
     }
 
-    /// The image of a target a pass declared in `uses()` (so it was created).
-    pub fn image(&self, target: Target) -> &Image {
-        let found = self.images.iter().find(|(t, _)| *t == target);
-        &found
+    /// The handles of a target a pass declared (so it exists); None otherwise.
+    pub fn get(&self, target: Target) -> Option<ImageHandles> {
+        let (_, t) = self.images.iter().find(|(t, _)| *t == target)?;
+        Some(match (&t.image, &t.external) {
+            (Some(i), _) => ImageHandles { raw: i.raw, view: i.view, format: i.format, extent: i.extent },
+            (None, Some(e)) => {
+                ImageHandles { raw: e.raw, view: e.view, format: e.format, extent: self.extent }
+            }
+            (None, None) => return None,
+        })
+    }
+
+    /// The handles of a target a pass declared in `images()` (the runner made it).
+    pub fn image(&self, target: Target) -> ImageHandles {
+        self.get(target)
             .unwrap_or_else(|| panic!("target {} was not created: a pass did not declare it", target.name()))
-            .1
-            .image
     }
 
     /// The barrier taking `target` to `next`, recording `next` as its last use.
@@ -155,9 +231,9 @@ impl Targets {
         target: Target,
         next: ImageAccess,
     ) -> Option<vk::ImageMemoryBarrier2<'static>> {
+        let handles = self.get(target)?;
         let tracked = &mut self.images.iter_mut().find(|(t, _)| *t == target)?.1;
-        let barrier =
-            crate::gpu::barriers::image_barrier(tracked.image.raw, tracked.image.format, tracked.last, next);
+        let barrier = crate::gpu::barriers::image_barrier(handles.raw, handles.format, tracked.last, next);
         tracked.last = next;
         barrier
     }
@@ -167,12 +243,6 @@ impl Targets {
     pub fn discard_all(&mut self) {
         for (_, t) in &mut self.images {
             t.last.layout = vk::ImageLayout::UNDEFINED;
-        }
-    }
-
-    pub fn destroy(self, ctx: &GpuContext, memory: &Memory) {
-        for (_, t) in self.images {
-            memory.destroy_image(ctx, t.image);
         }
     }
 }

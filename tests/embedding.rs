@@ -19,8 +19,8 @@ use gpu::{GameImage, GameVk, HostBuffer};
 use hadou::effects::energy_wave::line_integral;
 use hadou::effects::tonemap::{aces, srgb_encode};
 use hadou::gpu::{EnabledFeatures, GpuContext};
+use hadou::passes::depth_import::import_depth;
 use hadou::passes::energy_wave::wave_params;
-use hadou::renderer::depth_import::import_depth;
 use hadou::scene::Scene;
 use hadou::{
     Aov, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameRequest, Renderer, WaveUpdate,
@@ -158,8 +158,9 @@ impl Game {
         let (color, depth) = Self::images(&self.vk, extent);
         self.vk.destroy_image(std::mem::replace(&mut self.color, color));
         self.vk.destroy_image(std::mem::replace(&mut self.depth, depth));
-        // The old depth view is gone: a new view may reuse its handle.
-        hadou.forget_external_views().unwrap();
+        // The old depth view is gone (a new view may reuse its handle): hadou binds the view it
+        // is handed each frame, so there is nothing to tell it.
+        let _ = hadou;
         self.extent = extent;
     }
 
@@ -202,9 +203,10 @@ impl Game {
                     final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                 }),
             };
-            recorded = hadou.record_frame(g.cmd, &inputs).unwrap().recorded;
+            let frame = hadou.record_frame(g.cmd, &inputs).unwrap();
+            recorded = frame.recorded;
             if recorded {
-                readback = Some((hadou.record_aov_readback(g.cmd, aovs).unwrap(), hadou));
+                readback = Some((hadou.record_aov_readback(g.cmd, aovs).unwrap(), frame.frame, hadou));
             }
         }
         if !recorded {
@@ -222,10 +224,10 @@ impl Game {
             color: color_buf.bytes().to_vec(),
             depth: floats(&depth_buf),
             aovs: readback
-                .map(|(rb, hadou)| {
-                    let out = aovs.iter().map(|&a| (a, rb.aov(a).unwrap())).collect();
-                    hadou.release_readback(rb);
-                    out
+                .map(|(rb, frame, hadou)| {
+                    // The game waited on its fence: hadou may read the frame's timings now.
+                    hadou.frame_finished(frame).unwrap();
+                    aovs.iter().map(|&a| (a, rb.aov(a).unwrap())).collect()
                 })
                 .unwrap_or_default(),
             recorded,
@@ -461,14 +463,14 @@ fn check_composite(before: &Frame, after: &Frame, cube: &[bool], e: vk::Extent2D
 fn zero_extent_resize_and_timings() {
     let mut game = Game::new(extent(40, 30), true);
     let mut hadou = embed(&game, scene(false));
-    assert!(hadou.latest_timings().unwrap().is_none(), "no frame has run yet");
+    assert!(hadou.latest_timings().is_none(), "no frame has run yet");
 
     game.vk.begin().unwrap();
     let inputs = FrameInputs::headless(0, 0, 0.0);
     let recorded = hadou.record_frame(game.vk.cmd, &inputs).unwrap();
     assert!(!recorded.recorded);
     game.vk.submit_and_wait(None, None).unwrap();
-    assert!(hadou.latest_timings().unwrap().is_none());
+    assert!(hadou.latest_timings().is_none());
 
     for size in [extent(40, 30), extent(56, 20), extent(40, 30)] {
         game.resize(&mut hadou, size);
@@ -477,7 +479,7 @@ fn zero_extent_resize_and_timings() {
         let (_, sky) = check_energy_on_wall(&frame, &scene(false), size, 0);
         assert!(sky > 10, "the game's sky shows at {size:?}: {sky} pixels");
     }
-    let timings = hadou.latest_timings().unwrap().expect("a finished frame has timings").clone();
+    let timings = hadou.latest_timings().expect("a finished frame has timings");
     let names: Vec<&str> = timings.passes.iter().map(|p| p.name.as_str()).collect();
     assert_eq!(names, ["depth_import", "raster", "energy_wave", "composite", "readback"]);
     assert!(timings.passes.iter().all(|p| p.gpu_ms.is_finite() && p.gpu_ms >= 0.0));

@@ -75,7 +75,7 @@ fn headless_game_loop_charges_fires_and_hits() {
     // Charging grows a, b and the beam: more energy every frame while Space is held.
     assert!(energy_sums[..8].windows(2).all(|w| w[1] > w[0]), "{energy_sums:?}");
     assert_eq!(g.state.hits, 1, "the shot reached the target: {:?}", g.state);
-    let timings = g.hadou.latest_timings().unwrap().expect("timings of a finished frame").clone();
+    let timings = g.hadou.latest_timings().expect("timings of a finished frame");
     let names: Vec<&str> = timings.passes.iter().map(|p| p.name.as_str()).collect();
     for pass in
         ["depth_import", "raster", "metaballs", "light_id", "translucency", "energy_wave", "composite"]

@@ -229,9 +229,9 @@ fn instances_share_one_mesh_copy() {
     let n = scene.instances.len() as u32;
     assert!(n >= 50);
     rt.load_scene(scene).unwrap();
-    let gpu = rt.scene_gpu().unwrap();
-    assert_eq!(gpu.meshes.len(), 1);
-    assert_eq!(gpu.draws, vec![hadou::scene_gpu::Draw { mesh: 0, first_instance: 0, instance_count: n }]);
+    let (draws, meshes) = rt.renderer().draws();
+    assert_eq!(meshes, 1);
+    assert_eq!(draws, vec![hadou::scene_gpu::Draw { mesh: 0, first_instance: 0, instance_count: n }]);
     rt.render(&FrameRequest::new(16, 16)).unwrap();
     common::assert_clean(&rt);
 }

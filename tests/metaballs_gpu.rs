@@ -16,7 +16,7 @@ use hadou::effects::metaballs_f32::{
 use hadou::gpu::barriers::{cmd_barriers, memory_barrier};
 use hadou::gpu::commands::FrameCommands;
 use hadou::gpu::memory::Memory;
-use hadou::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool};
+use hadou::gpu::pipeline::{create_compute_pipeline, write_set, Bound, BufferRange, DescriptorPool};
 use hadou::gpu::{vk, ContextOptions, GpuContext};
 use hadou::scene::transform::{Transform, TransformOp};
 use hadou::testing::Rng;
@@ -120,17 +120,17 @@ fn run_probe(
                 MemoryLocation::GpuToCpu,
             )
             .unwrap();
-        let bindings: Vec<_> = (0..5)
-            .map(|i| binding(i, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::COMPUTE))
-            .collect();
-        let pipeline = create_compute_pipeline(&ctx, "metaballs_probe", &compile(), &bindings, 16).unwrap();
+        let pipeline = create_compute_pipeline(&ctx, "metaballs_probe", &compile(), 16).unwrap();
         let pool = DescriptorPool::new(&ctx, "metaballs probe pool", 1).unwrap();
         let set = pool.allocate(&ctx, pipeline.set_layout, "metaballs probe set").unwrap();
-        let mut bound: Vec<(u32, Bound)> =
-            inputs.iter().enumerate().map(|(i, b)| (i as u32, Bound::Storage(b.raw))).collect();
-        bound.push((4, Bound::Storage(results.raw)));
+        let mut bound: Vec<(u32, Bound)> = inputs
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (i as u32, Bound::Storage(BufferRange::whole(b.raw))))
+            .collect();
+        bound.push((4, Bound::Storage(BufferRange::whole(results.raw))));
         write_set(&ctx, set, &bound);
-        let commands = FrameCommands::new(&ctx, "metaballs probe").unwrap();
+        let mut commands = FrameCommands::new(&ctx, "metaballs probe").unwrap();
         commands.begin(&ctx).unwrap();
         let counts = [rays.len() as u32, 0, 0, 0];
         // SAFETY: the command buffer is recording; every handle is alive until the wait returns.
@@ -166,13 +166,6 @@ fn run_probe(
             .chunks_exact(8)
             .map(|c| ([c[0], c[1], c[2]], c[3], c[4].to_bits(), c[5].to_bits()))
             .collect();
-        commands.destroy(&ctx);
-        pool.destroy(&ctx);
-        pipeline.destroy(&ctx);
-        for b in inputs {
-            memory.destroy_buffer(&ctx, b);
-        }
-        memory.destroy_buffer(&ctx, results);
         out
     };
     let counts = ctx.validation_counts();

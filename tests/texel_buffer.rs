@@ -27,15 +27,15 @@ fn texel_buffers_respect_the_device_limit() {
     texels.write(&[7u8; 1008]).unwrap();
     texels.write(&[]).unwrap();
     assert!(texels.write(&[0u8; 1009]).is_err(), "a write past the end is refused");
-    texels.destroy(ctx, &memory);
+    drop(texels);
 
     let words = TexelBuffer::from_bytes(ctx, &memory, "words", &[1, 0, 0, 0, 2, 0, 0, 0], Texels::U32);
     let words = words.unwrap();
     assert_eq!(&words.buffer.mapped().unwrap()[..8], &[1, 0, 0, 0, 2, 0, 0, 0]);
-    words.destroy(ctx, &memory);
+    drop(words);
     let empty = TexelBuffer::from_bytes(ctx, &memory, "empty", &[], Texels::U32).unwrap();
     assert_eq!(empty.buffer.size, 4, "an empty buffer still holds one texel to bind");
-    empty.destroy(ctx, &memory);
+    drop(empty);
     drop(memory);
     common::assert_clean(&rt);
 }

@@ -282,8 +282,6 @@ impl Game {
             unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
             if let Some(d) = self.depth.take() {
                 self.vk.destroy_image(d);
-                // hadou remembers the view: a new one may get the same handle.
-                self.hadou.forget_external_views().map_err(|e| e.to_string())?;
             }
             let usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
             self.depth = Some(self.vk.create_image(extent, DEPTH_FORMAT, usage)?);
@@ -368,11 +366,15 @@ impl Game {
             self.vk.record_copy_to_host(image, &buffer);
         }
         let submitted = self.vk.submit_and_wait(None, None);
+        // The fence signalled: hadou may read this frame's timings and free what it retired.
+        if let Some(last) = self.hadou.next_frame().checked_sub(1) {
+            self.hadou.frame_finished(last).map_err(|e| e.to_string())?;
+        }
         let frame = OffscreenFrame {
             color: buffer.bytes().to_vec(),
             aovs: aovs.iter().filter_map(|&a| readback.aov(a).map(|img| (a, img))).collect(),
         };
-        self.hadou.release_readback(readback);
+        drop(readback);
         self.vk.destroy_buffer(buffer);
         submitted.map(|_| frame)
     }

@@ -112,7 +112,7 @@ impl Running {
         let state = &self.game.state;
         let mut title =
             format!("hadou game prototype — charge {:.0}%, hits {}", 100.0 * state.charge, state.hits);
-        if let Ok(Some(t)) = self.game.hadou.latest_timings() {
+        if let Some(t) = self.game.hadou.latest_timings() {
             for p in &t.passes {
                 title += &format!(" | {} {:.2} ms", p.name, p.gpu_ms);
             }

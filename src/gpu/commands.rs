@@ -1,5 +1,5 @@
-//! One command pool, one primary command buffer and its fence: hadou records a frame, submits it
-//! and waits (headless), so resources are reusable as soon as the fence signals.
+//! One command pool, one primary command buffer and its fence: the headless runtime's frame
+//! slots and one-off uploads. Dropped only when no submission of it is pending.
 
 use ash::vk;
 
@@ -7,9 +7,12 @@ use super::context::GpuContext;
 use super::error::{GpuError, GpuResult, VkResultExt};
 
 pub struct FrameCommands {
+    device: ash::Device,
     pool: vk::CommandPool,
     pub cmd: vk::CommandBuffer,
     fence: vk::Fence,
+    /// Submitted and not yet waited for.
+    pending: bool,
 }
 
 impl FrameCommands {
@@ -17,34 +20,34 @@ impl FrameCommands {
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(ctx.queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        // SAFETY: valid device; destroyed in destroy().
-        let pool = unsafe { ctx.device.create_command_pool(&pool_info, None) }.vk("vkCreateCommandPool")?;
+        let mut commands = FrameCommands {
+            device: ctx.device.clone(),
+            pool: vk::CommandPool::null(),
+            cmd: vk::CommandBuffer::null(),
+            fence: vk::Fence::null(),
+            pending: false,
+        };
+        // SAFETY: valid device; everything is destroyed by Drop.
+        commands.pool =
+            unsafe { ctx.device.create_command_pool(&pool_info, None) }.vk("vkCreateCommandPool")?;
         let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(pool)
+            .command_pool(commands.pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
-        let cmd = match unsafe { ctx.device.allocate_command_buffers(&alloc) } {
-            Ok(c) => c[0],
-            Err(e) => {
-                unsafe { ctx.device.destroy_command_pool(pool, None) };
-                return Err(e).vk("vkAllocateCommandBuffers");
-            }
-        };
-        let fence = match unsafe { ctx.device.create_fence(&vk::FenceCreateInfo::default(), None) } {
-            Ok(f) => f,
-            Err(e) => {
-                unsafe { ctx.device.destroy_command_pool(pool, None) };
-                return Err(e).vk("vkCreateFence");
-            }
-        };
-        ctx.name_object(pool, &format!("{name} pool"));
-        ctx.name_object(cmd, &format!("{name} cmd"));
-        ctx.name_object(fence, &format!("{name} fence"));
-        Ok(FrameCommands { pool, cmd, fence })
+        commands.cmd =
+            unsafe { ctx.device.allocate_command_buffers(&alloc) }.vk("vkAllocateCommandBuffers")?[0];
+        commands.fence =
+            unsafe { ctx.device.create_fence(&vk::FenceCreateInfo::default(), None) }.vk("vkCreateFence")?;
+        ctx.name_object(commands.pool, &format!("{name} pool"));
+        ctx.name_object(commands.cmd, &format!("{name} cmd"));
+        ctx.name_object(commands.fence, &format!("{name} fence"));
+        Ok(commands)
     }
 
-    pub fn begin(&self, ctx: &GpuContext) -> GpuResult<()> {
-        // SAFETY: the previous submission finished (wait() returned) before begin is called again.
+    /// Resets and begins the command buffer, after waiting for its previous submission.
+    pub fn begin(&mut self, ctx: &GpuContext) -> GpuResult<()> {
+        self.wait(ctx, "the previous frame")?;
+        // SAFETY: the previous submission finished (waited above).
         unsafe {
             ctx.device
                 .reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())
@@ -61,31 +64,62 @@ impl FrameCommands {
         unsafe { ctx.device.end_command_buffer(self.cmd) }.vk("vkEndCommandBuffer")
     }
 
-    /// Ends recording, submits, and waits for the fence. `last_pass` names the pass for a device-lost error.
-    pub fn submit_and_wait(&self, ctx: &GpuContext, last_pass: &str) -> GpuResult<()> {
-        let lost = |r: vk::Result, call: &'static str| match r {
-            vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost { last_pass: last_pass.into() },
-            r => Err::<(), _>(r).vk(call).unwrap_err(),
-        };
+    /// Ends recording and submits with the fence, without waiting. `last_pass` names the pass
+    /// for a device-lost error.
+    pub fn submit(&mut self, ctx: &GpuContext, last_pass: &str) -> GpuResult<()> {
         unsafe {
-            ctx.device.end_command_buffer(self.cmd).map_err(|r| lost(r, "vkEndCommandBuffer"))?;
+            ctx.device.end_command_buffer(self.cmd).map_err(|r| lost(r, "vkEndCommandBuffer", last_pass))?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
             let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmds)];
             ctx.device
                 .queue_submit2(ctx.queue, &submit, self.fence)
-                .map_err(|r| lost(r, "vkQueueSubmit2"))?;
-            let waited = ctx.device.wait_for_fences(&[self.fence], true, u64::MAX);
-            let reset = ctx.device.reset_fences(&[self.fence]);
-            waited.map_err(|r| lost(r, "vkWaitForFences"))?;
-            reset.map_err(|r| lost(r, "vkResetFences"))
+                .map_err(|r| lost(r, "vkQueueSubmit2", last_pass))?;
         }
+        self.pending = true;
+        Ok(())
     }
 
-    pub fn destroy(&self, ctx: &GpuContext) {
-        // SAFETY: called after the last wait; the pool frees its command buffer.
+    /// Waits for the last submission, if one is pending (counted in `GpuContext::host_waits`).
+    pub fn wait(&mut self, ctx: &GpuContext, last_pass: &str) -> GpuResult<()> {
+        if !self.pending {
+            return Ok(());
+        }
+        ctx.resources().count_fence_wait();
+        // SAFETY: the fence belongs to this device and was submitted.
         unsafe {
-            ctx.device.destroy_fence(self.fence, None);
-            ctx.device.destroy_command_pool(self.pool, None);
+            let waited = ctx.device.wait_for_fences(&[self.fence], true, u64::MAX);
+            let reset = ctx.device.reset_fences(&[self.fence]);
+            waited.map_err(|r| lost(r, "vkWaitForFences", last_pass))?;
+            reset.map_err(|r| lost(r, "vkResetFences", last_pass))?;
+        }
+        self.pending = false;
+        Ok(())
+    }
+
+    /// Ends recording, submits, and waits for the fence.
+    pub fn submit_and_wait(&mut self, ctx: &GpuContext, last_pass: &str) -> GpuResult<()> {
+        self.submit(ctx, last_pass)?;
+        self.wait(ctx, last_pass)
+    }
+}
+
+fn lost(r: vk::Result, call: &'static str, last_pass: &str) -> GpuError {
+    match r {
+        vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost { last_pass: last_pass.into() },
+        r => Err::<(), _>(r).vk(call).unwrap_err(),
+    }
+}
+
+impl Drop for FrameCommands {
+    fn drop(&mut self) {
+        // SAFETY: no submission is pending (the owner waited, or the device is idle); the pool
+        // frees its command buffer. Null handles (a constructor that failed) are ignored.
+        unsafe {
+            if self.pending {
+                let _ = self.device.wait_for_fences(&[self.fence], true, u64::MAX);
+            }
+            self.device.destroy_fence(self.fence, None);
+            self.device.destroy_command_pool(self.pool, None);
         }
     }
 }

@@ -6,6 +6,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::error::{GpuError, GpuResult, VkResultExt};
+use super::resources::{HostWaits, Releaser, Resources};
 use super::validation::{messenger_callback, ValidationCounts, ValidationLog};
 
 mod raw;
@@ -73,6 +74,8 @@ pub struct GpuContext {
     /// False for a context made by `from_raw`: the game owns the instance and device, and Drop
     /// leaves them alone.
     owns_device: bool,
+    /// The allocator and the queue of dropped objects waiting for their frames to finish.
+    resources: Arc<Resources>,
 }
 
 struct Candidate {
@@ -141,6 +144,23 @@ impl GpuContext {
         let debug_device =
             debug_instance.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
         let info = device_info(&instance, candidate.physical, &props);
+        let resources = match Resources::new(&instance, &device, candidate.physical) {
+            Ok(r) => r,
+            Err(e) => {
+                // SAFETY: nothing was created on the device yet.
+                unsafe {
+                    device.destroy_device(None);
+                    if surface != vk::SurfaceKHR::null() {
+                        surface_loader.destroy_surface(surface, None);
+                    }
+                    if let Some(d) = &debug_instance {
+                        d.destroy_debug_utils_messenger(messenger, None);
+                    }
+                    instance.destroy_instance(None);
+                }
+                return Err(e);
+            }
+        };
         log::info!(
             "device: {} ({}), Vulkan {}, driver {}",
             info.name,
@@ -164,6 +184,7 @@ impl GpuContext {
             log,
             validation: options.validation,
             owns_device: true,
+            resources,
         };
         Ok((ctx, surface))
     }
@@ -208,20 +229,50 @@ impl GpuContext {
         }
     }
 
+    /// Waits for the device to be idle (teardown only: a frame path never waits; counted).
     pub fn wait_idle(&self) -> GpuResult<()> {
+        self.resources.count_device_idle_wait();
         // SAFETY: the device is valid for the context's lifetime.
         unsafe { self.device.device_wait_idle() }.vk("vkDeviceWaitIdle")
+    }
+
+    pub(crate) fn resources(&self) -> &Arc<Resources> {
+        &self.resources
+    }
+
+    /// The pipeline cache every pipeline is created with (null until a renderer sets one).
+    pub(crate) fn pipeline_cache(&self) -> vk::PipelineCache {
+        self.resources.pipeline_cache()
+    }
+
+    /// The link every owned object keeps to the retire queue.
+    pub(crate) fn releaser(&self) -> Releaser {
+        self.resources.releaser()
+    }
+
+    /// How often hadou waited on this device (device idle, fences) since the context was made.
+    pub fn host_waits(&self) -> HostWaits {
+        self.resources.host_waits()
+    }
+
+    /// Objects dropped and not yet freed (their frames have not been reported finished).
+    pub fn retired_count(&self) -> usize {
+        self.resources.retired_count()
     }
 }
 
 impl Drop for GpuContext {
     fn drop(&mut self) {
+        // Whatever hadou dropped is freed once the device is idle (the game stopped submitting
+        // hadou's frames before dropping the renderer: the embedding contract).
+        // SAFETY: valid device.
+        let _ = unsafe { self.device.device_wait_idle() };
+        self.resources.shut_down();
         if !self.owns_device {
             return;
         }
-        // SAFETY: owners of device objects destroy them before the context (Runtime's field order).
+        // SAFETY: owners of device objects dropped them before the context (Runtime's field order).
         unsafe {
-            let _ = self.device.device_wait_idle();
             self.device.destroy_device(None);
             if let Some(d) = &self.debug_instance {
                 d.destroy_debug_utils_messenger(self.messenger, None);

@@ -14,7 +14,6 @@ pub fn create_fullscreen_pipeline(
     name: &str,
     vertex: &[u32],
     fragment: &[u32],
-    bindings: &[vk::DescriptorSetLayoutBinding],
     push_constant_bytes: u32,
     color_format: vk::Format,
 ) -> GpuResult<Pipeline> {
@@ -24,9 +23,7 @@ pub fn create_fullscreen_pipeline(
             name,
             vertex,
             fragment,
-            bindings,
             push_constant_bytes,
-            push_stages: vk::ShaderStageFlags::FRAGMENT,
             vertex_bindings: &[],
             vertex_attributes: &[],
             color_formats: &[color_format],

@@ -1,19 +1,20 @@
-//! Named buffers and images allocated through gpu-allocator. Owners free them explicitly with
-//! `Memory::destroy_*` after the frame's fence; validation reports anything left at shutdown.
+//! Named buffers and images allocated through gpu-allocator. Dropping one queues it for release
+//! once the frames that may use it have finished (`gpu::resources`).
 
-use std::sync::Mutex;
+use std::sync::Arc;
 
 use ash::vk;
-use gpu_allocator::vulkan::{
-    Allocation, AllocationCreateDesc, AllocationScheme, Allocator, AllocatorCreateDesc,
-};
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::{AllocationError, MemoryLocation};
 
 use super::context::GpuContext;
 use super::error::{GpuError, GpuResult, VkResultExt};
+use super::resources::{Garbage, Releaser, Resources};
 
+/// Allocates buffers and images on a context's allocator.
+#[derive(Clone)]
 pub struct Memory {
-    allocator: Mutex<Allocator>,
+    resources: Arc<Resources>,
 }
 
 pub struct Buffer {
@@ -21,6 +22,7 @@ pub struct Buffer {
     pub size: u64,
     pub name: String,
     allocation: Option<Allocation>,
+    releaser: Releaser,
 }
 
 pub struct Image {
@@ -30,6 +32,16 @@ pub struct Image {
     pub extent: vk::Extent2D,
     pub name: String,
     allocation: Option<Allocation>,
+    releaser: Releaser,
+}
+
+/// The raw handles of an image (hadou's or a game's), for recording.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageHandles {
+    pub raw: vk::Image,
+    pub view: vk::ImageView,
+    pub format: vk::Format,
+    pub extent: vk::Extent2D,
 }
 
 fn map_alloc_error(e: AllocationError, what: &str) -> GpuError {
@@ -72,17 +84,9 @@ impl Buffer {
 }
 
 impl Memory {
+    /// The context's allocator (one per device, shared by every `Memory` made from it).
     pub fn new(ctx: &GpuContext) -> GpuResult<Self> {
-        let allocator = Allocator::new(&AllocatorCreateDesc {
-            instance: ctx.instance.clone(),
-            device: ctx.device.clone(),
-            physical_device: ctx.physical_device,
-            debug_settings: Default::default(),
-            buffer_device_address: false,
-            allocation_sizes: Default::default(),
-        })
-        .map_err(|e| map_alloc_error(e, "the allocator"))?;
-        Ok(Memory { allocator: Mutex::new(allocator) })
+        Ok(Memory { resources: ctx.resources().clone() })
     }
 
     fn allocate(
@@ -92,19 +96,17 @@ impl Memory {
         location: MemoryLocation,
         linear: bool,
     ) -> GpuResult<Allocation> {
-        let mut allocator = self.allocator.lock().map_err(|_| GpuError::Limit {
-            what: name.into(),
-            message: "allocator poisoned by an earlier panic".into(),
-        })?;
-        allocator
-            .allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location,
-                linear,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })
-            .map_err(|e| map_alloc_error(e, name))
+        self.resources.with_allocator(name, |allocator| {
+            allocator
+                .allocate(&AllocationCreateDesc {
+                    name,
+                    requirements,
+                    location,
+                    linear,
+                    allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+                })
+                .map_err(|e| map_alloc_error(e, name))
+        })
     }
 
     pub fn create_buffer(
@@ -118,26 +120,17 @@ impl Memory {
         let size = size.max(4); // zero-sized buffers are invalid; empty scenes still bind something
         let info =
             vk::BufferCreateInfo::default().size(size).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
-        // SAFETY: valid device; the buffer is destroyed by destroy_buffer.
+        // SAFETY: valid device; the buffer is freed by its Drop.
         let raw = unsafe { ctx.device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
+        let mut buffer = Buffer { raw, size, name: name.into(), allocation: None, releaser: ctx.releaser() };
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
-        let allocation = match self.allocate(name, requirements, location, true) {
-            Ok(a) => a,
-            Err(e) => {
-                unsafe { ctx.device.destroy_buffer(raw, None) };
-                return Err(e);
-            }
-        };
+        let allocation = self.allocate(name, requirements, location, true)?;
         // SAFETY: fresh allocation satisfying the requirements.
-        if let Err(e) =
-            unsafe { ctx.device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
-        {
-            self.free(allocation);
-            unsafe { ctx.device.destroy_buffer(raw, None) };
-            return Err(e).vk("vkBindBufferMemory");
-        }
+        let bound = unsafe { ctx.device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) };
+        buffer.allocation = Some(allocation);
+        bound.vk("vkBindBufferMemory")?;
         ctx.name_object(raw, name);
-        Ok(Buffer { raw, size, name: name.into(), allocation: Some(allocation) })
+        Ok(buffer)
     }
 
     pub fn create_image(
@@ -168,63 +161,46 @@ impl Memory {
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(usage)
             .initial_layout(vk::ImageLayout::UNDEFINED);
-        // SAFETY: valid device; destroyed by destroy_image.
+        // SAFETY: valid device; freed by the image's Drop.
         let raw = unsafe { ctx.device.create_image(&info, None) }.vk("vkCreateImage")?;
+        let mut image = Image {
+            raw,
+            view: vk::ImageView::null(),
+            format,
+            extent,
+            name: name.into(),
+            allocation: None,
+            releaser: ctx.releaser(),
+        };
         let requirements = unsafe { ctx.device.get_image_memory_requirements(raw) };
-        let allocation = match self.allocate(name, requirements, MemoryLocation::GpuOnly, false) {
-            Ok(a) => a,
-            Err(e) => {
-                unsafe { ctx.device.destroy_image(raw, None) };
-                return Err(e);
-            }
-        };
+        let allocation = self.allocate(name, requirements, MemoryLocation::GpuOnly, false)?;
         let bound = unsafe { ctx.device.bind_image_memory(raw, allocation.memory(), allocation.offset()) };
-        let view = bound.and_then(|_| {
-            let view_info = vk::ImageViewCreateInfo::default()
-                .image(raw)
-                .view_type(vk::ImageViewType::TYPE_2D)
-                .format(format)
-                .subresource_range(subresource_range(format));
-            unsafe { ctx.device.create_image_view(&view_info, None) }
-        });
-        let view = match view {
-            Ok(v) => v,
-            Err(e) => {
-                self.free(allocation);
-                unsafe { ctx.device.destroy_image(raw, None) };
-                return Err(e).vk("vkCreateImageView");
-            }
-        };
+        image.allocation = Some(allocation);
+        bound.vk("vkBindImageMemory")?;
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(subresource_range(format));
+        image.view = unsafe { ctx.device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
         ctx.name_object(raw, name);
-        ctx.name_object(view, &format!("{name} view"));
-        Ok(Image { raw, view, format, extent, name: name.into(), allocation: Some(allocation) })
+        ctx.name_object(image.view, &format!("{name} view"));
+        Ok(image)
     }
+}
 
-    fn free(&self, allocation: Allocation) {
-        if let Ok(mut allocator) = self.allocator.lock() {
-            if let Err(e) = allocator.free(allocation) {
-                log::warn!("freeing GPU memory failed: {e}");
-            }
-        }
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        self.releaser.retire(Garbage::Buffer(self.raw, self.allocation.take()));
     }
+}
 
-    /// Frees a buffer. The caller guarantees the GPU no longer uses it (after the frame's fence).
-    pub fn destroy_buffer(&self, ctx: &GpuContext, mut buffer: Buffer) {
-        unsafe { ctx.device.destroy_buffer(buffer.raw, None) };
-        if let Some(a) = buffer.allocation.take() {
-            self.free(a);
+impl Drop for Image {
+    fn drop(&mut self) {
+        if self.view != vk::ImageView::null() {
+            self.releaser.retire(Garbage::ImageView(self.view));
         }
-    }
-
-    /// Frees an image and its view. The caller guarantees the GPU no longer uses it.
-    pub fn destroy_image(&self, ctx: &GpuContext, mut image: Image) {
-        unsafe {
-            ctx.device.destroy_image_view(image.view, None);
-            ctx.device.destroy_image(image.raw, None);
-        }
-        if let Some(a) = image.allocation.take() {
-            self.free(a);
-        }
+        self.releaser.retire(Garbage::Image(self.raw, self.allocation.take()));
     }
 }
 

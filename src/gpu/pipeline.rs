@@ -1,125 +1,150 @@
-//! Pipelines, descriptor set layouts and a descriptor pool, each created named.
+//! Pipelines whose layouts come from their shaders' SPIR-V (`gpu::reflect`), descriptor pools,
+//! and descriptor writes. Every object is freed by Drop through the retire queue.
 
 use ash::vk;
 
 use super::context::GpuContext;
-use super::error::{GpuResult, VkResultExt};
+use super::error::{GpuError, GpuResult, VkResultExt};
+use super::reflect::{merge, reflect, Reflected};
+use super::resources::{Garbage, Releaser};
 
-/// A pipeline with its layout and its one descriptor set layout.
+/// A pipeline with its layout and its one descriptor set layout (set 0), as its shaders declare.
 pub struct Pipeline {
     pub name: String,
     pub raw: vk::Pipeline,
     pub layout: vk::PipelineLayout,
     pub set_layout: vk::DescriptorSetLayout,
     pub bind_point: vk::PipelineBindPoint,
+    /// The bindings of set 0 the shaders use, by binding number.
+    pub bindings: Vec<Reflected>,
+    /// The stages that read the push constants.
+    pub push_stages: vk::ShaderStageFlags,
+    releaser: Releaser,
 }
 
-impl Pipeline {
-    pub fn destroy(&self, ctx: &GpuContext) {
-        // SAFETY: called after the last frame using it finished.
-        unsafe {
-            ctx.device.destroy_pipeline(self.raw, None);
-            ctx.device.destroy_pipeline_layout(self.layout, None);
-            ctx.device.destroy_descriptor_set_layout(self.set_layout, None);
+impl Drop for Pipeline {
+    fn drop(&mut self) {
+        for g in [
+            Garbage::Pipeline(self.raw),
+            Garbage::PipelineLayout(self.layout),
+            Garbage::SetLayout(self.set_layout),
+        ] {
+            self.releaser.retire(g);
         }
     }
 }
 
-/// Binding `index` of set 0 holds one descriptor of type `ty`, seen by `stages`.
-pub fn binding(
-    index: u32,
-    ty: vk::DescriptorType,
-    stages: vk::ShaderStageFlags,
-) -> vk::DescriptorSetLayoutBinding<'static> {
-    vk::DescriptorSetLayoutBinding::default()
-        .binding(index)
-        .descriptor_type(ty)
-        .descriptor_count(1)
-        .stage_flags(stages)
+/// A shader module destroyed when it goes out of scope (modules are not needed after creation).
+struct Module<'a> {
+    ctx: &'a GpuContext,
+    raw: vk::ShaderModule,
 }
 
-pub(super) fn create_layouts(
-    ctx: &GpuContext,
-    name: &str,
-    bindings: &[vk::DescriptorSetLayoutBinding],
-    push_constant_bytes: u32,
-    push_stages: vk::ShaderStageFlags,
-) -> GpuResult<(vk::DescriptorSetLayout, vk::PipelineLayout)> {
-    let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(bindings);
-    // SAFETY: valid device; destroyed with the pipeline.
-    let set_layout =
-        unsafe { ctx.device.create_descriptor_set_layout(&info, None) }.vk("vkCreateDescriptorSetLayout")?;
-    let set_layouts = [set_layout];
-    let ranges = [vk::PushConstantRange::default().stage_flags(push_stages).size(push_constant_bytes)];
-    let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
-    if push_constant_bytes > 0 {
-        layout_info = layout_info.push_constant_ranges(&ranges);
+impl Drop for Module<'_> {
+    fn drop(&mut self) {
+        // SAFETY: pipelines made from it keep their own copy of the code.
+        unsafe { self.ctx.device.destroy_shader_module(self.raw, None) };
     }
-    let layout = match unsafe { ctx.device.create_pipeline_layout(&layout_info, None) } {
-        Ok(l) => l,
-        Err(e) => {
-            unsafe { ctx.device.destroy_descriptor_set_layout(set_layout, None) };
-            return Err(e).vk("vkCreatePipelineLayout");
-        }
-    };
-    ctx.name_object(set_layout, &format!("{name} set layout"));
-    ctx.name_object(layout, &format!("{name} layout"));
-    Ok((set_layout, layout))
 }
 
-pub(super) fn shader_module(ctx: &GpuContext, name: &str, words: &[u32]) -> GpuResult<vk::ShaderModule> {
+fn shader_module<'a>(ctx: &'a GpuContext, name: &str, words: &[u32]) -> GpuResult<Module<'a>> {
     let info = vk::ShaderModuleCreateInfo::default().code(words);
     // SAFETY: words is SPIR-V from shaderc.
-    let module = unsafe { ctx.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
-    ctx.name_object(module, name);
-    Ok(module)
+    let raw = unsafe { ctx.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
+    ctx.name_object(raw, name);
+    Ok(Module { ctx, raw })
 }
 
+/// An empty pipeline (null handles) that `create` fills; dropping it part-way frees what was made.
+fn empty(ctx: &GpuContext, name: &str, bind_point: vk::PipelineBindPoint) -> Pipeline {
+    Pipeline {
+        name: name.into(),
+        raw: vk::Pipeline::null(),
+        layout: vk::PipelineLayout::null(),
+        set_layout: vk::DescriptorSetLayout::null(),
+        bind_point,
+        bindings: Vec::new(),
+        push_stages: vk::ShaderStageFlags::empty(),
+        releaser: ctx.releaser(),
+    }
+}
+
+/// Fills in the set layout and pipeline layout from the shaders' reflected bindings; the Rust
+/// push-constant struct of `push_bytes` must have the size the shaders declare.
+fn layouts(
+    ctx: &GpuContext,
+    p: &mut Pipeline,
+    stages: &[(vk::ShaderStageFlags, &[u32])],
+    push_bytes: u32,
+) -> GpuResult<()> {
+    let mut interfaces = Vec::new();
+    for (stage, words) in stages {
+        interfaces.push((*stage, reflect(&p.name, words)?));
+    }
+    let declared = interfaces.iter().map(|(_, i)| i.push_bytes).max().unwrap_or(0);
+    if declared != push_bytes {
+        return Err(GpuError::Shader {
+            name: p.name.clone(),
+            message: format!(
+                "the shaders declare {declared} bytes of push constants, the Rust struct has {push_bytes}"
+            ),
+        });
+    }
+    p.push_stages = interfaces
+        .iter()
+        .filter(|(_, i)| i.push_bytes > 0)
+        .fold(vk::ShaderStageFlags::empty(), |acc, (s, _)| acc | *s);
+    let refs: Vec<_> = interfaces.iter().map(|(s, i)| (*s, i)).collect();
+    let merged = merge(&p.name, &refs)?;
+    let bindings: Vec<_> = merged
+        .iter()
+        .map(|(b, stages)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(b.binding)
+                .descriptor_type(b.ty)
+                .descriptor_count(1)
+                .stage_flags(*stages)
+        })
+        .collect();
+    p.bindings = merged.iter().map(|(b, _)| *b).collect();
+    let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+    // SAFETY: valid device; freed by the pipeline's Drop.
+    p.set_layout =
+        unsafe { ctx.device.create_descriptor_set_layout(&info, None) }.vk("vkCreateDescriptorSetLayout")?;
+    let set_layouts = [p.set_layout];
+    let ranges = [vk::PushConstantRange::default().stage_flags(p.push_stages).size(push_bytes)];
+    let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+    if push_bytes > 0 {
+        layout_info = layout_info.push_constant_ranges(&ranges);
+    }
+    p.layout =
+        unsafe { ctx.device.create_pipeline_layout(&layout_info, None) }.vk("vkCreatePipelineLayout")?;
+    ctx.name_object(p.set_layout, &format!("{} set layout", p.name));
+    ctx.name_object(p.layout, &format!("{} layout", p.name));
+    Ok(())
+}
+
+/// A compute pipeline; its layout is what the shader declares. `push_bytes` is the size of the
+/// Rust push-constant struct (checked against the shader).
 pub fn create_compute_pipeline(
     ctx: &GpuContext,
     name: &str,
     spirv: &[u32],
-    bindings: &[vk::DescriptorSetLayoutBinding],
-    push_constant_bytes: u32,
+    push_bytes: u32,
 ) -> GpuResult<Pipeline> {
-    let (set_layout, layout) =
-        create_layouts(ctx, name, bindings, push_constant_bytes, vk::ShaderStageFlags::COMPUTE)?;
+    let mut p = empty(ctx, name, vk::PipelineBindPoint::COMPUTE);
+    layouts(ctx, &mut p, &[(vk::ShaderStageFlags::COMPUTE, spirv)], push_bytes)?;
     let module = shader_module(ctx, name, spirv)?;
     let stage = vk::PipelineShaderStageCreateInfo::default()
         .stage(vk::ShaderStageFlags::COMPUTE)
-        .module(module)
+        .module(module.raw)
         .name(c"main");
-    let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+    let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(p.layout)];
     // SAFETY: module and layout are valid.
-    let result = unsafe { ctx.device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
-    unsafe { ctx.device.destroy_shader_module(module, None) };
-    let layouts = (set_layout, layout);
-    finish(ctx, name, result, layouts, vk::PipelineBindPoint::COMPUTE, "vkCreateComputePipelines")
-}
-
-/// Wraps a created pipeline with its layouts, or frees the layouts when creation failed.
-pub(super) fn finish(
-    ctx: &GpuContext,
-    name: &str,
-    result: Result<Vec<vk::Pipeline>, (Vec<vk::Pipeline>, vk::Result)>,
-    (set_layout, layout): (vk::DescriptorSetLayout, vk::PipelineLayout),
-    bind_point: vk::PipelineBindPoint,
-    call: &'static str,
-) -> GpuResult<Pipeline> {
-    match result {
-        Ok(p) => {
-            ctx.name_object(p[0], name);
-            Ok(Pipeline { name: name.into(), raw: p[0], layout, set_layout, bind_point })
-        }
-        Err((_, e)) => {
-            // SAFETY: nothing uses the layouts of a pipeline that was not created.
-            unsafe {
-                ctx.device.destroy_pipeline_layout(layout, None);
-                ctx.device.destroy_descriptor_set_layout(set_layout, None);
-            }
-            Err(e).vk(call)
-        }
-    }
+    let created = unsafe { ctx.device.create_compute_pipelines(ctx.pipeline_cache(), &info, None) };
+    p.raw = created.map_err(|(_, e)| e).vk("vkCreateComputePipelines")?[0];
+    ctx.name_object(p.raw, name);
+    Ok(p)
 }
 
 /// What a dynamic-rendering graphics pipeline needs beyond its shaders.
@@ -127,10 +152,8 @@ pub struct GraphicsDesc<'a> {
     pub name: &'a str,
     pub vertex: &'a [u32],
     pub fragment: &'a [u32],
-    pub bindings: &'a [vk::DescriptorSetLayoutBinding<'a>],
+    /// Size of the Rust push-constant struct (checked against the shaders).
     pub push_constant_bytes: u32,
-    /// The stages that read the push constants (`vkCmdPushConstants` must name the same).
-    pub push_stages: vk::ShaderStageFlags,
     pub vertex_bindings: &'a [vk::VertexInputBindingDescription],
     pub vertex_attributes: &'a [vk::VertexInputAttributeDescription],
     pub color_formats: &'a [vk::Format],
@@ -168,43 +191,21 @@ impl Blend {
     }
 }
 
-/// The vertex and fragment modules of `desc`, or none (the first one freed when the second fails).
-fn graphics_modules(
-    ctx: &GpuContext,
-    desc: &GraphicsDesc,
-) -> GpuResult<(vk::ShaderModule, vk::ShaderModule)> {
-    let vs = shader_module(ctx, &format!("{}.vert", desc.name), desc.vertex)?;
-    match shader_module(ctx, &format!("{}.frag", desc.name), desc.fragment) {
-        Ok(fs) => Ok((vs, fs)),
-        Err(e) => {
-            unsafe { ctx.device.destroy_shader_module(vs, None) };
-            Err(e)
-        }
-    }
-}
-
 pub fn create_graphics_pipeline(ctx: &GpuContext, desc: &GraphicsDesc) -> GpuResult<Pipeline> {
-    let (set_layout, layout) =
-        create_layouts(ctx, desc.name, desc.bindings, desc.push_constant_bytes, desc.push_stages)?;
-    let (vs, fs) = match graphics_modules(ctx, desc) {
-        Ok(m) => m,
-        Err(e) => {
-            // SAFETY: nothing uses the layouts of a pipeline that was not created.
-            unsafe {
-                ctx.device.destroy_pipeline_layout(layout, None);
-                ctx.device.destroy_descriptor_set_layout(set_layout, None);
-            }
-            return Err(e);
-        }
-    };
+    let mut p = empty(ctx, desc.name, vk::PipelineBindPoint::GRAPHICS);
+    let stages =
+        [(vk::ShaderStageFlags::VERTEX, desc.vertex), (vk::ShaderStageFlags::FRAGMENT, desc.fragment)];
+    layouts(ctx, &mut p, &stages, desc.push_constant_bytes)?;
+    let vs = shader_module(ctx, &format!("{}.vert", desc.name), desc.vertex)?;
+    let fs = shader_module(ctx, &format!("{}.frag", desc.name), desc.fragment)?;
     let stages = [
         vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::VERTEX)
-            .module(vs)
+            .module(vs.raw)
             .name(c"main"),
         vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::FRAGMENT)
-            .module(fs)
+            .module(fs.raw)
             .name(c"main"),
     ];
     let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
@@ -242,21 +243,20 @@ pub fn create_graphics_pipeline(ctx: &GpuContext, desc: &GraphicsDesc) -> GpuRes
         .depth_stencil_state(&depth)
         .color_blend_state(&blend)
         .dynamic_state(&dynamic)
-        .layout(layout)
+        .layout(p.layout)
         .push_next(&mut rendering)];
     // SAFETY: every referenced state outlives the call.
-    let result = unsafe { ctx.device.create_graphics_pipelines(vk::PipelineCache::null(), &info, None) };
-    unsafe {
-        ctx.device.destroy_shader_module(vs, None);
-        ctx.device.destroy_shader_module(fs, None);
-    }
-    let layouts = (set_layout, layout);
-    finish(ctx, desc.name, result, layouts, vk::PipelineBindPoint::GRAPHICS, "vkCreateGraphicsPipelines")
+    let created = unsafe { ctx.device.create_graphics_pipelines(ctx.pipeline_cache(), &info, None) };
+    p.raw = created.map_err(|(_, e)| e).vk("vkCreateGraphicsPipelines")?[0];
+    ctx.name_object(p.raw, desc.name);
+    Ok(p)
 }
 
-/// A descriptor pool sized for every pass of a frame; reset as a whole when targets change.
+/// Descriptor sets for one frame slot: reset as a whole when the slot is recorded again (its
+/// previous frame has finished), so sets are written fresh each frame and never while in use.
 pub struct DescriptorPool {
     pub raw: vk::DescriptorPool,
+    releaser: Releaser,
 }
 
 impl DescriptorPool {
@@ -271,14 +271,14 @@ impl DescriptorPool {
             },
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
-                descriptor_count: max_sets * 4,
+                descriptor_count: max_sets * 8,
             },
         ];
         let info = vk::DescriptorPoolCreateInfo::default().max_sets(max_sets).pool_sizes(&sizes);
         // SAFETY: valid device.
         let raw = unsafe { ctx.device.create_descriptor_pool(&info, None) }.vk("vkCreateDescriptorPool")?;
         ctx.name_object(raw, name);
-        Ok(DescriptorPool { raw })
+        Ok(DescriptorPool { raw, releaser: ctx.releaser() })
     }
 
     pub fn allocate(
@@ -296,24 +296,54 @@ impl DescriptorPool {
     }
 
     pub fn reset(&self, ctx: &GpuContext) -> GpuResult<()> {
-        // SAFETY: no set from this pool is in use by a pending frame.
+        // SAFETY: no set from this pool is in use by a pending frame (the caller's guarantee).
         unsafe { ctx.device.reset_descriptor_pool(self.raw, vk::DescriptorPoolResetFlags::empty()) }
             .vk("vkResetDescriptorPool")
     }
+}
 
-    pub fn destroy(&self, ctx: &GpuContext) {
-        unsafe { ctx.device.destroy_descriptor_pool(self.raw, None) };
+impl Drop for DescriptorPool {
+    fn drop(&mut self) {
+        self.releaser.retire(Garbage::DescriptorPool(self.raw));
+    }
+}
+
+/// A range of a buffer bound as a uniform or storage buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BufferRange {
+    pub buffer: vk::Buffer,
+    pub offset: u64,
+    /// Bytes, or `vk::WHOLE_SIZE`.
+    pub range: u64,
+}
+
+impl BufferRange {
+    pub fn whole(buffer: vk::Buffer) -> Self {
+        BufferRange { buffer, offset: 0, range: vk::WHOLE_SIZE }
     }
 }
 
 /// One descriptor write: a buffer or an image at a binding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Bound {
-    Uniform(vk::Buffer),
-    Storage(vk::Buffer),
+    Uniform(BufferRange),
+    Storage(BufferRange),
     StorageImage(vk::ImageView),
     Sampled(vk::ImageView, vk::Sampler),
     /// A uniform texel buffer (`usamplerBuffer`), see `gpu::texel_buffer`.
     UniformTexel(vk::BufferView),
+}
+
+impl Bound {
+    pub fn descriptor_type(&self) -> vk::DescriptorType {
+        match self {
+            Bound::Uniform(_) => vk::DescriptorType::UNIFORM_BUFFER,
+            Bound::Storage(_) => vk::DescriptorType::STORAGE_BUFFER,
+            Bound::StorageImage(_) => vk::DescriptorType::STORAGE_IMAGE,
+            Bound::Sampled(..) => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            Bound::UniformTexel(_) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+        }
+    }
 }
 
 /// Writes all bindings of `set` in one call.
@@ -321,8 +351,8 @@ pub fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, bindings: &[(u32, Bou
     let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = bindings
         .iter()
         .map(|(_, b)| match b {
-            Bound::Uniform(buf) | Bound::Storage(buf) => {
-                [vk::DescriptorBufferInfo::default().buffer(*buf).range(vk::WHOLE_SIZE)]
+            Bound::Uniform(r) | Bound::Storage(r) => {
+                [vk::DescriptorBufferInfo::default().buffer(r.buffer).offset(r.offset).range(r.range)]
             }
             _ => [vk::DescriptorBufferInfo::default()],
         })
@@ -351,26 +381,47 @@ pub fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, bindings: &[(u32, Bou
         .iter()
         .enumerate()
         .map(|(i, (index, b))| {
-            let w = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(*index);
+            let w = vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(*index)
+                .descriptor_type(b.descriptor_type());
             match b {
-                Bound::Uniform(_) => {
-                    w.descriptor_type(vk::DescriptorType::UNIFORM_BUFFER).buffer_info(&buffer_infos[i])
-                }
-                Bound::Storage(_) => {
-                    w.descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(&buffer_infos[i])
-                }
-                Bound::StorageImage(_) => {
-                    w.descriptor_type(vk::DescriptorType::STORAGE_IMAGE).image_info(&image_infos[i])
-                }
-                Bound::Sampled(..) => {
-                    w.descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&image_infos[i])
-                }
-                Bound::UniformTexel(_) => w
-                    .descriptor_type(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
-                    .texel_buffer_view(&texel_views[i]),
+                Bound::Uniform(_) | Bound::Storage(_) => w.buffer_info(&buffer_infos[i]),
+                Bound::StorageImage(_) | Bound::Sampled(..) => w.image_info(&image_infos[i]),
+                Bound::UniformTexel(_) => w.texel_buffer_view(&texel_views[i]),
             }
         })
         .collect();
     // SAFETY: the set is not in use by a pending frame; all handles are live.
     unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+}
+
+/// Allocates a set for `pipeline` from `pool` and writes `bound` into it, binding i at binding i;
+/// an error naming the pipeline when the list does not match what its shaders declare.
+pub fn bind_set(
+    ctx: &GpuContext,
+    pool: &DescriptorPool,
+    pipeline: &Pipeline,
+    bound: &[Bound],
+) -> GpuResult<vk::DescriptorSet> {
+    for b in &pipeline.bindings {
+        let given = bound.get(b.binding as usize).map(Bound::descriptor_type);
+        if given != Some(b.ty) {
+            return Err(GpuError::Shader {
+                name: pipeline.name.clone(),
+                message: format!(
+                    "binding {} is {:?} in the shader, the pass gives {}",
+                    b.binding,
+                    b.ty,
+                    given.map_or("nothing".to_string(), |t| format!("{t:?}"))
+                ),
+            });
+        }
+    }
+    let set = pool.allocate(ctx, pipeline.set_layout, &pipeline.name)?;
+    // Bindings the optimizer removed from the shader (unused) are not written.
+    let writes: Vec<(u32, Bound)> =
+        pipeline.bindings.iter().map(|b| (b.binding, bound[b.binding as usize])).collect();
+    write_set(ctx, set, &writes);
+    Ok(set)
 }

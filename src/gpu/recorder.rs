@@ -4,7 +4,7 @@
 use ash::vk;
 
 use super::context::GpuContext;
-use super::memory::{Buffer, Image};
+use super::memory::{Buffer, ImageHandles};
 use super::pipeline::Pipeline;
 
 pub struct Recorder<'a> {
@@ -13,8 +13,8 @@ pub struct Recorder<'a> {
 }
 
 /// A colour attachment of a dynamic-rendering pass, cleared to `clear` at the start.
-pub struct ColorTarget<'a> {
-    pub image: &'a Image,
+pub struct ColorTarget {
+    pub view: vk::ImageView,
     pub clear: vk::ClearColorValue,
 }
 
@@ -38,8 +38,11 @@ impl Recorder<'_> {
         }
     }
 
-    pub fn push_constants(&self, pipeline: &Pipeline, stages: vk::ShaderStageFlags, bytes: &[u8]) {
-        unsafe { self.device().cmd_push_constants(self.cmd, pipeline.layout, stages, 0, bytes) };
+    /// The push constants of `pipeline`, for the stages its shaders read them in.
+    pub fn push_constants(&self, pipeline: &Pipeline, bytes: &[u8]) {
+        unsafe {
+            self.device().cmd_push_constants(self.cmd, pipeline.layout, pipeline.push_stages, 0, bytes)
+        };
     }
 
     /// Makes one compute dispatch's storage writes visible to the next one's reads and writes.
@@ -49,6 +52,18 @@ impl Recorder<'_> {
             (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE);
         let read_write = vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
         cmd_barriers(self.device(), self.cmd, &[], &[memory_barrier(stage, access, stage, read_write)]);
+    }
+
+    /// Makes one compute dispatch's storage-buffer writes visible to a following copy.
+    pub fn compute_to_copy_barrier(&self) {
+        use super::barriers::{cmd_barriers, memory_barrier};
+        let b = memory_barrier(
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::TRANSFER_READ,
+        );
+        cmd_barriers(self.device(), self.cmd, &[], &[b]);
     }
 
     /// Dispatches enough `group`-sized workgroups to cover width × height.
@@ -61,14 +76,14 @@ impl Recorder<'_> {
         &self,
         extent: vk::Extent2D,
         colors: &[ColorTarget],
-        depth: &Image,
+        depth: vk::ImageView,
         depth_clear: f32,
     ) {
         let colors: Vec<_> =
-            colors.iter().map(|c| (c.image.view, Some(vk::ClearValue { color: c.clear }))).collect();
+            colors.iter().map(|c| (c.view, Some(vk::ClearValue { color: c.clear }))).collect();
         let depth_clear =
             vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: depth_clear, stencil: 0 } };
-        self.begin_rendering_views(extent, &colors, Some((depth.view, Some(depth_clear))));
+        self.begin_rendering_views(extent, &colors, Some((depth, Some(depth_clear))));
     }
 
     /// Begins dynamic rendering over the full extent into image views; each attachment is cleared
@@ -142,7 +157,7 @@ impl Recorder<'_> {
     }
 
     /// Copies a tightly packed buffer into the whole depth image (in TRANSFER_DST layout).
-    pub fn copy_buffer_to_depth(&self, buffer: &Buffer, image: &Image) {
+    pub fn copy_buffer_to_depth(&self, buffer: &Buffer, image: &ImageHandles) {
         let region = vk::BufferImageCopy::default()
             .image_subresource(
                 vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::DEPTH).layer_count(1),
@@ -160,7 +175,7 @@ impl Recorder<'_> {
     }
 
     /// Copies a whole colour image (in TRANSFER_SRC layout) into a buffer, tightly packed.
-    pub fn copy_image_to_buffer(&self, image: &Image, buffer: &Buffer) {
+    pub fn copy_image_to_buffer(&self, image: &ImageHandles, buffer: &Buffer) {
         let region = vk::BufferImageCopy::default()
             .image_subresource(
                 vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1),

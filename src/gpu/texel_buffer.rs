@@ -11,11 +11,22 @@ use gpu_allocator::MemoryLocation;
 
 use super::error::VkResultExt;
 use super::memory::{Buffer, Memory};
+use super::resources::{Garbage, Releaser};
 use super::{vk, GpuContext, GpuError, GpuResult};
 
 pub struct TexelBuffer {
     pub buffer: Buffer,
     pub view: vk::BufferView,
+    releaser: Releaser,
+}
+
+impl Drop for TexelBuffer {
+    fn drop(&mut self) {
+        // Queued before the buffer (dropped after this), so the view is destroyed first.
+        if self.view != vk::BufferView::null() {
+            self.releaser.retire(Garbage::BufferView(self.view));
+        }
+    }
 }
 
 /// How a buffer's bytes are viewed: one uint per texel (`R32_UINT`), or four (`R32G32B32A32_UINT`,
@@ -77,16 +88,10 @@ impl TexelBuffer {
             .buffer(buffer.raw)
             .format(texels.format())
             .range(vk::WHOLE_SIZE);
-        // SAFETY: valid device and buffer; the view is destroyed before the buffer (destroy).
-        let view = match unsafe { ctx.device.create_buffer_view(&info, None) }.vk("vkCreateBufferView") {
-            Ok(v) => v,
-            Err(e) => {
-                memory.destroy_buffer(ctx, buffer);
-                return Err(e);
-            }
-        };
+        // SAFETY: valid device and buffer; the view is freed before the buffer (Drop).
+        let view = unsafe { ctx.device.create_buffer_view(&info, None) }.vk("vkCreateBufferView")?;
         ctx.name_object(view, name);
-        Ok(TexelBuffer { buffer, view })
+        Ok(TexelBuffer { buffer, view, releaser: ctx.releaser() })
     }
 
     /// A texel buffer holding `bytes` (at least one texel), freed again if the write fails.
@@ -98,10 +103,7 @@ impl TexelBuffer {
         texels: Texels,
     ) -> GpuResult<TexelBuffer> {
         let mut buffer = TexelBuffer::new(ctx, memory, name, bytes.len() as u64, texels)?;
-        if let Err(e) = buffer.write(bytes) {
-            buffer.destroy(ctx, memory);
-            return Err(e);
-        }
+        buffer.write(bytes)?;
         Ok(buffer)
     }
 
@@ -111,12 +113,5 @@ impl TexelBuffer {
             return Ok(());
         }
         self.buffer.write(0, data)
-    }
-
-    /// Frees the view and the buffer. The caller guarantees the GPU no longer uses them.
-    pub fn destroy(self, ctx: &GpuContext, memory: &Memory) {
-        // SAFETY: not in use by a pending frame (the caller's guarantee).
-        unsafe { ctx.device.destroy_buffer_view(self.view, None) };
-        memory.destroy_buffer(ctx, self.buffer);
     }
 }

@@ -1,9 +1,10 @@
-//! GPU timestamps: a begin/end pair per pass, read back after the frame's fence.
+//! GPU timestamps: a begin/end pair per pass, read only once the frame is known to have finished.
 
 use ash::vk;
 
 use super::context::GpuContext;
 use super::error::{GpuResult, VkResultExt};
+use super::resources::{Garbage, Releaser};
 
 pub struct TimestampPool {
     pool: vk::QueryPool,
@@ -11,6 +12,13 @@ pub struct TimestampPool {
     used: u32,
     period_ns: f64,
     valid_mask: u64,
+    releaser: Releaser,
+}
+
+impl Drop for TimestampPool {
+    fn drop(&mut self) {
+        self.releaser.retire(Garbage::QueryPool(self.pool));
+    }
 }
 
 impl TimestampPool {
@@ -28,6 +36,7 @@ impl TimestampPool {
             used: 0,
             period_ns: ctx.info.timestamp_period_ns as f64,
             valid_mask,
+            releaser: ctx.releaser(),
         })
     }
 
@@ -80,28 +89,5 @@ impl TimestampPool {
             Err(vk::Result::NOT_READY) => Ok(None),
             Err(e) => Err(e).vk("vkGetQueryPoolResults"),
         }
-    }
-
-    /// Reads the written timestamps as nanoseconds (after the frame's fence).
-    pub fn read_ns(&self, ctx: &GpuContext) -> GpuResult<Vec<f64>> {
-        if self.used == 0 {
-            return Ok(Vec::new());
-        }
-        let mut ticks = vec![0u64; self.used as usize];
-        // SAFETY: all written queries completed (the fence signalled); WAIT makes that explicit.
-        unsafe {
-            ctx.device.get_query_pool_results(
-                self.pool,
-                0,
-                &mut ticks,
-                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-            )
-        }
-        .vk("vkGetQueryPoolResults")?;
-        Ok(ticks.iter().map(|t| (t & self.valid_mask) as f64 * self.period_ns).collect())
-    }
-
-    pub fn destroy(&self, ctx: &GpuContext) {
-        unsafe { ctx.device.destroy_query_pool(self.pool, None) };
     }
 }

@@ -10,6 +10,7 @@ use super::commands::FrameCommands;
 use super::context::GpuContext;
 use super::error::{GpuError, GpuResult, VkResultExt};
 use super::memory::{Image, Memory};
+use super::resources::{Garbage, Releaser};
 
 /// Where an uploaded image waits to be sampled: fragment and compute shaders.
 pub const SAMPLED_ANYWHERE: ImageAccess = ImageAccess {
@@ -47,22 +48,14 @@ pub fn upload_image(
     }
     let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
     let image = memory.create_image(ctx, name, extent, format, usage)?;
-    let mut staging = match memory.create_buffer(
-        ctx,
-        &format!("{name} staging"),
-        expected,
-        vk::BufferUsageFlags::TRANSFER_SRC,
-        MemoryLocation::CpuToGpu,
-    ) {
-        Ok(b) => b,
-        Err(e) => {
-            memory.destroy_image(ctx, image);
-            return Err(e);
-        }
-    };
-    let copied = staging.write(0, bytes).and_then(|()| {
-        let commands = FrameCommands::new(ctx, &format!("{name} upload"))?;
-        let result = commands.begin(ctx).and_then(|()| {
+    let staging_name = format!("{name} staging");
+    let src = vk::BufferUsageFlags::TRANSFER_SRC;
+    let mut staging = memory.create_buffer(ctx, &staging_name, expected, src, MemoryLocation::CpuToGpu)?;
+    staging.write(0, bytes)?;
+    {
+        let mut commands = FrameCommands::new(ctx, &format!("{name} upload"))?;
+        commands.begin(ctx)?;
+        {
             let cmd = commands.cmd;
             let to_dst = image_barrier(image.raw, format, ImageAccess::UNDEFINED, ImageAccess::TRANSFER_DST);
             cmd_barriers(&ctx.device, cmd, &to_dst.into_iter().collect::<Vec<_>>(), &[]);
@@ -86,24 +79,23 @@ pub fn upload_image(
             };
             let to_read = image_barrier(image.raw, format, ImageAccess::TRANSFER_DST, SAMPLED_ANYWHERE);
             cmd_barriers(&ctx.device, cmd, &to_read.into_iter().collect::<Vec<_>>(), &[]);
-            commands.submit_and_wait(ctx, &format!("{name} upload"))
-        });
-        commands.destroy(ctx);
-        result
-    });
-    memory.destroy_buffer(ctx, staging);
-    match copied {
-        Ok(()) => Ok(image),
-        Err(e) => {
-            memory.destroy_image(ctx, image);
-            Err(e)
         }
+        // A one-off fence wait at load, not a frame: the staging buffer is freed with the frames.
+        commands.submit_and_wait(ctx, &format!("{name} upload"))?;
     }
+    Ok(image)
 }
 
-/// A sampler; passes hold it next to the images they sample and destroy it with them.
+/// A sampler; passes hold it next to the images they sample.
 pub struct Sampler {
     pub raw: vk::Sampler,
+    releaser: Releaser,
+}
+
+impl Drop for Sampler {
+    fn drop(&mut self) {
+        self.releaser.retire(Garbage::Sampler(self.raw));
+    }
 }
 
 impl Sampler {
@@ -120,11 +112,6 @@ impl Sampler {
         // SAFETY: valid device; destroyed by `destroy`.
         let raw = unsafe { ctx.device.create_sampler(&info, None) }.vk("vkCreateSampler")?;
         ctx.name_object(raw, name);
-        Ok(Sampler { raw })
-    }
-
-    /// The caller guarantees no pending frame samples with it.
-    pub fn destroy(&self, ctx: &GpuContext) {
-        unsafe { ctx.device.destroy_sampler(self.raw, None) };
+        Ok(Sampler { raw, releaser: ctx.releaser() })
     }
 }

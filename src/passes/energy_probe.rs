@@ -1,14 +1,14 @@
 //! energy_probe: the energy-wave integral on the GPU for rays given in a buffer (not pixels), so
-//! tests can feed exact hard rays and compare the shader's arithmetic with the f64 reference.
+//! tests can feed exact hard rays and compare the shader's arithmetic with the f64 reference. A
+//! pass like the others, recorded by the same runner in a frame of its own
+//! (`Runtime::energy_probe`).
 
 use gpu_allocator::MemoryLocation;
 
+use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
 use crate::effects::energy_wave_f32::GpuWave;
-use crate::gpu::barriers::{cmd_barriers, memory_barrier};
-use crate::gpu::commands::FrameCommands;
-use crate::gpu::memory::{Buffer, Memory};
-use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool};
-use crate::gpu::recorder::Recorder;
+use crate::gpu::memory::Buffer;
+use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
 
@@ -23,6 +23,7 @@ pub enum ProbeMethod {
     },
 }
 
+/// Push constants of shaders/energy_probe.comp (size checked against the shader).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct ProbeParams {
@@ -37,101 +38,74 @@ pub struct ProbeRay {
     pub l: f32,
 }
 
-/// H for every (ray, wave), ray-major: `result[r * waves.len() + w]`.
-pub fn run_probe(
-    ctx: &GpuContext,
-    memory: &Memory,
-    compiler: &mut ShaderCompiler,
-    waves: &[GpuWave],
-    rays: &[ProbeRay],
-    method: ProbeMethod,
-) -> GpuResult<Vec<f32>> {
-    if waves.is_empty() || rays.is_empty() {
-        return Ok(Vec::new());
+/// H for every (ray, wave), ray-major, into a host-readable buffer.
+pub struct ProbePass {
+    pipeline: Pipeline,
+    waves: Vec<GpuWave>,
+    rays: Vec<[f32; 4]>,
+    params: ProbeParams,
+    results: Buffer,
+}
+
+impl ProbePass {
+    pub fn new(
+        ctx: &GpuContext,
+        memory: &crate::gpu::memory::Memory,
+        compiler: &mut ShaderCompiler,
+        waves: &[GpuWave],
+        rays: &[ProbeRay],
+        method: ProbeMethod,
+    ) -> GpuResult<Self> {
+        let spirv = compiler.compile("energy_probe.comp", &[])?;
+        let push = std::mem::size_of::<ProbeParams>() as u32;
+        let pipeline = create_compute_pipeline(ctx, "energy_probe", &spirv, push)?;
+        let (m, steps, offset) = match method {
+            ProbeMethod::Analytic => (0, 0, 0.5),
+            ProbeMethod::Raymarch { steps, offset } => (1, steps, offset),
+        };
+        let params = ProbeParams {
+            counts: [rays.len() as u32, waves.len() as u32, m, steps],
+            offset: [offset, 0.0, 0.0, 0.0],
+        };
+        let size = (rays.len() as u64).saturating_mul(waves.len() as u64).saturating_mul(4);
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let results = memory.create_buffer(ctx, "probe results", size, usage, MemoryLocation::GpuToCpu)?;
+        let rays = rays.iter().map(|r| [r.u[0], r.u[1], r.u[2], r.l]).collect();
+        Ok(ProbePass { pipeline, waves: waves.to_vec(), rays, params, results })
     }
-    let spirv = compiler.compile("energy_probe.comp", &[])?;
-    let compute = vk::ShaderStageFlags::COMPUTE;
-    let bindings = [
-        binding(0, vk::DescriptorType::STORAGE_BUFFER, compute),
-        binding(1, vk::DescriptorType::STORAGE_BUFFER, compute),
-        binding(2, vk::DescriptorType::STORAGE_BUFFER, compute),
-    ];
-    let pipeline = create_compute_pipeline(
-        ctx,
-        "energy_probe",
-        &spirv,
-        &bindings,
-        std::mem::size_of::<ProbeParams>() as u32,
-    )?;
-    let mut buffers: Vec<Buffer> = Vec::new();
-    let result = (|| {
-        let ray_words: Vec<[f32; 4]> = rays.iter().map(|r| [r.u[0], r.u[1], r.u[2], r.l]).collect();
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        for (name, bytes) in [
-            ("probe waves", bytemuck::cast_slice::<GpuWave, u8>(waves)),
-            ("probe rays", bytemuck::cast_slice(&ray_words)),
-        ] {
-            let mut b =
-                memory.create_buffer(ctx, name, bytes.len() as u64, storage, MemoryLocation::CpuToGpu)?;
-            let written = b.write(0, bytes);
-            buffers.push(b);
-            written?;
-        }
-        let out_size = (rays.len() * waves.len() * 4) as u64;
-        buffers.push(memory.create_buffer(
-            ctx,
-            "probe results",
-            out_size,
-            storage,
-            MemoryLocation::GpuToCpu,
-        )?);
-        let pool = DescriptorPool::new(ctx, "probe descriptors", 1)?;
-        let recorded = (|| {
-            let set = pool.allocate(ctx, pipeline.set_layout, "probe set")?;
-            write_set(
-                ctx,
-                set,
-                &[
-                    (0, Bound::Storage(buffers[0].raw)),
-                    (1, Bound::Storage(buffers[1].raw)),
-                    (2, Bound::Storage(buffers[2].raw)),
-                ],
-            );
-            let (m, steps, offset) = match method {
-                ProbeMethod::Analytic => (0, 0, 0.5),
-                ProbeMethod::Raymarch { steps, offset } => (1, steps, offset),
-            };
-            let params = ProbeParams {
-                counts: [rays.len() as u32, waves.len() as u32, m, steps],
-                offset: [offset, 0.0, 0.0, 0.0],
-            };
-            let commands = FrameCommands::new(ctx, "energy_probe")?;
-            let run = (|| {
-                commands.begin(ctx)?;
-                let rec = Recorder { ctx, cmd: commands.cmd };
-                ctx.begin_label(commands.cmd, "energy_probe");
-                rec.bind_pipeline(&pipeline, set);
-                rec.push_constants(&pipeline, compute, bytemuck::bytes_of(&params));
-                rec.dispatch_2d(rays.len() as u32, 1, (64, 1));
-                let to_host = memory_barrier(
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    vk::PipelineStageFlags2::HOST,
-                    vk::AccessFlags2::HOST_READ,
-                );
-                cmd_barriers(&ctx.device, commands.cmd, &[], &[to_host]);
-                ctx.end_label(commands.cmd);
-                commands.submit_and_wait(ctx, "energy_probe")
-            })();
-            commands.destroy(ctx);
-            run
-        })();
-        pool.destroy(ctx);
-        recorded?;
-        let bytes = buffers[2].mapped().unwrap_or_default();
-        Ok(bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
-    })();
-    buffers.into_iter().for_each(|b| memory.destroy_buffer(ctx, b));
-    pipeline.destroy(ctx);
-    result
+
+    /// The results, after the probe's frame finished.
+    pub fn results(&self) -> Vec<f32> {
+        let count = self.rays.len() * self.waves.len();
+        let bytes = self.results.mapped().unwrap_or_default();
+        bytes.chunks_exact(4).take(count).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
+    }
+}
+
+impl Pass for ProbePass {
+    fn name(&self) -> &'static str {
+        "energy_probe"
+    }
+
+    fn images(&self) -> Vec<ImageUse> {
+        Vec::new()
+    }
+
+    fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
+        Ok(vec![
+            Binding::Bound(Bound::Storage(frame.upload(&self.waves)?)),
+            Binding::Bound(Bound::Storage(frame.upload(&self.rays)?)),
+            Binding::Written(BufferRange::whole(self.results.raw), Reader::Host),
+        ])
+    }
+
+    fn pipelines(&self) -> Vec<&Pipeline> {
+        vec![&self.pipeline]
+    }
+
+    fn record(&self, pass: &PassRecording) {
+        pass.rec.bind_pipeline(&self.pipeline, pass.set(0));
+        pass.rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
+        pass.rec.dispatch_2d(self.params.counts[0], 1, (64, 1));
+    }
 }

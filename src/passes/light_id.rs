@@ -19,18 +19,15 @@
 
 use std::sync::Arc;
 
-use super::translucency::{release, LightViewData, TranslucentData};
-use super::{Pass, PassInputs};
+use super::translucency::{LightViewData, TranslucentData};
+use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
+use crate::effects::translucency::light_map_size;
 use crate::gpu::barriers::ImageAccess;
-use crate::gpu::memory::Memory;
-use crate::gpu::pipeline::{
-    binding, create_graphics_pipeline, write_set, Blend, Bound, DescriptorPool, GraphicsDesc, Pipeline,
-};
+use crate::gpu::pipeline::{create_graphics_pipeline, Blend, Bound, GraphicsDesc, Pipeline};
 use crate::gpu::recorder::ColorTarget;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
-use crate::scene_gpu::SceneGpu;
-use crate::targets::{Target, Targets};
+use crate::targets::Target;
 
 /// Colour attachments in shader location order.
 const COLOR_TARGETS: [Target; 2] = [Target::LightIds, Target::LightZ];
@@ -39,49 +36,28 @@ pub struct LightIdPass {
     /// Culling the faces turned away from the light: for instances as meshed, and mirrored ones.
     pipeline: Pipeline,
     mirrored: Pipeline,
-    set: vk::DescriptorSet,
-    data: Option<Arc<TranslucentData>>,
+    data: Arc<TranslucentData>,
     view: LightViewData,
+    /// The maps' side in texels (`light_map_size`).
+    size: u32,
 }
 
 impl LightIdPass {
     pub fn new(
         ctx: &GpuContext,
-        memory: &Memory,
         compiler: &mut ShaderCompiler,
         data: Arc<TranslucentData>,
+        scene: &crate::scene::Scene,
     ) -> GpuResult<Self> {
-        let pipelines =
-            Self::pipeline(ctx, compiler, false).and_then(|p| match Self::pipeline(ctx, compiler, true) {
-                Ok(m) => Ok((p, m)),
-                Err(e) => {
-                    p.destroy(ctx);
-                    Err(e)
-                }
-            });
-        match pipelines {
-            Ok((pipeline, mirrored)) => {
-                let view = data.view_data();
-                let set = vk::DescriptorSet::null();
-                Ok(LightIdPass { pipeline, mirrored, set, data: Some(data), view })
-            }
-            Err(e) => {
-                release(Some(data), ctx, memory);
-                Err(e)
-            }
-        }
+        let pipeline = Self::pipeline(ctx, compiler, false)?;
+        let mirrored = Self::pipeline(ctx, compiler, true)?;
+        let view = data.view_data();
+        Ok(LightIdPass { pipeline, mirrored, data, view, size: light_map_size(scene) })
     }
 
     fn pipeline(ctx: &GpuContext, compiler: &mut ShaderCompiler, mirrored: bool) -> GpuResult<Pipeline> {
         let vertex = compiler.compile("light_id.vert", &[])?;
         let fragment = compiler.compile("light_id.frag", &[])?;
-        let frag = vk::ShaderStageFlags::FRAGMENT;
-        let bindings = [
-            binding(0, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::VERTEX),
-            binding(1, vk::DescriptorType::UNIFORM_TEXEL_BUFFER, frag),
-            binding(2, vk::DescriptorType::UNIFORM_TEXEL_BUFFER, frag),
-            binding(3, vk::DescriptorType::UNIFORM_TEXEL_BUFFER, frag),
-        ];
         // The scene's vertex buffers (position, normal); only the position is read.
         let vertex_bindings = [vk::VertexInputBindingDescription::default()
             .binding(0)
@@ -98,9 +74,7 @@ impl LightIdPass {
                 name: if mirrored { "light_id mirrored" } else { "light_id" },
                 vertex: &vertex,
                 fragment: &fragment,
-                bindings: &bindings,
                 push_constant_bytes: std::mem::size_of::<LightViewData>() as u32,
-                push_stages: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                 vertex_bindings: &vertex_bindings,
                 vertex_attributes: &vertex_attributes,
                 color_formats: &color_formats,
@@ -122,67 +96,57 @@ impl Pass for LightIdPass {
         "light_id"
     }
 
-    fn uses(&self) -> Vec<(Target, ImageAccess)> {
-        let mut uses: Vec<_> = COLOR_TARGETS.iter().map(|&t| (t, ImageAccess::COLOR_ATTACHMENT)).collect();
-        uses.push((Target::LightDepth, ImageAccess::DEPTH_ATTACHMENT));
+    fn images(&self) -> Vec<ImageUse> {
+        let extent = Some(vk::Extent2D { width: self.size, height: self.size });
+        let mut uses: Vec<_> = COLOR_TARGETS
+            .iter()
+            .map(|&t| ImageUse { target: t, access: ImageAccess::COLOR_ATTACHMENT, extent })
+            .collect();
+        uses.push(ImageUse { target: Target::LightDepth, access: ImageAccess::DEPTH_ATTACHMENT, extent });
         uses
     }
 
-    fn bind(
-        &mut self,
-        ctx: &GpuContext,
-        pool: &DescriptorPool,
-        scene_gpu: &SceneGpu,
-        _: &Targets,
-    ) -> GpuResult<()> {
-        let Some(data) = &self.data else { return Ok(()) };
-        self.set = pool.allocate(ctx, self.pipeline.set_layout, "light_id set")?;
-        write_set(
-            ctx,
-            self.set,
-            &[
-                (0, Bound::Storage(scene_gpu.instances.raw)),
-                (1, Bound::UniformTexel(data.grid.view)),
-                (2, Bound::UniformTexel(data.records.view)),
-                (3, Bound::UniformTexel(data.instances.view)),
-            ],
-        );
-        Ok(())
+    fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
+        let d = &self.data;
+        Ok(vec![
+            Binding::Bound(Bound::Storage(frame.instances)),
+            Binding::Bound(Bound::UniformTexel(d.grid.view)),
+            Binding::Bound(Bound::UniformTexel(d.records.view)),
+            Binding::Bound(Bound::UniformTexel(d.instances.view)),
+        ])
     }
 
-    fn record(&self, inputs: &PassInputs) {
-        let Some(data) = &self.data else { return };
-        let rec = inputs.rec;
-        let ids = inputs.targets.image(Target::LightIds);
+    fn pipelines(&self) -> Vec<&Pipeline> {
+        vec![&self.pipeline, &self.mirrored]
+    }
+
+    fn record(&self, pass: &PassRecording) {
+        let rec = pass.rec;
+        let ids = pass.targets.image(Target::LightIds);
         let colors = [
-            ColorTarget { image: ids, clear: vk::ClearColorValue { uint32: [0; 4] } },
+            ColorTarget { view: ids.view, clear: vk::ClearColorValue { uint32: [0; 4] } },
             ColorTarget {
-                image: inputs.targets.image(Target::LightZ),
+                view: pass.targets.image(Target::LightZ).view,
                 clear: vk::ClearColorValue { float32: [f32::INFINITY, 0.0, 0.0, 0.0] },
             },
         ];
-        rec.begin_rendering(ids.extent, &colors, inputs.targets.image(Target::LightDepth), 1.0);
-        if data.view.is_some() {
-            let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-            for (pipeline, mirrored) in [(&self.pipeline, false), (&self.mirrored, true)] {
-                let mut draws = data.draws.iter().filter(|d| d.mirrored == mirrored).peekable();
+        rec.begin_rendering(ids.extent, &colors, pass.targets.image(Target::LightDepth).view, 1.0);
+        if self.data.view.is_some() {
+            for (i, (pipeline, mirrored)) in
+                [(&self.pipeline, false), (&self.mirrored, true)].into_iter().enumerate()
+            {
+                let mut draws = self.data.draws.iter().filter(|d| d.mirrored == mirrored).peekable();
                 if draws.peek().is_none() {
                     continue;
                 }
-                rec.bind_pipeline(pipeline, self.set);
-                rec.push_constants(pipeline, stages, bytemuck::bytes_of(&self.view));
+                rec.bind_pipeline(pipeline, pass.set(i));
+                rec.push_constants(pipeline, bytemuck::bytes_of(&self.view));
                 for d in draws {
-                    let mesh = &inputs.scene_gpu.meshes[d.mesh];
+                    let mesh = &pass.scene_gpu.meshes[d.mesh];
                     rec.draw_mesh(&mesh.vertices, &mesh.indices, mesh.index_count, d.first, d.count);
                 }
             }
         }
         rec.end_rendering();
-    }
-
-    fn destroy(&mut self, ctx: &GpuContext, memory: &Memory) {
-        self.pipeline.destroy(ctx);
-        self.mirrored.destroy(ctx);
-        release(self.data.take(), ctx, memory);
     }
 }

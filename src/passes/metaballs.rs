@@ -7,8 +7,8 @@
 //! 8×8-pixel tiles ([`sphere_tiles`]): exact tangent planes through the camera, padded by a
 //! pixel; a sphere crossing the near plane covers the whole screen, one entirely nearer than the
 //! near plane (behind the camera included) or beyond the far plane is skipped. The lists are
-//! exact and variable-length ([`TileLists`]), so nothing is cut short; the host-visible buffers
-//! grow (and the pass rewrites its own descriptors) when a frame needs more.
+//! exact and variable-length ([`TileLists`]), so nothing is cut short; they go through the frame
+//! slot's upload ring, which grows when a frame needs more.
 //!
 //! Per pixel the shader casts each group present in its tile over that tile's run of balls: the
 //! subgroup gathers the support chords its rays cross into at most 32 shared slots per round
@@ -26,20 +26,21 @@
 use glam::DVec3;
 use gpu_allocator::MemoryLocation;
 
-use super::{Pass, PassInputs};
+use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
 use crate::effects::metaballs::{CastMethod, MetaballGroupParams};
 use crate::effects::metaballs_f32::{gpu_balls, gpu_group, world_bound, GpuMetaBall, GpuMetaGroup};
 use crate::frame::FrameStats;
-use crate::gpu::barriers::{cmd_barriers, memory_barrier, ImageAccess};
-use crate::gpu::memory::{Buffer, Memory};
-use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
+use crate::gpu::barriers::ImageAccess;
+use crate::gpu::memory::Buffer;
+use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
-use crate::gpu::texel_buffer::{TexelBuffer, Texels};
+use crate::gpu::texel_buffer::Texels;
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::scene::camera::Camera;
 use crate::scene::Scene;
-use crate::scene_gpu::SceneGpu;
-use crate::targets::{Target, Targets};
+use crate::targets::Target;
+
+const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
 
 /// Tile edge in pixels: one 8×8 workgroup per tile (keep in sync with shaders/metaballs.comp). A
 /// pixel walks only the balls of its tile: with the 4,096-ball scene at 256², 58 per tile on
@@ -295,32 +296,16 @@ pub struct MetaballCounts {
 
 pub struct MetaballsPass {
     pipeline: Pipeline,
-    set: vk::DescriptorSet,
-    // The shader reads these as texel buffers (see gpu::texel_buffer for why).
-    groups: Option<TexelBuffer>,
-    balls: Option<TexelBuffer>,
-    tiles: Option<TexelBuffer>,
-    entries: Option<TexelBuffer>,
-    stats: Option<Buffer>,
+    /// Per frame slot: the device's counters of the frame last recorded in it (host-readable).
+    stats: Vec<Buffer>,
     params: MetaballParams,
-    // This frame's host data, written by `prepare` and uploaded by `prepare_device`.
-    gpu_groups: Vec<GpuMetaGroup>,
-    gpu_balls: Vec<GpuMetaBall>,
-    lists: TileLists,
-    /// The previous frame's dropped count: a frame repeating it does not warn again (the count is
-    /// in `FrameStats` every frame).
-    warned_dropped: std::cell::Cell<u64>,
+    /// The previous finished frame's dropped count: a frame repeating it does not warn again (the
+    /// count is in `FrameStats` every frame).
+    warned_dropped: std::sync::atomic::AtomicU64,
 }
 
-const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
-
 impl MetaballsPass {
-    pub fn new(
-        ctx: &GpuContext,
-        memory: &Memory,
-        compiler: &mut ShaderCompiler,
-        scene: &Scene,
-    ) -> GpuResult<Self> {
+    pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler, scene: &Scene) -> GpuResult<Self> {
         // Only the casts the scene's groups use are compiled in.
         let trace =
             |g: &crate::scene::model::MetaballGroup| matches!(g.method, CastMethod::SphereTrace { .. });
@@ -330,56 +315,19 @@ impl MetaballsPass {
             ("MB_WITH_TRACE", with(scene.metaballs.iter().any(trace))),
         ];
         let spirv = compiler.compile("metaballs.comp", &defines)?;
-        let compute = vk::ShaderStageFlags::COMPUTE;
-        let mut bindings: Vec<_> =
-            (0..4).map(|i| binding(i, vk::DescriptorType::STORAGE_IMAGE, compute)).collect();
-        bindings.push(binding(4, vk::DescriptorType::UNIFORM_BUFFER, compute));
-        bindings.push(binding(5, vk::DescriptorType::STORAGE_BUFFER, compute));
-        bindings.extend((6..10).map(|i| binding(i, vk::DescriptorType::UNIFORM_TEXEL_BUFFER, compute)));
-        bindings.push(binding(10, vk::DescriptorType::STORAGE_BUFFER, compute));
         let push = std::mem::size_of::<MetaballParams>() as u32;
-        let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, &bindings, push)?;
-        let mut pass = MetaballsPass {
+        let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, push)?;
+        Ok(MetaballsPass {
             pipeline,
-            set: vk::DescriptorSet::null(),
-            groups: None,
-            balls: None,
-            tiles: None,
-            entries: None,
-            stats: None,
+            stats: Vec::new(),
             params: MetaballParams::default(),
-            gpu_groups: Vec::new(),
-            gpu_balls: Vec::new(),
-            lists: TileLists::default(),
-            warned_dropped: std::cell::Cell::new(0),
-        };
-        let ball_count: usize = scene.metaballs.iter().map(|g| g.balls.len()).sum();
-        let group_bytes = (std::mem::size_of::<GpuMetaGroup>() * scene.metaballs.len().max(1)) as u64;
-        let ball_bytes = (std::mem::size_of::<GpuMetaBall>() * ball_count.max(1)) as u64;
-        // Tile lists start at a 1080p screen of headers and ten tiles per ball; they grow on demand.
-        let tile_bytes = 16 * 1920u64.div_ceil(TILE as u64) * 1080u64.div_ceil(TILE as u64);
-        let entry_bytes = 4 * (10 * ball_count as u64).max(1024);
-        let made = (|| -> GpuResult<()> {
-            let (quad, word) = (Texels::U32x4, Texels::U32);
-            pass.groups = Some(TexelBuffer::new(ctx, memory, "metaballs groups", group_bytes, quad)?);
-            pass.balls = Some(TexelBuffer::new(ctx, memory, "metaballs balls", ball_bytes, quad)?);
-            pass.tiles = Some(TexelBuffer::new(ctx, memory, "metaballs tiles", tile_bytes, quad)?);
-            pass.entries = Some(TexelBuffer::new(ctx, memory, "metaballs entries", entry_bytes, word)?);
-            let stat_bytes = (4 * STAT_COUNT) as u64;
-            let back = MemoryLocation::GpuToCpu;
-            pass.stats = Some(memory.create_buffer(ctx, "metaballs stats", stat_bytes, STORAGE, back)?);
-            Ok(())
-        })();
-        if let Err(e) = made {
-            pass.destroy(ctx, memory);
-            return Err(e);
-        }
-        Ok(pass)
+            warned_dropped: Default::default(),
+        })
     }
 
-    /// The counters of the last frame (after its fence).
-    pub fn counts(&self) -> MetaballCounts {
-        let Some(words) = self.stats.as_ref().and_then(|b| b.mapped()) else {
+    /// The counters of the frame last recorded in `slot` (after it finished).
+    pub fn counts(&self, slot: usize) -> MetaballCounts {
+        let Some(words) = self.stats.get(slot).and_then(|b| b.mapped()) else {
             return MetaballCounts::default();
         };
         let word = |i: usize| u32::from_le_bytes(words[4 * i..4 * i + 4].try_into().unwrap_or([0; 4])) as u64;
@@ -390,35 +338,6 @@ impl MetaballsPass {
             clip_steps_max: word(STAT_MAX_ITERATIONS),
         }
     }
-
-    /// Makes `slot` hold at least `bytes`, recreating it (half as large again) when it is too
-    /// small; returns whether it was recreated (its descriptor must be rewritten).
-    fn ensure(
-        ctx: &GpuContext,
-        memory: &Memory,
-        slot: &mut Option<TexelBuffer>,
-        name: &str,
-        bytes: u64,
-        texels: Texels,
-    ) -> GpuResult<bool> {
-        if slot.as_ref().is_some_and(|b| b.buffer.size >= bytes) {
-            return Ok(false);
-        }
-        if let Some(old) = slot.take() {
-            old.destroy(ctx, memory);
-        }
-        // Half as large again for the frames to come, within what the device can address.
-        let size = (bytes + bytes / 2).min(TexelBuffer::max_bytes(ctx, texels)).max(bytes);
-        *slot = Some(TexelBuffer::new(ctx, memory, name, size, texels)?);
-        Ok(true)
-    }
-}
-
-fn write(buffer: &mut Option<TexelBuffer>, bytes: &[u8]) -> GpuResult<()> {
-    match buffer {
-        Some(b) => b.write(bytes),
-        None => Ok(()),
-    }
 }
 
 impl Pass for MetaballsPass {
@@ -426,113 +345,78 @@ impl Pass for MetaballsPass {
         "metaballs"
     }
 
-    fn prepare(&mut self, scene: &Scene, time: f64, extent: vk::Extent2D) -> GpuResult<()> {
-        self.gpu_groups.clear();
-        self.gpu_balls.clear();
-        let mut bins = Vec::with_capacity(scene.metaballs.len());
-        for group in &scene.metaballs {
-            let params = group.at(time);
-            let first = self.gpu_balls.len() as u32;
-            self.gpu_groups.push(gpu_group(&params, first, group.material as u32));
-            self.gpu_balls.extend(gpu_balls(&params));
-            bins.push(GroupBins::new(&params, &scene.camera, extent));
-        }
-        self.lists = bin_balls(&scene.camera, extent, &bins);
-        self.params = MetaballParams::new(scene, extent);
-        self.params.dims[2] = self.lists.active;
-        Ok(())
-    }
-
-    fn prepare_device(&mut self, ctx: &GpuContext, memory: &Memory) -> GpuResult<()> {
-        let tile_bytes = (16 * self.lists.tiles.len()) as u64;
-        let entry_bytes = (4 * self.lists.entries.len()) as u64;
-        let new_tiles =
-            Self::ensure(ctx, memory, &mut self.tiles, "metaballs tiles", tile_bytes, Texels::U32x4)?;
-        let new_entries =
-            Self::ensure(ctx, memory, &mut self.entries, "metaballs entries", entry_bytes, Texels::U32)?;
-        if (new_tiles || new_entries) && self.set != vk::DescriptorSet::null() {
-            if let (Some(tiles), Some(entries)) = (&self.tiles, &self.entries) {
-                let views = [(8, Bound::UniformTexel(tiles.view)), (9, Bound::UniformTexel(entries.view))];
-                write_set(ctx, self.set, &views);
-            }
-        }
-        write(&mut self.groups, bytemuck::cast_slice(&self.gpu_groups))?;
-        write(&mut self.balls, bytemuck::cast_slice(&self.gpu_balls))?;
-        write(&mut self.tiles, bytemuck::cast_slice(&self.lists.tiles))?;
-        write(&mut self.entries, bytemuck::cast_slice(&self.lists.entries))?;
-        match &mut self.stats {
-            Some(b) => b.write(0, &[0u8; 4 * STAT_COUNT]),
-            None => Ok(()),
-        }
-    }
-
-    fn uses(&self) -> Vec<(Target, ImageAccess)> {
+    fn images(&self) -> Vec<ImageUse> {
         [Target::Distance, Target::Hdr, Target::Normal, Target::Ids]
             .into_iter()
-            .map(|t| (t, ImageAccess::COMPUTE_READ_WRITE))
+            .map(|t| ImageUse::new(t, ImageAccess::COMPUTE_READ_WRITE))
             .collect()
     }
 
-    fn bind(
-        &mut self,
-        ctx: &GpuContext,
-        pool: &DescriptorPool,
-        scene_gpu: &SceneGpu,
-        targets: &Targets,
-    ) -> GpuResult<()> {
-        let (Some(groups), Some(balls), Some(tiles), Some(entries), Some(stats)) =
-            (&self.groups, &self.balls, &self.tiles, &self.entries, &self.stats)
-        else {
-            return Ok(());
-        };
-        self.set = pool.allocate(ctx, self.pipeline.set_layout, "metaballs set")?;
-        write_set(
-            ctx,
-            self.set,
-            &[
-                (0, Bound::StorageImage(targets.image(Target::Distance).view)),
-                (1, Bound::StorageImage(targets.image(Target::Hdr).view)),
-                (2, Bound::StorageImage(targets.image(Target::Normal).view)),
-                (3, Bound::StorageImage(targets.image(Target::Ids).view)),
-                (4, Bound::Uniform(scene_gpu.uniforms.raw)),
-                (5, Bound::Storage(scene_gpu.materials.raw)),
-                (6, Bound::UniformTexel(groups.view)),
-                (7, Bound::UniformTexel(balls.view)),
-                (8, Bound::UniformTexel(tiles.view)),
-                (9, Bound::UniformTexel(entries.view)),
-                (10, Bound::Storage(stats.raw)),
-            ],
-        );
-        Ok(())
+    fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
+        let scene = frame.scene;
+        let extent = frame.extent;
+        let mut gpu_groups: Vec<GpuMetaGroup> = Vec::with_capacity(scene.metaballs.len());
+        let mut balls: Vec<GpuMetaBall> = Vec::new();
+        let mut bins = Vec::with_capacity(scene.metaballs.len());
+        for group in &scene.metaballs {
+            let params = group.at(frame.time);
+            let first = balls.len() as u32;
+            gpu_groups.push(gpu_group(&params, first, group.material as u32));
+            balls.extend(gpu_balls(&params));
+            bins.push(GroupBins::new(&params, &scene.camera, extent));
+        }
+        let lists = bin_balls(&scene.camera, extent, &bins);
+        self.params = MetaballParams::new(scene, extent);
+        self.params.dims[2] = lists.active;
+        // The slot's counters: its previous frame has finished and was reported.
+        while self.stats.len() <= frame.slot {
+            let name = format!("metaballs stats {}", self.stats.len());
+            let back = MemoryLocation::GpuToCpu;
+            let size = (4 * STAT_COUNT) as u64;
+            self.stats.push(frame.memory.create_buffer(frame.ctx, &name, size, STORAGE, back)?);
+        }
+        let stats = &mut self.stats[frame.slot];
+        stats.write(0, &[0u8; 4 * STAT_COUNT])?;
+        let stats = BufferRange::whole(stats.raw);
+        let (quad, word) = (Texels::U32x4, Texels::U32);
+        Ok(vec![
+            Binding::Image(Target::Distance),
+            Binding::Image(Target::Hdr),
+            Binding::Image(Target::Normal),
+            Binding::Image(Target::Ids),
+            Binding::Bound(Bound::Uniform(frame.uniforms)),
+            Binding::Bound(Bound::Storage(frame.scene_gpu.materials_range())),
+            Binding::Bound(frame.texels("metaballs groups", &gpu_groups, quad)?),
+            Binding::Bound(frame.texels("metaballs balls", &balls, quad)?),
+            Binding::Bound(frame.texels("metaballs tiles", &lists.tiles, quad)?),
+            Binding::Bound(frame.texels("metaballs entries", &lists.entries, word)?),
+            Binding::Written(stats, Reader::Host),
+        ])
     }
 
-    fn record(&self, inputs: &PassInputs) {
-        let rec = inputs.rec;
-        rec.bind_pipeline(&self.pipeline, self.set);
-        rec.push_constants(&self.pipeline, vk::ShaderStageFlags::COMPUTE, bytemuck::bytes_of(&self.params));
+    fn pipelines(&self) -> Vec<&Pipeline> {
+        vec![&self.pipeline]
+    }
+
+    fn record(&self, pass: &PassRecording) {
+        let rec = pass.rec;
+        rec.bind_pipeline(&self.pipeline, pass.set(0));
+        rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
         // One 8×8 workgroup per tile that holds any ball, TILES_PER_ROW tiles per row.
-        let active = self.lists.active;
+        let active = self.params.dims[2];
         if active > 0 {
             let rows = active.div_ceil(TILES_PER_ROW);
             rec.dispatch_2d(8 * active.min(TILES_PER_ROW), 8 * rows, (8, 8));
         }
-        // The counters are read on the host after the frame's fence.
-        let to_host = memory_barrier(
-            vk::PipelineStageFlags2::COMPUTE_SHADER,
-            vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            vk::PipelineStageFlags2::HOST,
-            vk::AccessFlags2::HOST_READ,
-        );
-        cmd_barriers(&rec.ctx.device, rec.cmd, &[], &[to_host]);
     }
 
-    fn report(&self, stats: &mut FrameStats) {
-        let c = self.counts();
+    fn finished(&self, slot: usize, stats: &mut FrameStats) {
+        let c = self.counts(slot);
         stats.metaball_overflow += c.dropped;
         stats.metaball_hits += c.hits;
         stats.metaball_clip_steps += c.clip_steps;
         stats.metaball_clip_steps_max = stats.metaball_clip_steps_max.max(c.clip_steps_max);
-        let last = self.warned_dropped.replace(c.dropped);
+        let last = self.warned_dropped.swap(c.dropped, std::sync::atomic::Ordering::Relaxed);
         if c.dropped > 0 && c.dropped != last {
             log::warn!(
                 "metaballs: {} pixels could not finish their cast (more than {} support spheres overlap \
@@ -541,18 +425,6 @@ impl Pass for MetaballsPass {
                 c.dropped,
                 crate::effects::metaballs_f32::MB_MAX_RAY_BALLS
             );
-        }
-    }
-
-    fn destroy(&mut self, ctx: &GpuContext, memory: &Memory) {
-        self.pipeline.destroy(ctx);
-        for b in [&mut self.groups, &mut self.balls, &mut self.tiles, &mut self.entries] {
-            if let Some(b) = b.take() {
-                b.destroy(ctx, memory);
-            }
-        }
-        if let Some(b) = self.stats.take() {
-            memory.destroy_buffer(ctx, b);
         }
     }
 }

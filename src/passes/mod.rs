@@ -1,65 +1,155 @@
-//! One file per pass. A pass declares the images it touches and how; the runner in frame.rs
-//! places the barriers, the debug label and the timestamps around its commands.
+//! One file per pass. A pass declares what it touches — the frame images with how it uses them,
+//! and each frame the resources of its descriptor set in binding order — and records its
+//! commands; the runner (frame.rs) derives the images to make, the barriers, the descriptor set,
+//! the debug label and the timestamps from that declaration. See docs/ARCHITECTURE.md.
+//!
+//! Adding an effect: a pass file here, its shader, and one line in `registry::PASSES`.
 
+pub mod composite;
+pub mod depth_import;
 pub mod energy_probe;
 pub mod energy_wave;
 pub mod gpu_structs;
 pub mod light_id;
 pub mod metaballs;
 pub mod raster;
+pub(crate) mod registry;
+
+pub use registry::plan;
 pub mod tonemap;
 pub mod translucency;
 
+use bytemuck::Pod;
+
+use crate::frame::FrameStats;
 use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::Memory;
-use crate::gpu::pipeline::DescriptorPool;
+use crate::gpu::pipeline::{Bound, BufferRange, Pipeline};
 use crate::gpu::recorder::Recorder;
-use crate::gpu::{GpuContext, GpuResult};
+use crate::gpu::ring::{TexelView, UploadRing};
+use crate::gpu::texel_buffer::Texels;
+use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
 use crate::targets::{Target, Targets};
 
-/// What every pass sees while recording.
-pub struct PassInputs<'a> {
-    pub rec: &'a Recorder<'a>,
-    pub targets: &'a Targets,
-    pub scene_gpu: &'a SceneGpu,
+/// One resource of a pass's descriptor set, in binding order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binding {
+    /// A frame image the pass declared in `images()`, bound as a storage image.
+    Image(Target),
+    /// A frame image the pass declared in `images()`, sampled (NEAREST) with `sampler`.
+    SampledImage(Target, vk::Sampler),
+    /// Anything else the pass owns or the frame's ring holds (read by the GPU, written by the host).
+    Bound(Bound),
+    /// A storage buffer the pass writes, and who reads it afterwards: the runner places the
+    /// barriers before (after that reader's previous-frame use) and after the pass.
+    Written(BufferRange, Reader),
+}
+
+/// Who reads a buffer a pass wrote.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reader {
+    /// The host, after the frame has finished (statistics, probe results).
+    Host,
+    /// A copy command later in the same pass.
+    Copy,
+}
+
+impl Reader {
+    pub fn stage(self) -> (vk::PipelineStageFlags2, vk::AccessFlags2) {
+        match self {
+            Reader::Host => (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+            Reader::Copy => (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ),
+        }
+    }
+}
+
+/// What a pass sees while preparing a frame: the scene, the frame's parameters and the slot's
+/// upload ring. The slot's previous frame has finished.
+pub struct FrameContext<'a> {
+    pub ctx: &'a GpuContext,
+    pub memory: &'a Memory,
     pub scene: &'a Scene,
+    pub scene_gpu: &'a SceneGpu,
+    /// This frame's scene uniforms and instance table (in the slot's ring).
+    pub uniforms: BufferRange,
+    pub instances: BufferRange,
     /// Scene time in seconds.
     pub time: f64,
+    pub extent: vk::Extent2D,
+    /// The frame slot being recorded (0..frames_in_flight).
+    pub slot: usize,
     /// Embedded in a game's frame: the background is transparent black (hadou's result is
     /// composited over the game's colour).
     pub embedded: bool,
     /// `Depth` and `Distance` hold the game's imported depth: load them, do not clear them.
     pub depth_imported: bool,
+    pub(crate) ring: &'a mut UploadRing,
+    /// Texel views made this frame; dropped (retired with the frame) once the sets are written.
+    pub(crate) views: &'a mut Vec<TexelView>,
 }
 
-pub trait Pass {
+impl FrameContext<'_> {
+    /// Copies `data` into the slot's ring for this frame.
+    pub fn upload<T: Pod>(&mut self, data: &[T]) -> GpuResult<BufferRange> {
+        Ok(self.ring.push(self.ctx, self.memory, bytemuck::cast_slice(data))?.range())
+    }
+
+    /// Copies `data` into the slot's ring and binds it as a uniform texel buffer of `texels`.
+    pub fn texels<T: Pod>(&mut self, what: &str, data: &[T], texels: Texels) -> GpuResult<Bound> {
+        let view = self.ring.push_texels(self.ctx, self.memory, what, bytemuck::cast_slice(data), texels)?;
+        let bound = Bound::UniformTexel(view.raw);
+        self.views.push(view);
+        Ok(bound)
+    }
+}
+
+/// What every pass sees while recording.
+pub struct PassRecording<'a> {
+    pub rec: &'a Recorder<'a>,
+    pub targets: &'a Targets,
+    pub scene_gpu: &'a SceneGpu,
+    pub scene: &'a Scene,
+    /// The pass's descriptor sets of this frame, one per pipeline of `Pass::pipelines`, in order.
+    pub sets: Vec<vk::DescriptorSet>,
+    pub embedded: bool,
+    pub depth_imported: bool,
+}
+
+impl PassRecording<'_> {
+    /// The set of the pass's `i`-th pipeline.
+    pub fn set(&self, i: usize) -> vk::DescriptorSet {
+        self.sets.get(i).copied().unwrap_or_default()
+    }
+}
+
+/// A frame image a pass touches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageUse {
+    pub target: Target,
+    pub access: ImageAccess,
+    /// Its own size (the light maps), else the frame's.
+    pub extent: Option<vk::Extent2D>,
+}
+
+impl ImageUse {
+    pub fn new(target: Target, access: ImageAccess) -> Self {
+        ImageUse { target, access, extent: None }
+    }
+}
+
+pub trait Pass: Send {
     /// The pass's one name: file, shader, debug label, timestamp scope, test.
     fn name(&self) -> &'static str;
-    /// Per-frame host work before recording (e.g. writing this frame's parameters). The previous
-    /// frame has finished, so buffers the pass owns are free to write.
-    fn prepare(&mut self, _scene: &Scene, _time: f64, _extent: crate::gpu::vk::Extent2D) -> GpuResult<()> {
-        Ok(())
-    }
-    /// Per-frame host work that needs the device, right after `prepare` (e.g. growing a buffer
-    /// this frame needs and rewriting the pass's own descriptors). The previous frame has finished.
-    fn prepare_device(&mut self, _ctx: &GpuContext, _memory: &Memory) -> GpuResult<()> {
-        Ok(())
-    }
-    /// After the frame's fence: adds what the pass counted on the device to the frame's stats.
-    fn report(&self, _stats: &mut crate::frame::FrameStats) {}
-    /// The images this pass reads or writes, and how.
-    fn uses(&self) -> Vec<(Target, ImageAccess)>;
-    /// Points the pass's descriptors at the scene's buffers and the frame's images
-    /// (after either was created anew; the pool was reset before).
-    fn bind(
-        &mut self,
-        ctx: &GpuContext,
-        pool: &DescriptorPool,
-        scene_gpu: &SceneGpu,
-        targets: &Targets,
-    ) -> GpuResult<()>;
-    fn record(&self, inputs: &PassInputs);
-    fn destroy(&mut self, ctx: &GpuContext, memory: &Memory);
+    /// The frame images this pass reads or writes, and how.
+    fn images(&self) -> Vec<ImageUse>;
+    /// This frame's host work (uploads through the slot's ring) and the resources of descriptor
+    /// set 0, in binding order; each pipeline's set holds those its shaders use.
+    fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>>;
+    /// The pipelines the pass records with (a set is written for each, in this order).
+    fn pipelines(&self) -> Vec<&Pipeline>;
+    fn record(&self, pass: &PassRecording);
+    /// After the frame recorded in `slot` has finished: adds what the pass counted on the device.
+    fn finished(&self, _slot: usize, _stats: &mut FrameStats) {}
 }

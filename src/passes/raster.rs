@@ -1,20 +1,15 @@
 //! raster: instanced draws (one per mesh) with dynamic rendering into reverse-Z depth, HDR colour
 //! and the G-buffer (normal, ids, view distance). Lambert + ambient under the directional lights.
 
-use super::{Pass, PassInputs};
+use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
 use crate::gpu::barriers::ImageAccess;
-use crate::gpu::memory::Memory;
-use crate::gpu::pipeline::{
-    binding, create_graphics_pipeline, write_set, Blend, Bound, DescriptorPool, GraphicsDesc, Pipeline,
-};
+use crate::gpu::pipeline::{create_graphics_pipeline, Blend, Bound, GraphicsDesc, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
-use crate::scene_gpu::SceneGpu;
-use crate::targets::{Target, Targets};
+use crate::targets::Target;
 
 pub struct RasterPass {
     pipeline: Pipeline,
-    set: vk::DescriptorSet,
 }
 
 /// Colour attachments in shader location order.
@@ -24,12 +19,6 @@ impl RasterPass {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
         let vertex = compiler.compile("raster.vert", &[])?;
         let fragment = compiler.compile("raster.frag", &[])?;
-        let both = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let bindings = [
-            binding(0, vk::DescriptorType::UNIFORM_BUFFER, both),
-            binding(1, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::VERTEX),
-            binding(2, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::VERTEX),
-        ];
         let vertex_bindings = [vk::VertexInputBindingDescription::default()
             .binding(0)
             .stride(24)
@@ -51,9 +40,7 @@ impl RasterPass {
                 name: "raster",
                 vertex: &vertex,
                 fragment: &fragment,
-                bindings: &bindings,
                 push_constant_bytes: 0,
-                push_stages: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                 vertex_bindings: &vertex_bindings,
                 vertex_attributes: &vertex_attributes,
                 color_formats: &color_formats,
@@ -65,7 +52,7 @@ impl RasterPass {
                 blend: Blend::Replace,
             },
         )?;
-        Ok(RasterPass { pipeline, set: vk::DescriptorSet::null() })
+        Ok(RasterPass { pipeline })
     }
 }
 
@@ -74,40 +61,33 @@ impl Pass for RasterPass {
         "raster"
     }
 
-    fn uses(&self) -> Vec<(Target, ImageAccess)> {
-        let mut uses: Vec<_> = COLOR_TARGETS.iter().map(|&t| (t, ImageAccess::COLOR_ATTACHMENT)).collect();
-        uses.push((Target::Depth, ImageAccess::DEPTH_ATTACHMENT));
+    fn images(&self) -> Vec<ImageUse> {
+        let mut uses: Vec<_> =
+            COLOR_TARGETS.iter().map(|&t| ImageUse::new(t, ImageAccess::COLOR_ATTACHMENT)).collect();
+        uses.push(ImageUse::new(Target::Depth, ImageAccess::DEPTH_ATTACHMENT));
         uses
     }
 
-    fn bind(
-        &mut self,
-        ctx: &GpuContext,
-        pool: &DescriptorPool,
-        scene_gpu: &SceneGpu,
-        _: &Targets,
-    ) -> GpuResult<()> {
-        self.set = pool.allocate(ctx, self.pipeline.set_layout, "raster set")?;
-        write_set(
-            ctx,
-            self.set,
-            &[
-                (0, Bound::Uniform(scene_gpu.uniforms.raw)),
-                (1, Bound::Storage(scene_gpu.instances.raw)),
-                (2, Bound::Storage(scene_gpu.materials.raw)),
-            ],
-        );
-        Ok(())
+    fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
+        Ok(vec![
+            Binding::Bound(Bound::Uniform(frame.uniforms)),
+            Binding::Bound(Bound::Storage(frame.instances)),
+            Binding::Bound(Bound::Storage(frame.scene_gpu.materials_range())),
+        ])
     }
 
-    fn record(&self, inputs: &PassInputs) {
-        let rec = inputs.rec;
-        let t = inputs.targets;
-        let bg = inputs.scene.render.background.as_vec3();
+    fn pipelines(&self) -> Vec<&Pipeline> {
+        vec![&self.pipeline]
+    }
+
+    fn record(&self, pass: &PassRecording) {
+        let rec = pass.rec;
+        let t = pass.targets;
+        let bg = pass.scene.render.background.as_vec3();
         // Embedded: transparent background (composited over the game's colour); with the game's
         // depth imported, depth and distance are loaded, not cleared.
-        let hdr_clear = if inputs.embedded { [0.0; 4] } else { [bg.x, bg.y, bg.z, 1.0] };
-        let kept = |clear: vk::ClearValue| if inputs.depth_imported { None } else { Some(clear) };
+        let hdr_clear = if pass.embedded { [0.0; 4] } else { [bg.x, bg.y, bg.z, 1.0] };
+        let kept = |clear: vk::ClearValue| if pass.depth_imported { None } else { Some(clear) };
         let color = |float32| Some(vk::ClearValue { color: vk::ClearColorValue { float32 } });
         let colors = [
             (t.image(Target::Hdr).view, color(hdr_clear)),
@@ -126,10 +106,10 @@ impl Pass for RasterPass {
         let depth_clear =
             vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: 0.0, stencil: 0 } };
         rec.begin_rendering_views(t.extent, &colors, Some((t.image(Target::Depth).view, kept(depth_clear))));
-        if !inputs.scene_gpu.draws.is_empty() {
-            rec.bind_pipeline(&self.pipeline, self.set);
-            for draw in &inputs.scene_gpu.draws {
-                let mesh = &inputs.scene_gpu.meshes[draw.mesh];
+        if !pass.scene_gpu.draws.is_empty() {
+            rec.bind_pipeline(&self.pipeline, pass.set(0));
+            for draw in &pass.scene_gpu.draws {
+                let mesh = &pass.scene_gpu.meshes[draw.mesh];
                 rec.draw_mesh(
                     &mesh.vertices,
                     &mesh.indices,
@@ -140,9 +120,5 @@ impl Pass for RasterPass {
             }
         }
         rec.end_rendering();
-    }
-
-    fn destroy(&mut self, ctx: &GpuContext, _: &Memory) {
-        self.pipeline.destroy(ctx);
     }
 }

@@ -72,15 +72,14 @@
 use std::sync::Arc;
 
 use glam::DVec3;
-use gpu_allocator::MemoryLocation;
 
-use super::{Pass, PassInputs};
+use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
 use crate::effects::bake_cache::BakeCache;
 use crate::effects::thickness_lut::{bake, BakeOptions, ThicknessLut, LUT_WIDTH};
 use crate::effects::translucency::{light_map_size, LightView};
 use crate::gpu::barriers::ImageAccess;
-use crate::gpu::memory::{Buffer, Image, Memory};
-use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
+use crate::gpu::memory::{Image, Memory};
+use crate::gpu::pipeline::{create_compute_pipeline, Bound, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::texel_buffer::{TexelBuffer, Texels};
 use crate::gpu::upload::{upload_image, Sampler};
@@ -88,8 +87,7 @@ use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
 use crate::passes::gpu_structs::{instance_records, mat4_f32};
 use crate::scene::camera::PixelRect;
 use crate::scene::{MaterialKind, Scene, ThicknessMode};
-use crate::scene_gpu::SceneGpu;
-use crate::targets::{Target, Targets};
+use crate::targets::Target;
 
 /// `TranslucentInstance::info.x` of an instance without a table.
 pub const NO_LUT: u32 = u32::MAX;
@@ -371,39 +369,17 @@ impl TranslucentData {
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
         let limit = ctx.limits.max_image_dimension2_d;
         let packed = pack(scene, limit)?;
-        let mut buffers: Vec<TexelBuffer> = Vec::new();
-        let made = (|| {
-            let (word, quad) = (Texels::U32, Texels::U32x4);
-            for (name, bytes, texels) in [
-                ("translucency nearest grids", bytemuck::cast_slice::<u32, u8>(&packed.grid), word),
-                ("translucency lut records", bytemuck::cast_slice(&packed.records), quad),
-                ("translucency instances", bytemuck::cast_slice(&packed.instances), quad),
-                ("translucency centres", bytemuck::cast_slice(&packed.centres), quad),
-            ] {
-                buffers.push(TexelBuffer::from_bytes(ctx, memory, name, bytes, texels)?);
-            }
-            let format = vk::Format::R8_UNORM;
-            let image =
-                upload_image(ctx, memory, "translucency lut", packed.extent, format, 1, &packed.atlas)?;
-            match Sampler::nearest(ctx, "translucency lut sampler") {
-                Ok(s) => Ok((image, s)),
-                Err(e) => {
-                    memory.destroy_image(ctx, image);
-                    Err(e)
-                }
-            }
-        })();
-        let (lut_image, sampler) = match made {
-            Ok(x) => x,
-            Err(e) => {
-                buffers.into_iter().for_each(|b| b.destroy(ctx, memory));
-                return Err(e);
-            }
-        };
-        let centres = buffers.pop().expect("four buffers");
-        let instances = buffers.pop().expect("four buffers");
-        let records = buffers.pop().expect("four buffers");
-        let grid = buffers.pop().expect("four buffers");
+        let (word, quad) = (Texels::U32, Texels::U32x4);
+        let texels =
+            |name: &str, bytes: &[u8], texels| TexelBuffer::from_bytes(ctx, memory, name, bytes, texels);
+        let grid = texels("translucency nearest grids", bytemuck::cast_slice(&packed.grid), word)?;
+        let records = texels("translucency lut records", bytemuck::cast_slice(&packed.records), quad)?;
+        let instances = texels("translucency instances", bytemuck::cast_slice(&packed.instances), quad)?;
+        let centres = texels("translucency centres", bytemuck::cast_slice(&packed.centres), quad)?;
+        let format = vk::Format::R8_UNORM;
+        let lut_image =
+            upload_image(ctx, memory, "translucency lut", packed.extent, format, 1, &packed.atlas)?;
+        let sampler = Sampler::nearest(ctx, "translucency lut sampler")?;
         let (table_bytes, grid_bytes): (u64, u64) =
             packed.tables.iter().fold((0, 0), |(t, g), s| (t + s.table_bytes, g + s.grid_bytes));
         log::info!(
@@ -439,36 +415,6 @@ impl TranslucentData {
             dir: [0.0, 0.0, 1.0, 0.0],
         })
     }
-
-    fn destroy(self, ctx: &GpuContext, memory: &Memory) {
-        self.sampler.destroy(ctx);
-        memory.destroy_image(ctx, self.lut_image);
-        for texels in [self.grid, self.records, self.instances, self.centres] {
-            texels.destroy(ctx, memory);
-        }
-    }
-}
-
-/// The data of `slot`, made on first use: `light_id` and `translucency` share one bake and upload.
-pub fn shared_data(
-    slot: &mut Option<Arc<TranslucentData>>,
-    ctx: &GpuContext,
-    memory: &Memory,
-    scene: &Scene,
-) -> GpuResult<Arc<TranslucentData>> {
-    if let Some(data) = slot {
-        return Ok(data.clone());
-    }
-    let data = Arc::new(TranslucentData::new(ctx, memory, scene)?);
-    *slot = Some(data.clone());
-    Ok(data)
-}
-
-/// Drops one holder of the data; the last one frees it (after the frames using it finished).
-pub fn release(data: Option<Arc<TranslucentData>>, ctx: &GpuContext, memory: &Memory) {
-    if let Some(last) = data.and_then(Arc::into_inner) {
-        last.destroy(ctx, memory);
-    }
 }
 
 /// Whether the scene needs the light_id and translucency passes: an instance is translucent.
@@ -480,76 +426,23 @@ pub struct TranslucencyPass {
     pipeline: Pipeline,
     /// The FILL_ONLY variant: +inf thickness over the frame, for the pixels outside `rect`.
     fill: Pipeline,
-    set: vk::DescriptorSet,
     /// The pixels that can show a translucent instance this frame; `None`: none can.
     rect: Option<PixelRect>,
-    data: Option<Arc<TranslucentData>>,
-    params: Option<Buffer>,
+    extent: vk::Extent2D,
+    data: Arc<TranslucentData>,
 }
 
 impl TranslucencyPass {
     pub fn new(
         ctx: &GpuContext,
-        memory: &Memory,
         compiler: &mut ShaderCompiler,
         data: Arc<TranslucentData>,
     ) -> GpuResult<Self> {
-        let made = (|| {
-            let spirv = compiler.compile("translucency.comp", &[])?;
-            let c = vk::ShaderStageFlags::COMPUTE;
-            use vk::DescriptorType as D;
-            let types = [
-                D::UNIFORM_BUFFER,
-                D::STORAGE_IMAGE,
-                D::STORAGE_IMAGE,
-                D::STORAGE_IMAGE,
-                D::STORAGE_IMAGE,
-                D::STORAGE_IMAGE,
-                D::STORAGE_IMAGE,
-                D::COMBINED_IMAGE_SAMPLER,
-                D::UNIFORM_TEXEL_BUFFER,
-                D::UNIFORM_TEXEL_BUFFER,
-                D::UNIFORM_TEXEL_BUFFER,
-                D::STORAGE_BUFFER,
-                D::UNIFORM_TEXEL_BUFFER,
-                D::STORAGE_IMAGE,
-            ];
-            let bindings: Vec<_> = types.iter().enumerate().map(|(i, &t)| binding(i as u32, t, c)).collect();
-            let fill_spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
-            let pipeline = create_compute_pipeline(ctx, "translucency", &spirv, &bindings, 0)?;
-            let pipeline = match create_compute_pipeline(ctx, "translucency fill", &fill_spirv, &bindings, 0)
-            {
-                Ok(fill) => (pipeline, fill),
-                Err(e) => {
-                    pipeline.destroy(ctx);
-                    return Err(e);
-                }
-            };
-            let size = std::mem::size_of::<TranslucencyParams>() as u64;
-            let usage = vk::BufferUsageFlags::UNIFORM_BUFFER;
-            match memory.create_buffer(ctx, "translucency params", size, usage, MemoryLocation::CpuToGpu) {
-                Ok(params) => Ok((pipeline, params)),
-                Err(e) => {
-                    pipeline.0.destroy(ctx);
-                    pipeline.1.destroy(ctx);
-                    Err(e)
-                }
-            }
-        })();
-        match made {
-            Ok(((pipeline, fill), params)) => Ok(TranslucencyPass {
-                pipeline,
-                fill,
-                set: vk::DescriptorSet::null(),
-                rect: None,
-                data: Some(data),
-                params: Some(params),
-            }),
-            Err(e) => {
-                release(Some(data), ctx, memory);
-                Err(e)
-            }
-        }
+        let spirv = compiler.compile("translucency.comp", &[])?;
+        let fill_spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
+        let pipeline = create_compute_pipeline(ctx, "translucency", &spirv, 0)?;
+        let fill = create_compute_pipeline(ctx, "translucency fill", &fill_spirv, 0)?;
+        Ok(TranslucencyPass { pipeline, fill, rect: None, extent: vk::Extent2D::default(), data })
     }
 }
 
@@ -576,10 +469,25 @@ impl Pass for TranslucencyPass {
         "translucency"
     }
 
-    fn prepare(&mut self, scene: &Scene, _: f64, extent: vk::Extent2D) -> GpuResult<()> {
-        let (Some(data), Some(buffer)) = (&self.data, &mut self.params) else { return Ok(()) };
+    fn images(&self) -> Vec<ImageUse> {
+        vec![
+            ImageUse::new(Target::Ids, ImageAccess::COMPUTE_READ),
+            ImageUse::new(Target::Distance, ImageAccess::COMPUTE_READ),
+            ImageUse::new(Target::Normal, ImageAccess::COMPUTE_READ),
+            ImageUse::new(Target::Hdr, ImageAccess::COMPUTE_READ_WRITE),
+            ImageUse::new(Target::LightIds, ImageAccess::COMPUTE_READ),
+            ImageUse::new(Target::LightZ, ImageAccess::COMPUTE_READ),
+            ImageUse::new(Target::Thickness, ImageAccess::COMPUTE_WRITE),
+        ]
+    }
+
+    fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
+        let (scene, extent) = (frame.scene, frame.extent);
+        let data = &self.data;
         let cam = &scene.camera;
         let [right, up, forward] = cam.ray_frame(extent.width, extent.height).to_f32();
+        self.rect = translucent_pixels(scene, extent);
+        self.extent = extent;
         let params = TranslucencyParams {
             right,
             up,
@@ -590,83 +498,44 @@ impl Pass for TranslucencyPass {
             // The same function sized the light maps (translucent instances stay where they loaded).
             dims: [extent.width, extent.height, light_map_size(scene), scene.instances.len() as u32],
             lut: [data.lut_image.extent.width, 0, 0, 0],
-            rect: [0; 4],
+            rect: self.rect.map_or([0; 4], |r| [r.x0, r.y0, r.x1, r.y1]),
         };
-        self.rect = translucent_pixels(scene, extent);
-        let params = match self.rect {
-            Some(r) => TranslucencyParams { rect: [r.x0, r.y0, r.x1, r.y1], ..params },
-            None => params,
-        };
-        buffer.write(0, bytemuck::bytes_of(&params))
+        Ok(vec![
+            Binding::Bound(Bound::Uniform(frame.upload(&[params])?)),
+            Binding::Image(Target::Ids),
+            Binding::Image(Target::Distance),
+            Binding::Image(Target::Hdr),
+            Binding::Image(Target::LightIds),
+            Binding::Image(Target::LightZ),
+            Binding::Image(Target::Thickness),
+            Binding::Bound(Bound::Sampled(data.lut_image.view, data.sampler.raw)),
+            Binding::Bound(Bound::UniformTexel(data.grid.view)),
+            Binding::Bound(Bound::UniformTexel(data.records.view)),
+            Binding::Bound(Bound::UniformTexel(data.instances.view)),
+            Binding::Bound(Bound::Storage(frame.scene_gpu.materials_range())),
+            Binding::Bound(Bound::UniformTexel(data.centres.view)),
+            Binding::Image(Target::Normal),
+        ])
     }
 
-    fn uses(&self) -> Vec<(Target, ImageAccess)> {
-        vec![
-            (Target::Ids, ImageAccess::COMPUTE_READ),
-            (Target::Distance, ImageAccess::COMPUTE_READ),
-            (Target::Normal, ImageAccess::COMPUTE_READ),
-            (Target::Hdr, ImageAccess::COMPUTE_READ_WRITE),
-            (Target::LightIds, ImageAccess::COMPUTE_READ),
-            (Target::LightZ, ImageAccess::COMPUTE_READ),
-            (Target::Thickness, ImageAccess::COMPUTE_WRITE),
-        ]
+    fn pipelines(&self) -> Vec<&Pipeline> {
+        // The fill variant's shader uses fewer bindings: a set of its own.
+        vec![&self.pipeline, &self.fill]
     }
 
-    fn bind(
-        &mut self,
-        ctx: &GpuContext,
-        pool: &DescriptorPool,
-        scene_gpu: &SceneGpu,
-        targets: &Targets,
-    ) -> GpuResult<()> {
-        let (Some(data), Some(params)) = (&self.data, &self.params) else { return Ok(()) };
-        self.set = pool.allocate(ctx, self.pipeline.set_layout, "translucency set")?;
-        let view = |t: Target| Bound::StorageImage(targets.image(t).view);
-        write_set(
-            ctx,
-            self.set,
-            &[
-                (0, Bound::Uniform(params.raw)),
-                (1, view(Target::Ids)),
-                (2, view(Target::Distance)),
-                (3, view(Target::Hdr)),
-                (4, view(Target::LightIds)),
-                (5, view(Target::LightZ)),
-                (6, view(Target::Thickness)),
-                (7, Bound::Sampled(data.lut_image.view, data.sampler.raw)),
-                (8, Bound::UniformTexel(data.grid.view)),
-                (9, Bound::UniformTexel(data.records.view)),
-                (10, Bound::UniformTexel(data.instances.view)),
-                (11, Bound::Storage(scene_gpu.materials.raw)),
-                (12, Bound::UniformTexel(data.centres.view)),
-                (13, view(Target::Normal)),
-            ],
-        );
-        Ok(())
-    }
-
-    fn record(&self, inputs: &PassInputs) {
-        let extent = inputs.targets.extent;
+    fn record(&self, pass: &PassRecording) {
+        let extent = self.extent;
         if self.rect != Some(PixelRect::full(extent.width, extent.height)) {
-            inputs.rec.bind_pipeline(&self.fill, self.set);
-            inputs.rec.dispatch_2d(extent.width, extent.height, (8, 8));
+            pass.rec.bind_pipeline(&self.fill, pass.set(1));
+            pass.rec.dispatch_2d(extent.width, extent.height, (8, 8));
             if self.rect.is_some() {
-                inputs.rec.compute_to_compute_barrier();
+                pass.rec.compute_to_compute_barrier();
             }
         }
         if let Some(r) = self.rect {
-            inputs.rec.bind_pipeline(&self.pipeline, self.set);
-            inputs.rec.dispatch_2d(r.width(), r.height(), (8, 8));
+            pass.rec.bind_pipeline(&self.pipeline, pass.set(0));
+            pass.rec.dispatch_2d(r.width(), r.height(), (8, 8));
         }
-    }
-
-    fn destroy(&mut self, ctx: &GpuContext, memory: &Memory) {
-        self.pipeline.destroy(ctx);
-        self.fill.destroy(ctx);
-        if let Some(params) = self.params.take() {
-            memory.destroy_buffer(ctx, params);
-        }
-        release(self.data.take(), ctx, memory);
     }
 }
 

@@ -1,90 +1,139 @@
 //! The recording core: a loaded scene's passes, GPU data and images, recorded into a command
-//! buffer the caller gives. It never submits or waits per frame. The headless `Runtime` and a game
-//! that embeds hadou (`GpuContext::from_raw`) both render through it.
+//! buffer the caller gives. It never submits, and never waits in steady state. The headless
+//! `Runtime` and a game that embeds hadou (`GpuContext::from_raw`) both render through it.
 //!
-//! Frame contract (embedding): hadou writes its per-frame parameters (uniforms, wave and metaball
-//! tables) on the host inside `record_frame`, so the previous frame hadou recorded must have
-//! finished on the GPU first (the game waits on that frame's fence — one hadou frame in flight).
-//! Timestamps are read a frame or more later without waiting (`latest_timings`).
+//! # Frame contract (embedding)
+//!
+//! The renderer has `frames_in_flight` frame slots (1..=4, default 2). Frame n (the n-th
+//! `record_frame`, `RecordedFrame::frame`) is recorded into slot n mod frames_in_flight, which
+//! owns that frame's per-frame data (an upload ring for constants, instance, wave and metaball
+//! tables), its descriptor sets and its timestamps. **Before recording frame n, the host
+//! guarantees that every frame up to n − frames_in_flight has finished on the GPU** — the usual
+//! game loop with one fence per frame in flight does exactly that when hadou's frames_in_flight
+//! equals the game's. hadou relies on it to reuse the slot and to free what was dropped:
+//! every GPU object hadou drops (a grown buffer, the old images after a resize, a reloaded scene's
+//! data) is retired with the newest frame that may use it and destroyed only once that frame is
+//! known finished. A host that knows more (it waited on a fence) may say so with
+//! `frame_finished`, so timings arrive and memory is freed sooner.
+//!
+//! Timestamps are read only from frames known to be finished, never waited for
+//! (`latest_timings`).
 
-mod composite;
-pub mod depth_import;
-mod external;
 mod inputs;
 pub(crate) mod readback;
 mod record;
+mod slots;
 mod timings;
 mod update;
-
-use std::mem::ManuallyDrop;
 
 pub use inputs::{DepthConvention, ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
 pub use readback::AovReadback;
 pub use timings::FrameTimings;
 pub use update::WaveUpdate;
 
-use crate::frame::{build_passes, plan};
 use crate::gpu::memory::Memory;
-use crate::gpu::pipeline::DescriptorPool;
+use crate::gpu::pipeline_cache::PipelineCache;
 use crate::gpu::shader::ShaderCompiler;
-use crate::gpu::{GpuContext, GpuResult};
+use crate::gpu::GpuContext;
+use crate::passes::composite::CompositePass;
+use crate::passes::depth_import::DepthImportPass;
+use crate::passes::tonemap::TonemapPass;
 use crate::passes::Pass;
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
 use crate::targets::{Target, Targets};
 use crate::Error;
-use external::External;
-use timings::TimingRing;
+use slots::Slot;
+use timings::FinishedFrame;
 
-/// Frames whose timestamps can be pending at once (the game's frames in flight + one).
-pub const TIMING_FRAMES: usize = 3;
+/// How a `Renderer` is made.
+#[derive(Clone, Debug)]
+pub struct RendererOptions {
+    /// Frame slots (1..=4): how many of hadou's frames may be in flight at once. See the module
+    /// docs for the contract.
+    pub frames_in_flight: usize,
+    /// Where the pipeline cache file lives; `None`: the bake cache's folder
+    /// (`effects::bake_cache::default_cache_dir`), no file when that is unknown.
+    pub pipeline_cache_dir: Option<std::path::PathBuf>,
+}
+
+impl Default for RendererOptions {
+    fn default() -> Self {
+        RendererOptions { frames_in_flight: 2, pipeline_cache_dir: None }
+    }
+}
+
+/// The most frame slots a renderer takes.
+pub const MAX_FRAMES_IN_FLIGHT: usize = 4;
 
 struct Loaded {
     scene: Scene,
     gpu: SceneGpu,
     passes: Vec<Box<dyn Pass>>,
-    /// Instance transforms changed since the last upload.
+    /// Instance transforms changed since the instance table was built.
     instances_dirty: bool,
+}
+
+/// The passes that run only for some frames: the game's depth in, the output out.
+#[derive(Default)]
+struct Edges {
+    depth_import: Option<DepthImportPass>,
+    tonemap: Option<TonemapPass>,
+    composite: Option<CompositePass>,
 }
 
 /// hadou's passes, scene data and images on one device. See the module docs for the frame contract.
 ///
-/// Drop (or `Drop` of the owner) destroys everything hadou created, after `vkDeviceWaitIdle`; the
-/// context it was made with (owning or `from_raw`) is dropped last.
+/// Dropping it frees everything hadou created, after `vkDeviceWaitIdle` (teardown); the context
+/// it was made with (owning or `from_raw`) is dropped last.
 pub struct Renderer {
     loaded: Option<Loaded>,
     targets: Option<Targets>,
-    external: External,
-    timings: TimingRing,
-    pool: DescriptorPool,
+    edges: Edges,
+    slots: Vec<Slot>,
+    /// The number the next recorded frame gets.
+    next_frame: u64,
+    /// The slot of the frame recorded last (where a read-back recorded after it goes).
+    current: Option<usize>,
+    /// Frames up to this one are known to have finished.
+    finished_through: Option<u64>,
+    latest: Option<FinishedFrame>,
     compiler: ShaderCompiler,
-    frame_index: u64,
-    memory: ManuallyDrop<Memory>,
+    pipeline_cache: Option<PipelineCache>,
+    memory: Memory,
     ctx: GpuContext,
 }
 
 impl Renderer {
-    /// A renderer with no scene on `ctx` (from `GpuContext::new` or `GpuContext::from_raw`).
+    /// A renderer with no scene on `ctx` (from `GpuContext::new` or `GpuContext::from_raw`), with
+    /// the default options (2 frames in flight).
     pub fn new(ctx: GpuContext) -> Result<Self, Error> {
+        Self::with_options(ctx, &RendererOptions::default())
+    }
+
+    pub fn with_options(ctx: GpuContext, options: &RendererOptions) -> Result<Self, Error> {
+        let n = options.frames_in_flight;
+        if !(1..=MAX_FRAMES_IN_FLIGHT).contains(&n) {
+            return Err(Error::FramesInFlight(n));
+        }
         let memory = Memory::new(&ctx)?;
         let compiler = ShaderCompiler::new()?;
-        let pool = DescriptorPool::new(&ctx, "frame descriptors", 32)?;
-        let timings = match TimingRing::new(&ctx, TIMING_FRAMES) {
-            Ok(t) => t,
-            Err(e) => {
-                pool.destroy(&ctx);
-                return Err(e.into());
-            }
-        };
+        let dir = options.pipeline_cache_dir.clone().or_else(crate::effects::bake_cache::default_cache_dir);
+        let pipeline_cache = PipelineCache::open(&ctx, dir.as_deref())?;
+        ctx.resources().set_pipeline_cache(pipeline_cache.raw);
+        let slots = (0..n).map(|i| Slot::new(&ctx, i)).collect::<Result<Vec<_>, _>>()?;
         Ok(Renderer {
             loaded: None,
             targets: None,
-            external: External::default(),
-            timings,
-            pool,
+            edges: Edges::default(),
+            slots,
+            next_frame: 0,
+            current: None,
+            finished_through: None,
+            latest: None,
             compiler,
-            frame_index: 0,
-            memory: ManuallyDrop::new(memory),
+            pipeline_cache: Some(pipeline_cache),
+            memory,
             ctx,
         })
     }
@@ -93,97 +142,114 @@ impl Renderer {
         &self.ctx
     }
 
-    pub fn memory(&self) -> &Memory {
-        &self.memory
+    /// The number the next recorded frame gets (`RecordedFrame::frame`).
+    pub fn next_frame(&self) -> u64 {
+        self.next_frame
     }
 
-    pub fn compiler(&mut self) -> &mut ShaderCompiler {
-        &mut self.compiler
+    pub fn frames_in_flight(&self) -> usize {
+        self.slots.len()
     }
 
     pub fn scene(&self) -> Option<&Scene> {
         self.loaded.as_ref().map(|l| &l.scene)
     }
 
-    pub fn scene_gpu(&self) -> Option<&SceneGpu> {
-        self.loaded.as_ref().map(|l| &l.gpu)
+    /// The loaded scene's instanced draws (one per mesh with instances) and its mesh buffer pairs.
+    pub fn draws(&self) -> (Vec<crate::scene_gpu::Draw>, usize) {
+        self.loaded.as_ref().map_or((Vec::new(), 0), |l| (l.gpu.draws.clone(), l.gpu.meshes.len()))
     }
 
-    /// The passes the loaded scene runs, in order.
+    /// The scene passes the loaded scene runs, in order, and the output pass of a headless frame.
     pub fn pass_names(&self) -> Vec<&'static str> {
-        self.loaded.as_ref().map(|l| l.passes.iter().map(|p| p.name()).collect()).unwrap_or_default()
+        let Some(l) = &self.loaded else { return Vec::new() };
+        l.passes.iter().map(|p| p.name()).chain(["tonemap"]).collect()
     }
 
-    /// Whether the loaded scene's passes write `target` (so it can be read back).
+    /// Whether a headless frame of the loaded scene writes `target` (so it can be read back).
     pub fn produces(&self, target: Target) -> bool {
-        self.loaded
-            .as_ref()
-            .is_some_and(|l| l.passes.iter().any(|p| p.uses().iter().any(|(t, _)| *t == target)))
+        target == Target::Ldr
+            || self
+                .loaded
+                .as_ref()
+                .is_some_and(|l| l.passes.iter().any(|p| p.images().iter().any(|u| u.target == target)))
     }
 
     /// Uploads the scene and builds the passes it needs (pipelines are built here, never per
-    /// frame), replacing any scene loaded before. May submit one-off uploads (baked tables) to the
-    /// context's queue and wait for them: call it while nothing else submits to that queue.
+    /// frame, through the pipeline cache), replacing any scene loaded before. The old scene's
+    /// objects are retired with the frames that may still use them: no device wait. Baked tables
+    /// are uploaded through a one-off command buffer on the context's queue, waited for by its
+    /// own fence: call it while nothing else submits to that queue.
     pub fn load_scene(&mut self, scene: Scene) -> Result<(), Error> {
-        if self.pool.raw == crate::gpu::vk::DescriptorPool::null() {
-            return Err(Error::InvalidRequest("the renderer was destroyed".into()));
-        }
-        self.unload();
         let gpu = SceneGpu::new(&self.ctx, &self.memory, &scene)?;
-        let passes = match build_passes(&self.ctx, &self.memory, &mut self.compiler, &scene, &plan(&scene)) {
-            Ok(p) => p,
-            Err(e) => {
-                gpu.destroy(&self.ctx, &self.memory);
-                return Err(e.into());
-            }
-        };
+        let passes = crate::passes::registry::build(&self.ctx, &self.memory, &mut self.compiler, &scene)?;
         self.loaded = Some(Loaded { scene, gpu, passes, instances_dirty: false });
-        // Descriptors point at the new scene's buffers: rebuilt on the next frame.
-        self.drop_targets();
         Ok(())
     }
 
-    fn unload(&mut self) {
-        if let Some(old) = self.loaded.take() {
-            let _ = self.ctx.wait_idle();
-            let mut passes = old.passes;
-            passes.iter_mut().for_each(|p| p.destroy(&self.ctx, &self.memory));
-            old.gpu.destroy(&self.ctx, &self.memory);
+    /// Builds what the first frame of `inputs` needs (the output pass, the depth import, the
+    /// frame's images), so that frame does not pay for it.
+    pub fn prepare(&mut self, inputs: &FrameInputs) -> Result<(), Error> {
+        self.check_inputs(inputs)?;
+        self.ensure_edges(inputs)?;
+        let targets = self.targets.get_or_insert_with(|| Targets::new(inputs.extent));
+        targets.extent = inputs.extent;
+        let Some(loaded) = &self.loaded else { return Ok(()) };
+        let edges = [
+            self.edges.depth_import.as_ref().filter(|_| inputs.depth.is_some()).map(|p| p as &dyn Pass),
+            self.edges.tonemap.as_ref().filter(|_| inputs.color.is_none()).map(|p| p as &dyn Pass),
+            self.edges.composite.as_ref().filter(|_| inputs.color.is_some()).map(|p| p as &dyn Pass),
+        ];
+        let passes = loaded.passes.iter().map(|p| p.as_ref()).chain(edges.into_iter().flatten());
+        for pass in passes {
+            for image in pass.images() {
+                targets.ensure(&self.ctx, &self.memory, image.target, image.extent)?;
+            }
         }
+        Ok(())
     }
 
-    /// Destroys the size-dependent images (after the device is idle).
-    fn drop_targets(&mut self) {
-        if let Some(t) = self.targets.take() {
-            let _ = self.ctx.wait_idle();
-            t.destroy(&self.ctx, &self.memory);
+    /// Tells hadou that frame `frame` (and every one before it) has finished on the GPU: its
+    /// timings and device counters are read, and what was retired with it is freed. Optional (the
+    /// frame contract implies it `frames_in_flight` frames later); it never waits.
+    pub fn frame_finished(&mut self, frame: u64) -> Result<(), Error> {
+        if frame >= self.next_frame {
+            return Err(Error::FrameNotRecorded { frame, recorded: self.next_frame });
         }
-        self.external.drop_sized(&self.ctx, &self.memory);
-    }
-
-    /// After the frame's fence: adds what passes counted on the device (metaball statistics).
-    pub fn report(&self, stats: &mut crate::frame::FrameStats) {
-        if let Some(l) = &self.loaded {
-            l.passes.iter().for_each(|p| p.report(stats));
+        if self.finished_through.is_some_and(|f| f >= frame) {
+            return Ok(());
         }
+        self.finished_through = Some(frame);
+        for i in 0..self.slots.len() {
+            let passes = self.loaded.as_ref().map(|l| l.passes.as_slice()).unwrap_or_default();
+            if let Some(done) = self.slots[i].finish(&self.ctx, i, frame, passes)? {
+                if self.latest.as_ref().is_none_or(|l| l.frame < done.frame) {
+                    self.latest = Some(done);
+                }
+            }
+        }
+        self.ctx.resources().collect(frame);
+        Ok(())
     }
 
-    /// Destroys everything hadou created on the device, waiting for the device to be idle first.
-    /// Called by Drop; call it earlier to control when (it is idempotent). Afterwards the renderer
-    /// has no scene and refuses `load_scene`: only dropping it is left.
-    pub fn destroy(&mut self) {
-        let _ = self.ctx.wait_idle();
-        self.unload();
-        self.drop_targets();
-        self.external.destroy(&self.ctx, &self.memory);
-        self.timings.destroy(&self.ctx);
-        self.pool.destroy(&self.ctx);
-        self.pool = DescriptorPool { raw: crate::gpu::vk::DescriptorPool::null() };
+    /// The per-pass GPU times of the newest frame known to have finished (see `frame_finished`);
+    /// None until one has. Never touches the device.
+    pub fn latest_timings(&self) -> Option<FrameTimings> {
+        self.latest.as_ref().map(|l| l.timings())
     }
 
-    /// Energy-wave shader code for explicit rays, for tests (see `Runtime::energy_probe`).
-    pub(crate) fn parts(&mut self) -> (&GpuContext, &Memory, &mut ShaderCompiler) {
-        (&self.ctx, &self.memory, &mut self.compiler)
+    /// What the device counted in the newest frame known to have finished (metaball statistics),
+    /// with its timings.
+    pub fn latest_stats(&self) -> Option<(u64, crate::frame::FrameStats)> {
+        self.latest.as_ref().map(|l| (l.frame, l.stats.clone()))
+    }
+
+    /// Tells hadou the command buffer of the frame just recorded will not be submitted (an error
+    /// after `record_frame`): its timestamps are not waited for.
+    pub fn abandon_frame(&mut self) {
+        if let Some(i) = self.current.take() {
+            self.slots[i].abandon();
+        }
     }
 
     /// Validation results of the owning context (zero for `from_raw`: the game's messenger counts).
@@ -191,25 +257,26 @@ impl Renderer {
         self.ctx.validation_counts()
     }
 
-    /// The per-pass GPU times of the newest frame the GPU has finished, polled without waiting
-    /// (`vkGetQueryPoolResults` without WAIT); None until one has finished. With one frame in
-    /// flight, frame N's times are there once its fence signalled.
-    pub fn latest_timings(&mut self) -> GpuResult<Option<&FrameTimings>> {
-        self.timings.poll(&self.ctx)?;
-        Ok(self.timings.latest())
-    }
-
-    /// Tells hadou the command buffer of the frame just recorded will not be submitted (an
-    /// error after `record_frame`), so its timestamp pool is free again.
-    pub fn abandon_frame(&mut self) {
-        self.timings.abandon_current(&self.ctx);
+    /// The shader compiler, for code that builds pipelines next to hadou's (tests, the report).
+    pub(crate) fn parts(&mut self) -> (&GpuContext, &Memory, &mut ShaderCompiler) {
+        (&self.ctx, &self.memory, &mut self.compiler)
     }
 }
 
 impl Drop for Renderer {
     fn drop(&mut self) {
-        self.destroy();
-        // SAFETY: dropped exactly once, before the context (a field declared after it) is dropped.
-        unsafe { ManuallyDrop::drop(&mut self.memory) };
+        // Teardown: the only device wait. Everything hadou made is retired, then freed.
+        let _ = self.ctx.wait_idle();
+        if let Some(cache) = &self.pipeline_cache {
+            cache.save();
+        }
+        self.loaded = None;
+        self.targets = None;
+        self.edges = Edges::default();
+        self.slots.clear();
+        self.ctx.resources().set_pipeline_cache(Default::default());
+        self.pipeline_cache = None;
+        self.ctx.resources().collect_all();
+        // The context (the last field) is dropped after this.
     }
 }

@@ -5,16 +5,16 @@ use gpu_allocator::MemoryLocation;
 
 use super::Renderer;
 use crate::aov::{Aov, AovImage};
-use crate::frame::record_scope;
+use crate::frame::{record_scope, Timestamps};
 use crate::gpu::barriers::{cmd_barriers, memory_barrier, ImageAccess};
 use crate::gpu::memory::Buffer;
 use crate::gpu::recorder::Recorder;
-use crate::gpu::{vk, GpuError};
+use crate::gpu::vk;
 use crate::targets::Target;
 use crate::Error;
 
-/// Host-visible copies of some of hadou's images. Read them after the frame's fence, then hand
-/// the set back with `Renderer::release_readback` (its buffers are hadou's).
+/// Host-visible copies of some of hadou's images. Read them after the frame's fence; dropping the
+/// set frees its buffers (with the frames that may still write them).
 pub struct AovReadback {
     pub extent: vk::Extent2D,
     buffers: Vec<(Target, Buffer)>,
@@ -45,7 +45,7 @@ impl Renderer {
     }
 
     /// Records copies of `wanted` targets (e.g. `Target::Ldr` for the headless colour).
-    pub fn record_readback(
+    pub(crate) fn record_readback(
         &mut self,
         cmd: vk::CommandBuffer,
         wanted: &[Target],
@@ -53,38 +53,35 @@ impl Renderer {
         let mut wanted = wanted.to_vec();
         wanted.sort();
         wanted.dedup();
-        if let Some(missing) = wanted.iter().find(|t| !self.produces(**t)) {
-            return Err(Error::InvalidRequest(format!(
-                "AOV {} is not produced by this scene's passes ({}): e.g. `energy` needs a [[wave]]",
-                missing.name(),
-                self.pass_names().join(", ")
-            )));
-        }
-        let Some(targets) = &mut self.targets else {
-            return Err(Error::InvalidRequest("no frame recorded yet (or it was 0 × 0)".into()));
+        let passes = self.pass_names().join(", ");
+        let (Some(targets), Some(slot)) = (&mut self.targets, self.current) else {
+            return Err(Error::NoFrameRecorded);
         };
+        if let Some(&missing) = wanted.iter().find(|t| !targets.contains(**t)) {
+            return Err(Error::NotProduced { target: missing.name(), passes, needs: missing.needs() });
+        }
         let extent = targets.extent;
         let mut readback = AovReadback { extent, buffers: Vec::new() };
         for &target in &wanted {
-            let size = extent.width as u64 * extent.height as u64 * target.texel_bytes();
+            let size = (extent.width as u64)
+                .checked_mul(extent.height as u64)
+                .and_then(|n| n.checked_mul(target.texel_bytes()))
+                .ok_or(Error::FrameSize { width: extent.width, height: extent.height, max: u32::MAX })?;
             let name = format!("readback {}", target.name());
             let usage = vk::BufferUsageFlags::TRANSFER_DST;
-            match self.memory.create_buffer(&self.ctx, &name, size, usage, MemoryLocation::GpuToCpu) {
-                Ok(buffer) => readback.buffers.push((target, buffer)),
-                Err(e) => {
-                    readback.buffers.into_iter().for_each(|(_, b)| self.memory.destroy_buffer(&self.ctx, b));
-                    return Err(e.into());
-                }
-            }
+            let buffer =
+                self.memory.create_buffer(&self.ctx, &name, size, usage, MemoryLocation::GpuToCpu)?;
+            readback.buffers.push((target, buffer));
         }
         let ctx = &self.ctx;
         let barriers: Vec<_> =
             wanted.iter().filter_map(|&t| targets.transition(t, ImageAccess::TRANSFER_SRC)).collect();
-        let mut timestamps = self.timings.pool();
+        let s = &mut self.slots[slot];
+        let mut timestamps: Timestamps = Some(&mut s.timestamps);
         let rec = Recorder { ctx, cmd };
         let scope = record_scope(ctx, cmd, &mut timestamps, "readback", &barriers, || {
             for (target, buffer) in &readback.buffers {
-                rec.copy_image_to_buffer(targets.image(*target), buffer);
+                rec.copy_image_to_buffer(&targets.image(*target), buffer);
             }
             let to_host = memory_barrier(
                 vk::PipelineStageFlags2::COPY,
@@ -94,17 +91,7 @@ impl Renderer {
             );
             cmd_barriers(&ctx.device, cmd, &[], &[to_host]);
         });
-        self.timings.push_scopes(&[scope]);
+        s.scopes.push(scope);
         Ok(readback)
     }
-
-    /// Frees a read-back's buffers (after the frame's fence).
-    pub fn release_readback(&self, readback: AovReadback) {
-        readback.buffers.into_iter().for_each(|(_, b)| self.memory.destroy_buffer(&self.ctx, b));
-    }
-}
-
-/// An error for a target that should have been read back but was not.
-pub fn not_read_back(target: Target) -> Error {
-    Error::Gpu(GpuError::Limit { what: target.name().into(), message: "not read back".into() })
 }

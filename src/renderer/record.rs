@@ -1,15 +1,18 @@
-//! `Renderer::record_frame`: one frame recorded into the caller's command buffer — the game's
-//! depth imported, the scene's passes, the result composited into the game's colour.
+//! `Renderer::record_frame`: one frame recorded into the caller's command buffer, in the frame's
+//! slot — the game's depth imported, the scene's passes, the output (hadou's tonemapped image, or
+//! a composite into the game's colour).
 
-use super::composite::Composite;
-use super::depth_import::DepthImport;
-use super::inputs::{ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
+use super::inputs::{FrameInputs, RecordedFrame};
 use super::Renderer;
-use crate::effects::translucency::LIGHT_MAP_MIN;
-use crate::frame::{record_passes, record_scope, PassRecording, Scope, Timestamps};
-use crate::gpu::barriers::{cmd_barriers, image_barrier, memory_barrier, ImageAccess};
-use crate::gpu::recorder::Recorder;
-use crate::gpu::{vk, GpuResult};
+use crate::frame::{record_passes, SlotFrame, Timestamps};
+use crate::gpu::barriers::{cmd_barriers, ImageAccess};
+use crate::gpu::pipeline::BufferRange;
+use crate::gpu::vk;
+use crate::passes::composite::CompositePass;
+use crate::passes::depth_import::DepthImportPass;
+use crate::passes::gpu_structs::FrameUniforms;
+use crate::passes::tonemap::TonemapPass;
+use crate::passes::Pass;
 use crate::targets::{Target, Targets};
 use crate::Error;
 
@@ -23,19 +26,49 @@ fn game_access(layout: vk::ImageLayout) -> ImageAccess {
     }
 }
 
-/// hadou's HDR image read by the composite's fragment shader.
-const FRAGMENT_STORAGE_READ: ImageAccess = ImageAccess {
-    stage: vk::PipelineStageFlags2::FRAGMENT_SHADER,
-    access: vk::AccessFlags2::SHADER_STORAGE_READ,
-    layout: vk::ImageLayout::GENERAL,
-};
-
 impl Renderer {
+    pub(super) fn check_inputs(&self, inputs: &FrameInputs) -> Result<(), Error> {
+        let extent = inputs.extent;
+        let max = self.ctx.limits.max_image_dimension2_d;
+        if extent.width > max || extent.height > max {
+            return Err(Error::FrameSize { width: extent.width, height: extent.height, max });
+        }
+        if self.loaded.is_none() {
+            return Err(Error::NoScene);
+        }
+        if let Some(depth) = &inputs.depth {
+            depth.convention.check().map_err(Error::DepthConvention)?;
+            if !crate::gpu::memory::is_depth_format(depth.format) {
+                return Err(Error::DepthFormat(depth.format));
+            }
+        }
+        Ok(())
+    }
+
+    /// Builds the depth import and the output pass the first time a frame needs them.
+    pub(super) fn ensure_edges(&mut self, inputs: &FrameInputs) -> Result<(), Error> {
+        let (ctx, compiler) = (&self.ctx, &mut self.compiler);
+        if inputs.depth.is_some() && self.edges.depth_import.is_none() {
+            self.edges.depth_import = Some(DepthImportPass::new(ctx, compiler)?);
+        }
+        match &inputs.color {
+            Some(color) => self.edges.composite.get_or_insert_with(CompositePass::new).use_format(
+                ctx,
+                compiler,
+                color.format,
+            )?,
+            None if self.edges.tonemap.is_none() => {
+                self.edges.tonemap = Some(TonemapPass::new(ctx, compiler)?)
+            }
+            None => {}
+        }
+        Ok(())
+    }
+
     /// Records one frame into `cmd` (recording, outside a render pass, on the context's queue
-    /// family). Never submits or waits, except when the frame size changed since the last frame:
-    /// then the size-dependent images are rebuilt after `vkDeviceWaitIdle`. A 0 × 0 extent records
-    /// nothing and returns `recorded: false` (a minimized window is not an error).
-    /// Before calling it, the previous frame hadou recorded must have finished (module docs).
+    /// family). Never submits or waits. A 0 × 0 extent records nothing and returns
+    /// `recorded: false` (a minimized window is not an error). The frame contract (module docs):
+    /// every frame up to `frame − frames_in_flight` has finished.
     pub fn record_frame(
         &mut self,
         cmd: vk::CommandBuffer,
@@ -43,203 +76,171 @@ impl Renderer {
     ) -> Result<RecordedFrame, Error> {
         let extent = inputs.extent;
         if extent.width == 0 || extent.height == 0 {
-            return Ok(RecordedFrame { recorded: false, frame: self.frame_index, timed: false });
+            return Ok(RecordedFrame { recorded: false, frame: self.next_frame, timed: false });
         }
-        let max = self.ctx.limits.max_image_dimension2_d;
-        if extent.width > max || extent.height > max {
-            return Err(Error::InvalidRequest(format!(
-                "frame size {}x{} outside 1..={max} (the device's maxImageDimension2D)",
-                extent.width, extent.height
-            )));
+        self.check_inputs(inputs)?;
+        self.ensure_edges(inputs)?;
+        let (frame, slot) = self.begin_frame()?;
+        let result = self.record_in_slot(cmd, inputs, frame, slot);
+        if result.is_err() {
+            self.abandon_frame();
         }
-        if self.loaded.is_none() {
-            return Err(Error::InvalidRequest("no scene loaded (call load_scene first)".into()));
+        result.map(|()| RecordedFrame { recorded: true, frame, timed: true })
+    }
+
+    /// Numbers the next frame and starts its slot: by the frame contract the frame the slot held
+    /// last has finished, so it is reported and what was retired with it is freed.
+    fn begin_frame(&mut self) -> Result<(u64, usize), Error> {
+        let frame = self.next_frame;
+        let slots = self.slots.len() as u64;
+        if let Some(done) = frame.checked_sub(slots) {
+            self.frame_finished(done)?;
         }
-        if let Some(depth) = &inputs.depth {
-            check_depth(depth)?;
-        }
-        self.ensure_targets(extent)?;
-        let import_set = self.ensure_external(inputs)?;
-        let (Some(loaded), Some(targets)) = (&mut self.loaded, &mut self.targets) else {
-            return Err(Error::InvalidRequest("no scene loaded".into()));
+        self.ctx.resources().set_frame(frame);
+        let slot = (frame % slots) as usize;
+        self.slots[slot].begin(&self.ctx, frame)?;
+        self.next_frame += 1;
+        self.current = Some(slot);
+        Ok((frame, slot))
+    }
+
+    /// Records `pass` alone as a frame of its own (no images; the loaded scene, or an empty one,
+    /// is what it sees): how `energy_probe` runs on the same runner as every pass.
+    pub(crate) fn record_one_off(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        pass: &mut dyn Pass,
+    ) -> Result<u64, Error> {
+        let (frame, slot) = self.begin_frame()?;
+        let empty;
+        let (scene, gpu) = match &self.loaded {
+            Some(l) => (&l.scene, Some(&l.gpu)),
+            None => {
+                empty = crate::scene::parse_scene(
+                    "[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\n",
+                    "probe".as_ref(),
+                )?;
+                (&empty, None)
+            }
         };
-        // Host writes of this frame's parameters (the previous frame has finished).
+        let gpu_owned;
+        let gpu = match gpu {
+            Some(g) => g,
+            None => {
+                gpu_owned = crate::scene_gpu::SceneGpu::new(&self.ctx, &self.memory, scene)?;
+                &gpu_owned
+            }
+        };
+        let s = &mut self.slots[slot];
+        let none = BufferRange::whole(vk::Buffer::null());
+        let mut targets = Targets::new(vk::Extent2D { width: 1, height: 1 });
+        let mut f = SlotFrame {
+            ctx: &self.ctx,
+            memory: &self.memory,
+            cmd,
+            slot,
+            pool: &s.pool,
+            ring: &mut s.ring,
+            targets: &mut targets,
+            scene,
+            scene_gpu: gpu,
+            uniforms: none,
+            instances: none,
+            time: 0.0,
+            embedded: false,
+            depth_imported: false,
+        };
+        let mut timestamps: Timestamps = Some(&mut s.timestamps);
+        let recorded = record_passes(&mut f, &mut [pass], &mut timestamps, &mut s.scopes);
+        if let Err(e) = recorded {
+            self.abandon_frame();
+            return Err(e.into());
+        }
+        Ok(frame)
+    }
+
+    fn record_in_slot(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        inputs: &FrameInputs,
+        frame: u64,
+        slot: usize,
+    ) -> Result<(), Error> {
+        let extent = inputs.extent;
+        let (ctx, memory) = (&self.ctx, &self.memory);
+        let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
+        let s = &mut self.slots[slot];
         if loaded.instances_dirty {
-            loaded.gpu.upload_instances(&loaded.scene)?;
+            loaded.gpu.refresh_instances(&loaded.scene);
             loaded.instances_dirty = false;
         }
-        loaded.gpu.update_uniforms(&loaded.scene, extent.width, extent.height)?;
-        for pass in loaded.passes.iter_mut() {
-            pass.prepare(&loaded.scene, inputs.time, extent)?;
-            pass.prepare_device(&self.ctx, &self.memory)?;
-        }
-        let frame = self.frame_index;
-        self.frame_index += 1;
-        let timed = self.timings.begin(&self.ctx, frame)?;
-        let ctx = &self.ctx;
-        let mut timestamps: Timestamps = self.timings.pool();
+        let uniforms = FrameUniforms::new(&loaded.scene, extent.width, extent.height);
+        let uniforms = s.ring.push(ctx, memory, bytemuck::bytes_of(&uniforms))?.range();
+        let instances: BufferRange =
+            s.ring.push(ctx, memory, bytemuck::cast_slice(loaded.gpu.instance_table()))?.range();
+
+        let targets = self.targets.get_or_insert_with(|| Targets::new(extent));
+        targets.extent = extent;
         targets.discard_all();
-        let mut scopes: Vec<Scope> = Vec::new();
-        if let (Some(depth), Some(import), Some(set)) = (&inputs.depth, &self.external.depth, import_set) {
-            let rec = Recorder { ctx, cmd };
-            let camera = &loaded.scene.camera;
-            scopes.push(record_import(&rec, &mut timestamps, targets, import, set, depth, camera));
+        if let Some(depth) = &inputs.depth {
+            let last = game_access(depth.layout);
+            targets.import(Target::GameDepth, depth.image, depth.view, depth.format, last);
+            if let Some(p) = &mut self.edges.depth_import {
+                p.set_convention(depth.convention);
+            }
         }
-        // The game's colour is the output: hadou's own tonemapped image is not needed.
-        let skip: &[&'static str] = if inputs.color.is_some() { &["tonemap"] } else { &[] };
-        let recording = PassRecording {
+        if let Some(color) = &inputs.color {
+            targets.import(
+                Target::GameColor,
+                color.image,
+                color.view,
+                color.format,
+                game_access(color.layout),
+            );
+        }
+        // This frame's passes: the game's depth in, the scene's, the output.
+        let mut passes: Vec<&mut dyn Pass> = Vec::new();
+        if let (Some(_), Some(p)) = (&inputs.depth, &mut self.edges.depth_import) {
+            passes.push(p);
+        }
+        passes.extend(loaded.passes.iter_mut().map(|p| p.as_mut() as &mut dyn Pass));
+        match (&inputs.color, &mut self.edges.composite, &mut self.edges.tonemap) {
+            (Some(_), Some(c), _) => passes.push(c),
+            (None, _, Some(t)) => passes.push(t),
+            _ => {}
+        }
+        let used: Vec<Target> = passes.iter().flat_map(|p| p.images()).map(|u| u.target).collect();
+        targets.retain_only(&used);
+        let mut f = SlotFrame {
             ctx,
+            memory,
             cmd,
-            passes: &loaded.passes,
+            slot,
+            pool: &s.pool,
+            ring: &mut s.ring,
             targets,
-            scene_gpu: &loaded.gpu,
             scene: &loaded.scene,
+            scene_gpu: &loaded.gpu,
+            uniforms,
+            instances,
             time: inputs.time,
             embedded: inputs.depth.is_some() || inputs.color.is_some(),
             depth_imported: inputs.depth.is_some(),
-            skip,
         };
-        record_passes(recording, &mut timestamps, &mut scopes);
-        if let (Some(color), Some(composite)) = (&inputs.color, &self.external.composite) {
-            let rec = Recorder { ctx, cmd };
-            let exposure = loaded.scene.render.exposure;
-            scopes.push(record_composite(&rec, &mut timestamps, targets, composite, color, exposure));
+        // The slot's queries were reset on the host when it began.
+        let mut timestamps: Timestamps = Some(&mut s.timestamps);
+        record_passes(&mut f, &mut passes, &mut timestamps, &mut s.scopes)?;
+        // The game's images go back to the layouts it asked for.
+        let mut release = Vec::new();
+        if let Some(depth) = &inputs.depth {
+            release.extend(targets.transition(Target::GameDepth, game_access(depth.final_layout)));
         }
-        self.timings.push_scopes(&scopes);
-        Ok(RecordedFrame { recorded: true, frame, timed })
-    }
-
-    /// (Re)creates the frame's images when the size changed, and points every pass at them.
-    pub(super) fn ensure_targets(&mut self, extent: vk::Extent2D) -> GpuResult<()> {
-        if self.targets.as_ref().is_some_and(|t| t.extent == extent) {
-            return Ok(());
-        }
-        self.drop_targets();
-        let wanted = self.loaded.as_ref().map(|l| crate::frame::targets_used(&l.passes)).unwrap_or_default();
-        let light_map = self
-            .loaded
-            .as_ref()
-            .map_or(LIGHT_MAP_MIN, |l| crate::effects::translucency::light_map_size(&l.scene));
-        let targets = Targets::new(&self.ctx, &self.memory, extent, &wanted, light_map)?;
-        self.pool.reset(&self.ctx)?;
-        if let Some(loaded) = &mut self.loaded {
-            for pass in &mut loaded.passes {
-                if let Err(e) = pass.bind(&self.ctx, &self.pool, &loaded.gpu, &targets) {
-                    targets.destroy(&self.ctx, &self.memory);
-                    return Err(e);
-                }
-            }
-        }
-        self.targets = Some(targets);
-        Ok(())
-    }
-
-    /// Builds the depth import and composite the first time a game hands such an image, and their
-    /// size- and view-dependent parts; returns the import's descriptor set for this depth view.
-    fn ensure_external(&mut self, inputs: &FrameInputs) -> GpuResult<Option<vk::DescriptorSet>> {
-        let Some(targets) = &self.targets else { return Ok(None) };
         if let Some(color) = &inputs.color {
-            if self.external.composite.is_none() {
-                self.external.composite = Some(Composite::new(&self.ctx)?);
-            }
-            if let Some(c) = &mut self.external.composite {
-                c.prepare(&self.ctx, &mut self.compiler, color.format, targets.image(Target::Hdr).view)?;
-            }
+            release.extend(targets.transition(Target::GameColor, game_access(color.final_layout)));
         }
-        let Some(depth) = &inputs.depth else { return Ok(None) };
-        if self.external.depth.is_none() {
-            self.external.depth = Some(DepthImport::new(&self.ctx, &mut self.compiler)?);
-        }
-        let Some(import) = &mut self.external.depth else { return Ok(None) };
-        import.ensure_size(&self.ctx, &self.memory, inputs.extent)?;
-        import.set_for(&self.ctx, depth, targets.image(Target::Distance).view).map(Some)
-    }
-
-    /// Forgets the game's depth views hadou has seen: call it after destroying a depth image view
-    /// handed to `record_frame` (a new view could get the same handle). Waits for the device.
-    pub fn forget_external_views(&mut self) -> GpuResult<()> {
-        if let Some(d) = &mut self.external.depth {
-            self.ctx.wait_idle()?;
-            d.forget_views(&self.ctx)?;
-        }
+        cmd_barriers(&ctx.device, cmd, &release, &[]);
+        targets.drop_imports();
+        log::trace!("frame {frame} recorded in slot {slot}");
         Ok(())
     }
-}
-
-fn check_depth(depth: &ExternalDepth) -> Result<(), Error> {
-    if let Err(why) = depth.convention.check() {
-        return Err(Error::InvalidRequest(format!("external depth: {why}")));
-    }
-    if !crate::gpu::memory::is_depth_format(depth.format) {
-        return Err(Error::InvalidRequest(format!(
-            "external depth: format {:?} is not a depth format hadou samples (D32_SFLOAT, D16_UNORM, \
-             D24_UNORM_S8_UINT)",
-            depth.format
-        )));
-    }
-    Ok(())
-}
-
-/// The game's depth → `Distance` (storage write) and, through a staging buffer, `Depth`.
-fn record_import(
-    rec: &Recorder,
-    timestamps: &mut Timestamps,
-    targets: &mut Targets,
-    import: &DepthImport,
-    set: vk::DescriptorSet,
-    depth: &ExternalDepth,
-    camera: &crate::scene::camera::Camera,
-) -> Scope {
-    let (ctx, cmd) = (rec.ctx, rec.cmd);
-    let sampled = ImageAccess::COMPUTE_SAMPLED;
-    let mut barriers: Vec<_> =
-        image_barrier(depth.image, depth.format, game_access(depth.layout), sampled).into_iter().collect();
-    barriers.extend(targets.transition(Target::Distance, ImageAccess::COMPUTE_WRITE));
-    let depth_barrier = targets.transition(Target::Depth, ImageAccess::TRANSFER_DST);
-    let release = image_barrier(depth.image, depth.format, sampled, game_access(depth.final_layout));
-    let extent = targets.extent;
-    record_scope(ctx, cmd, timestamps, "depth_import", &barriers, || {
-        // The previous frame's copy read the staging buffer: write it only after.
-        let war = memory_barrier(
-            vk::PipelineStageFlags2::COPY,
-            vk::AccessFlags2::NONE,
-            vk::PipelineStageFlags2::COMPUTE_SHADER,
-            vk::AccessFlags2::SHADER_STORAGE_WRITE,
-        );
-        cmd_barriers(&ctx.device, cmd, &[], &[war]);
-        import.record(rec, set, depth, camera, extent);
-        let to_copy = memory_barrier(
-            vk::PipelineStageFlags2::COMPUTE_SHADER,
-            vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            vk::PipelineStageFlags2::COPY,
-            vk::AccessFlags2::TRANSFER_READ,
-        );
-        let mut images: Vec<_> = depth_barrier.into_iter().collect();
-        images.extend(release);
-        cmd_barriers(&ctx.device, cmd, &images, &[to_copy]);
-        if let Some(staging) = &import.staging {
-            rec.copy_buffer_to_depth(staging, targets.image(Target::Depth));
-        }
-    })
-}
-
-/// hadou's HDR over the game's colour target, which is left in its `final_layout`.
-fn record_composite(
-    rec: &Recorder,
-    timestamps: &mut Timestamps,
-    targets: &mut Targets,
-    composite: &Composite,
-    color: &ExternalColor,
-    exposure: f64,
-) -> Scope {
-    let attachment = ImageAccess::COLOR_ATTACHMENT;
-    let mut barriers: Vec<_> =
-        image_barrier(color.image, color.format, game_access(color.layout), attachment).into_iter().collect();
-    barriers.extend(targets.transition(Target::Hdr, FRAGMENT_STORAGE_READ));
-    let release = image_barrier(color.image, color.format, attachment, game_access(color.final_layout));
-    let extent = targets.extent;
-    record_scope(rec.ctx, rec.cmd, timestamps, "composite", &barriers, || {
-        composite.record(rec, color, extent, exposure);
-        cmd_barriers(&rec.ctx.device, rec.cmd, &release.into_iter().collect::<Vec<_>>(), &[]);
-    })
 }

@@ -24,13 +24,9 @@ pub struct WaveUpdate {
     pub length: f64,
 }
 
-fn invalid(message: String) -> Error {
-    Error::InvalidRequest(message)
-}
-
 impl Renderer {
     fn loaded_mut(&mut self) -> Result<&mut super::Loaded, Error> {
-        self.loaded.as_mut().ok_or_else(|| invalid("no scene loaded (call load_scene first)".into()))
+        self.loaded.as_mut().ok_or(Error::NoScene)
     }
 
     /// The camera of the following frames (the game's camera, so hadou's pixels line up with its).
@@ -43,10 +39,12 @@ impl Renderer {
             || !(camera.fov_y_deg > 0.0 && camera.fov_y_deg < 180.0)
             || !(camera.near > 0.0 && camera.far > camera.near && camera.far.is_finite())
         {
-            return Err(invalid(format!(
-                "camera {camera:?}: needs finite vectors, look_at ≠ position, up not along the view, \
-                 0 < fov_y_deg < 180 and 0 < near < far < inf"
-            )));
+            return Err(Error::InvalidUpdate {
+                what: format!("camera {camera:?}"),
+                expected: "finite vectors, look_at ≠ position, up not along the view, 0 < fov_y_deg < 180 \
+                           and 0 < near < far < inf"
+                    .into(),
+            });
         }
         self.loaded_mut()?.scene.camera = camera;
         Ok(())
@@ -64,15 +62,13 @@ impl Renderer {
         let loaded = self.loaded_mut()?;
         let count = loaded.scene.instances.len();
         let Some(instance) = loaded.scene.instances.get(id) else {
-            return Err(invalid(format!("instance {id}: the scene has {count} instances")));
+            return Err(Error::UnknownId { kind: "instance", index: id, count });
         };
         if matches!(loaded.scene.materials[instance.material].kind, MaterialKind::Translucent { .. }) {
-            return Err(invalid(format!(
-                "instance {id} is translucent: its transform is fixed at load (its light view and \
-                 thickness tables are fitted to it)"
-            )));
+            return Err(Error::TranslucentFixed(id));
         }
-        let transform = Transform::from_ops(ops).map_err(|e| invalid(format!("instance {id}: {e}")))?;
+        let transform = Transform::from_ops(ops)
+            .map_err(|e| Error::InvalidUpdate { what: format!("instance {id}"), expected: e.to_string() })?;
         let instance = &mut loaded.scene.instances[id];
         instance.ops = ops.to_vec();
         instance.transform = transform;
@@ -85,7 +81,7 @@ impl Renderer {
         let loaded = self.loaded_mut()?;
         let count = loaded.scene.waves.len();
         let Some(wave) = loaded.scene.waves.get_mut(index) else {
-            return Err(invalid(format!("wave {index}: the scene has {count} waves")));
+            return Err(Error::UnknownId { kind: "wave", index, count });
         };
         let u = update;
         let ok = u.origin.is_finite()
@@ -97,10 +93,12 @@ impl Renderer {
             && u.b >= 0.0
             && u.length > 0.0;
         if !ok {
-            return Err(invalid(format!(
-                "wave {index}: {u:?}: needs a finite origin, a non-zero finite direction, finite a ≥ 0 \
-                 and b ≥ 0, and length > 0"
-            )));
+            return Err(Error::InvalidUpdate {
+                what: format!("wave {index}: {u:?}"),
+                expected: "a finite origin, a non-zero finite direction, finite a ≥ 0 and b ≥ 0, and \
+                           length > 0"
+                    .into(),
+            });
         }
         wave.origin = u.origin;
         wave.direction = u.direction.normalize();
@@ -119,14 +117,17 @@ impl Renderer {
         let loaded = self.loaded_mut()?;
         let groups = loaded.scene.metaballs.len();
         let Some(g) = loaded.scene.metaballs.get_mut(group) else {
-            return Err(invalid(format!("metaball group {group}: the scene has {groups}")));
+            return Err(Error::UnknownId { kind: "metaball group", index: group, count: groups });
         };
         let balls = g.balls.len();
         let Some(b) = g.balls.get_mut(ball) else {
-            return Err(invalid(format!("metaball group {group} ball {ball}: the group has {balls}")));
+            return Err(Error::UnknownId { kind: "ball of the metaball group", index: ball, count: balls });
         };
         if !centre.is_finite() || !q.is_finite() {
-            return Err(invalid(format!("metaball group {group} ball {ball}: centre and q must be finite")));
+            return Err(Error::InvalidUpdate {
+                what: format!("metaball group {group} ball {ball}"),
+                expected: "a finite centre and q".into(),
+            });
         }
         b.centre = centre;
         b.q = q;

@@ -8,7 +8,9 @@ use gpu_allocator::MemoryLocation;
 use crate::gpu::barriers::{cmd_barriers, memory_barrier};
 use crate::gpu::commands::FrameCommands;
 use crate::gpu::memory::{Buffer, Memory};
-use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
+use crate::gpu::pipeline::{
+    create_compute_pipeline, write_set, Bound, BufferRange, DescriptorPool, Pipeline,
+};
 use crate::gpu::recorder::Recorder;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::timestamps::TimestampPool;
@@ -58,42 +60,34 @@ fn time_runs(
     groups: (u32, u32),
     runs: usize,
 ) -> GpuResult<Vec<f64>> {
-    let commands = FrameCommands::new(ctx, "ceiling")?;
-    let mut stamps = match TimestampPool::new(ctx, 2) {
-        Ok(s) => s,
-        Err(e) => {
-            commands.destroy(ctx);
-            return Err(e);
+    let mut commands = FrameCommands::new(ctx, "ceiling")?;
+    let mut stamps = TimestampPool::new(ctx, 2)?;
+    let mut out = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        commands.begin(ctx)?;
+        let cmd = commands.cmd;
+        stamps.reset(ctx, cmd);
+        // The previous run wrote the same buffer: order the writes.
+        let write = vk::AccessFlags2::SHADER_STORAGE_WRITE | vk::AccessFlags2::SHADER_STORAGE_READ;
+        let stage = vk::PipelineStageFlags2::COMPUTE_SHADER;
+        cmd_barriers(&ctx.device, cmd, &[], &[memory_barrier(stage, write, stage, write)]);
+        let rec = Recorder { ctx, cmd };
+        ctx.begin_label(cmd, &pipeline.name);
+        rec.bind_pipeline(pipeline, set);
+        rec.push_constants(pipeline, push);
+        stamps.write(ctx, cmd);
+        // SAFETY: cmd is recording with a compute pipeline and its set bound.
+        unsafe { ctx.device.cmd_dispatch(cmd, groups.0, groups.1, 1) };
+        stamps.write(ctx, cmd);
+        ctx.end_label(cmd);
+        commands.submit_and_wait(ctx, &pipeline.name)?;
+        // The fence signalled: the timestamps are there.
+        let ns = stamps.try_read_ns(ctx)?.unwrap_or_default();
+        if let [begin, end] = ns[..] {
+            out.push((end - begin) * 1e-6);
         }
-    };
-    let result = (|| {
-        let mut out = Vec::with_capacity(runs);
-        for _ in 0..runs {
-            commands.begin(ctx)?;
-            let cmd = commands.cmd;
-            stamps.reset(ctx, cmd);
-            // The previous run wrote the same buffer: order the writes.
-            let write = vk::AccessFlags2::SHADER_STORAGE_WRITE | vk::AccessFlags2::SHADER_STORAGE_READ;
-            let stage = vk::PipelineStageFlags2::COMPUTE_SHADER;
-            cmd_barriers(&ctx.device, cmd, &[], &[memory_barrier(stage, write, stage, write)]);
-            let rec = Recorder { ctx, cmd };
-            ctx.begin_label(cmd, &pipeline.name);
-            rec.bind_pipeline(pipeline, set);
-            rec.push_constants(pipeline, vk::ShaderStageFlags::COMPUTE, push);
-            stamps.write(ctx, cmd);
-            // SAFETY: cmd is recording with a compute pipeline and its set bound.
-            unsafe { ctx.device.cmd_dispatch(cmd, groups.0, groups.1, 1) };
-            stamps.write(ctx, cmd);
-            ctx.end_label(cmd);
-            commands.submit_and_wait(ctx, &pipeline.name)?;
-            let ns = stamps.read_ns(ctx)?;
-            out.push((ns[1] - ns[0]) * 1e-6);
-        }
-        Ok(out)
-    })();
-    stamps.destroy(ctx);
-    commands.destroy(ctx);
-    result
+    }
+    Ok(out)
 }
 
 /// One ceiling kernel: its shader, the sizes of its storage buffers (bindings 0..), its push
@@ -115,31 +109,22 @@ fn run_kernel(
 ) -> GpuResult<Vec<f64>> {
     let Kernel { shader, buffer_bytes, push, groups } = *kernel;
     let spirv = compiler.compile(shader, &[])?;
-    let bindings: Vec<_> = (0..buffer_bytes.len() as u32)
-        .map(|i| binding(i, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::COMPUTE))
-        .collect();
-    let pipeline = create_compute_pipeline(ctx, shader, &spirv, &bindings, push.len() as u32)?;
+    let pipeline = create_compute_pipeline(ctx, shader, &spirv, push.len() as u32)?;
     let mut buffers: Vec<Buffer> = Vec::new();
-    let result = (|| {
-        for (i, &bytes) in buffer_bytes.iter().enumerate() {
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
-            let name = format!("{shader} buffer {i}");
-            buffers.push(memory.create_buffer(ctx, &name, bytes, usage, MemoryLocation::GpuOnly)?);
-        }
-        let pool = DescriptorPool::new(ctx, "ceiling descriptors", 1)?;
-        let timed = (|| {
-            let set = pool.allocate(ctx, pipeline.set_layout, shader)?;
-            let bound: Vec<(u32, Bound)> =
-                buffers.iter().enumerate().map(|(i, b)| (i as u32, Bound::Storage(b.raw))).collect();
-            write_set(ctx, set, &bound);
-            time_runs(ctx, &pipeline, set, push, groups, runs)
-        })();
-        pool.destroy(ctx);
-        timed
-    })();
-    buffers.into_iter().for_each(|b| memory.destroy_buffer(ctx, b));
-    pipeline.destroy(ctx);
-    result
+    for (i, &bytes) in buffer_bytes.iter().enumerate() {
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let name = format!("{shader} buffer {i}");
+        buffers.push(memory.create_buffer(ctx, &name, bytes, usage, MemoryLocation::GpuOnly)?);
+    }
+    let pool = DescriptorPool::new(ctx, "ceiling descriptors", 1)?;
+    let set = pool.allocate(ctx, pipeline.set_layout, shader)?;
+    let bound: Vec<(u32, Bound)> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (i as u32, Bound::Storage(BufferRange::whole(b.raw))))
+        .collect();
+    write_set(ctx, set, &bound);
+    time_runs(ctx, &pipeline, set, push, groups, runs)
 }
 
 /// Loop rounds of the FMA kernel: 4.3 GFLOP (quick) or 34 GFLOP per run.

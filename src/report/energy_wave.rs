@@ -70,7 +70,7 @@ pub fn measure(
     }
     req.aovs = vec![Aov::Energy, Aov::Depth];
     let frame = runtime.render(&req)?;
-    let missing = |what: &str| Error::InvalidRequest(format!("the {what} AOV was not read back"));
+    let missing = |what: &str| Error::Report(format!("the {what} AOV was not read back"));
     let energy = &frame.aov(Aov::Energy).ok_or_else(|| missing("energy"))?.data;
     let depth = &frame.aov(Aov::Depth).ok_or_else(|| missing("depth"))?.data;
     let refs = reference(scene, depth, size.0, size.1, time);

@@ -56,7 +56,7 @@ fn depth(runtime: &mut Runtime, scene: &Scene, size: (u32, u32)) -> Result<AovIm
     req.color = false;
     req.aovs = vec![Aov::Depth];
     let frame = runtime.render(&req)?;
-    frame.aov(Aov::Depth).cloned().ok_or_else(|| Error::InvalidRequest("no depth AOV".into()))
+    frame.aov(Aov::Depth).cloned().ok_or_else(|| Error::Report("no depth AOV".into()))
 }
 
 /// Times the metaballs pass of `scene` and compares its depth with the f64 cast
@@ -81,7 +81,7 @@ pub fn measure(
     }
     let gpu = depth(runtime, scene, opts.effect_size)?;
     let frame = MetaballFrame { depth: &gpu, raster_depth: raster, normal: None };
-    let errors = compare_metaballs(scene, 0.0, frame).map_err(Error::InvalidRequest)?;
+    let errors = compare_metaballs(scene, 0.0, frame).map_err(Error::Report)?;
     Ok(Measured { p50_ms: Summary::of(&times).map_or(f64::NAN, |s| s.p50), errors })
 }
 

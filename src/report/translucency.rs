@@ -77,8 +77,7 @@ pub fn samples(
 ) -> Result<(Vec<Sample>, usize), Error> {
     let meshes: Vec<_> = scene.meshes.iter().map(|m| m.mesh.clone()).collect();
     let instances: Vec<_> = scene.instances.iter().map(|i| (i.mesh, i.transform)).collect();
-    let mesh_error =
-        |e: crate::scene::mesh::MeshError| Error::InvalidRequest(format!("reference ray caster: {e}"));
+    let mesh_error = |e: crate::scene::mesh::MeshError| Error::Report(format!("reference ray caster: {e}"));
     let caster = SceneCaster::new(&meshes, &instances).map_err(mesh_error)?;
     let bvhs = meshes.iter().map(MeshBvh::new).collect::<Result<Vec<_>, _>>().map_err(mesh_error)?;
     let Some(light) = scene.lights.first() else { return Ok((Vec::new(), 0)) };
@@ -192,9 +191,8 @@ fn bake_all(scene: &Scene, max_texture_dim: u32) -> Result<(f64, usize), Error> 
     for (mesh, res) in keys {
         let m = &scene.meshes[mesh];
         let start = Instant::now();
-        let (lut, _) = bake(&m.mesh, res, &options, &|_, _| {}).map_err(|e| {
-            Error::InvalidRequest(format!("thickness LUT of mesh \"{}\" at {res}³: {e}", m.name))
-        })?;
+        let (lut, _) = bake(&m.mesh, res, &options, &|_, _| {})
+            .map_err(|e| Error::Report(format!("thickness LUT of mesh \"{}\" at {res}³: {e}", m.name)))?;
         seconds += start.elapsed().as_secs_f64();
         bytes += lut.bytes();
         if let Some(cache) = &cache {

@@ -7,6 +7,7 @@ use ash::vk;
 
 use super::{device_info, version_string, GpuContext};
 use crate::gpu::error::{GpuError, GpuResult};
+use crate::gpu::resources::Resources;
 use crate::gpu::validation::ValidationLog;
 
 /// The device features the game enabled in `vkCreateDevice`. Vulkan cannot be asked which features
@@ -112,6 +113,7 @@ impl GpuContext {
         } else {
             (None, None)
         };
+        let resources = Resources::new(&raw.instance, &raw.device, raw.physical_device)?;
         Ok(GpuContext {
             entry: raw.entry,
             instance: raw.instance,
@@ -128,6 +130,7 @@ impl GpuContext {
             log: Arc::new(ValidationLog::default()),
             validation: false,
             owns_device: false,
+            resources,
         })
     }
 

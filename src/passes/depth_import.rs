@@ -3,14 +3,16 @@
 
 use gpu_allocator::MemoryLocation;
 
-use super::inputs::{DepthConvention, ExternalDepth};
-use crate::gpu::memory::{Buffer, Memory};
-use crate::gpu::pipeline::{binding, create_compute_pipeline, write_set, Bound, DescriptorPool, Pipeline};
-use crate::gpu::recorder::Recorder;
+use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
+use crate::gpu::barriers::ImageAccess;
+use crate::gpu::memory::Buffer;
+use crate::gpu::pipeline::{create_compute_pipeline, BufferRange, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::upload::Sampler;
 use crate::gpu::{vk, GpuContext, GpuResult};
+use crate::renderer::DepthConvention;
 use crate::scene::camera::Camera;
+use crate::targets::Target;
 
 /// What one stored depth value becomes: (distance along the pixel's view ray, +inf for the far
 /// plane = sky; hadou's reverse-Z depth for `camera`'s near/far, clamped to [0, 1], 0 for sky).
@@ -33,7 +35,7 @@ pub fn store_depth(z: f64, convention: DepthConvention) -> f64 {
     -a + b / z
 }
 
-/// Push constants; keep in sync with shaders/depth_import.comp.
+/// Push constants of shaders/depth_import.comp (size checked against the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -44,138 +46,97 @@ struct Params {
     planes: [f32; 4],
 }
 
-pub struct DepthImport {
+/// Runs first in an embedded frame whose game hands its depth (`FrameInputs::depth`). The game's
+/// depth image is the frame's `GameDepth` target, imported for that frame only: its view is bound
+/// into the slot's descriptor set each frame, never cached by handle.
+pub struct DepthImportPass {
     pipeline: Pipeline,
     sampler: Sampler,
-    /// Sets per game depth view (a game cycles through a few): a set is written once, never while
-    /// a pending frame may use it. Cleared with the pool when the frame size changes.
-    pool: DescriptorPool,
-    sets: Vec<(vk::ImageView, vk::DescriptorSet)>,
     /// hadou's reverse-Z depth as f32 texels, copied into the D32 `depth` (lavapipe has no
-    /// storage D32); sized to the frame.
-    pub staging: Option<Buffer>,
+    /// storage D32); sized to the frame. Frames in flight share it: the runner orders each frame's
+    /// write after the previous frame's copy.
+    staging: Option<Buffer>,
+    params: Params,
+    convention: DepthConvention,
 }
 
-/// Game depth views remembered at most; older ones are dropped with the pool.
-const MAX_VIEWS: u32 = 8;
-
-impl DepthImport {
+impl DepthImportPass {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
         let spirv = compiler.compile("depth_import.comp", &[])?;
-        let c = vk::ShaderStageFlags::COMPUTE;
-        let bindings = [
-            binding(0, vk::DescriptorType::COMBINED_IMAGE_SAMPLER, c),
-            binding(1, vk::DescriptorType::STORAGE_IMAGE, c),
-            binding(2, vk::DescriptorType::STORAGE_BUFFER, c),
-        ];
         let push = std::mem::size_of::<Params>() as u32;
-        let pipeline = create_compute_pipeline(ctx, "depth_import", &spirv, &bindings, push)?;
-        let sampler = match Sampler::nearest(ctx, "depth_import sampler") {
-            Ok(s) => s,
-            Err(e) => {
-                pipeline.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let pool = match DescriptorPool::new(ctx, "depth_import descriptors", MAX_VIEWS) {
-            Ok(p) => p,
-            Err(e) => {
-                sampler.destroy(ctx);
-                pipeline.destroy(ctx);
-                return Err(e);
-            }
-        };
-        Ok(DepthImport { pipeline, sampler, pool, sets: Vec::new(), staging: None })
+        Ok(DepthImportPass {
+            pipeline: create_compute_pipeline(ctx, "depth_import", &spirv, push)?,
+            sampler: Sampler::nearest(ctx, "depth_import sampler")?,
+            staging: None,
+            params: Params::default(),
+            convention: DepthConvention::ReverseZ { near: 1.0, far: 2.0 },
+        })
     }
 
-    /// Makes the staging buffer for `extent` (after a resize dropped it).
-    pub fn ensure_size(&mut self, ctx: &GpuContext, memory: &Memory, extent: vk::Extent2D) -> GpuResult<()> {
-        if self.staging.is_none() {
-            let size = extent.width as u64 * extent.height as u64 * 4;
+    /// This frame's depth convention (the game's projection may change per frame).
+    pub fn set_convention(&mut self, convention: DepthConvention) {
+        self.convention = convention;
+    }
+}
+
+impl Pass for DepthImportPass {
+    fn name(&self) -> &'static str {
+        "depth_import"
+    }
+
+    fn images(&self) -> Vec<ImageUse> {
+        vec![
+            ImageUse::new(Target::GameDepth, ImageAccess::COMPUTE_SAMPLED),
+            ImageUse::new(Target::Distance, ImageAccess::COMPUTE_WRITE),
+            ImageUse::new(Target::Depth, ImageAccess::TRANSFER_DST),
+        ]
+    }
+
+    fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
+        let extent = frame.extent;
+        let size = extent.width as u64 * extent.height as u64 * 4;
+        if self.staging.as_ref().is_none_or(|b| b.size != size.max(4)) {
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
             let name = "depth_import staging";
-            self.staging = Some(memory.create_buffer(ctx, name, size, usage, MemoryLocation::GpuOnly)?);
+            // A resize retires the old buffer with the frame.
+            self.staging =
+                Some(frame.memory.create_buffer(frame.ctx, name, size, usage, MemoryLocation::GpuOnly)?);
         }
-        Ok(())
-    }
-
-    /// The set reading `depth.view` and writing `distance`; written the first time a view is seen.
-    pub fn set_for(
-        &mut self,
-        ctx: &GpuContext,
-        depth: &ExternalDepth,
-        distance: vk::ImageView,
-    ) -> GpuResult<vk::DescriptorSet> {
-        if let Some((_, set)) = self.sets.iter().find(|(v, _)| *v == depth.view) {
-            return Ok(*set);
-        }
-        if self.sets.len() as u32 >= MAX_VIEWS {
-            // Every set may belong to a pending frame: wait before reusing the pool.
-            ctx.wait_idle()?;
-            self.forget_views(ctx)?;
-        }
-        let Some(staging) = &self.staging else {
-            return Err(crate::gpu::GpuError::Limit {
-                what: "depth_import".into(),
-                message: "staging buffer missing (ensure_size not called)".into(),
-            });
-        };
-        let set = self.pool.allocate(ctx, self.pipeline.set_layout, "depth_import set")?;
-        write_set(
-            ctx,
-            set,
-            &[
-                (0, Bound::Sampled(depth.view, self.sampler.raw)),
-                (1, Bound::StorageImage(distance)),
-                (2, Bound::Storage(staging.raw)),
-            ],
-        );
-        self.sets.push((depth.view, set));
-        Ok(set)
-    }
-
-    /// Forgets every game view (their sets): after a resize, or when the game destroyed a view.
-    /// The caller guarantees no pending frame uses the sets.
-    pub fn forget_views(&mut self, ctx: &GpuContext) -> GpuResult<()> {
-        self.sets.clear();
-        self.pool.reset(ctx)
-    }
-
-    pub fn record(
-        &self,
-        rec: &Recorder,
-        set: vk::DescriptorSet,
-        depth: &ExternalDepth,
-        camera: &Camera,
-        extent: vk::Extent2D,
-    ) {
+        let camera = &frame.scene.camera;
         let [right, up, forward] = camera.ray_frame(extent.width, extent.height).to_f32();
-        let (a, b) = depth.convention.coefficients();
-        let reversed = depth.convention.reversed();
-        let params = Params {
+        let (a, b) = self.convention.coefficients();
+        self.params = Params {
             right,
             up,
             forward,
-            dims: [extent.width, extent.height, u32::from(reversed), 0],
+            dims: [extent.width, extent.height, u32::from(self.convention.reversed()), 0],
             planes: [a as f32, b as f32, camera.near as f32, camera.far as f32],
         };
-        rec.bind_pipeline(&self.pipeline, set);
-        rec.push_constants(&self.pipeline, vk::ShaderStageFlags::COMPUTE, bytemuck::bytes_of(&params));
-        rec.dispatch_2d(extent.width, extent.height, (8, 8));
+        let staging = self
+            .staging
+            .as_ref()
+            .map_or(BufferRange::whole(vk::Buffer::null()), |b| BufferRange::whole(b.raw));
+        Ok(vec![
+            Binding::SampledImage(Target::GameDepth, self.sampler.raw),
+            Binding::Image(Target::Distance),
+            Binding::Written(staging, Reader::Copy),
+        ])
     }
 
-    pub fn drop_sized(&mut self, ctx: &GpuContext, memory: &Memory) {
-        if let Some(b) = self.staging.take() {
-            memory.destroy_buffer(ctx, b);
+    fn pipelines(&self) -> Vec<&Pipeline> {
+        vec![&self.pipeline]
+    }
+
+    fn record(&self, pass: &PassRecording) {
+        let rec = pass.rec;
+        let [width, height, ..] = self.params.dims;
+        rec.bind_pipeline(&self.pipeline, pass.set(0));
+        rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
+        rec.dispatch_2d(width, height, (8, 8));
+        rec.compute_to_copy_barrier();
+        if let Some(staging) = &self.staging {
+            rec.copy_buffer_to_depth(staging, &pass.targets.image(Target::Depth));
         }
-        let _ = self.forget_views(ctx);
-    }
-
-    pub fn destroy(mut self, ctx: &GpuContext, memory: &Memory) {
-        self.drop_sized(ctx, memory);
-        self.pool.destroy(ctx);
-        self.sampler.destroy(ctx);
-        self.pipeline.destroy(ctx);
     }
 }
 

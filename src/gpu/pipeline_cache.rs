@@ -1,0 +1,86 @@
+//! A `VkPipelineCache` kept on disk beside the bake cache (`pipelines-VENDOR-DEVICE-UUID.bin`), so
+//! a second run builds its pipelines from the driver's cache. The file is checked against the
+//! device before the driver sees it (Vulkan's header: length, version, vendor, device, UUID), and
+//! written atomically when the renderer is dropped. Any problem only costs the cache, never an error.
+
+use std::path::{Path, PathBuf};
+
+use ash::vk;
+
+use super::context::GpuContext;
+use super::error::{GpuResult, VkResultExt};
+
+pub struct PipelineCache {
+    device: ash::Device,
+    pub raw: vk::PipelineCache,
+    path: Option<PathBuf>,
+}
+
+/// The device's pipeline-cache UUID as hex.
+fn uuid(ctx: &GpuContext) -> [u8; vk::UUID_SIZE] {
+    // SAFETY: plain query.
+    unsafe { ctx.instance.get_physical_device_properties(ctx.physical_device) }.pipeline_cache_uuid
+}
+
+/// Whether `data` starts with a Vulkan pipeline-cache header for this device.
+fn header_matches(data: &[u8], ctx: &GpuContext) -> bool {
+    let word = |i: usize| data.get(4 * i..4 * i + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+    let version_one = vk::PipelineCacheHeaderVersion::ONE.as_raw() as u32;
+    word(0).is_some_and(|len| len >= 32)
+        && word(1) == Some(version_one)
+        && word(2) == Some(ctx.info.vendor_id)
+        && word(3) == Some(ctx.info.device_id)
+        && data.get(16..32) == Some(&uuid(ctx)[..])
+}
+
+impl PipelineCache {
+    /// The cache for this device, from `dir` when a usable file is there.
+    pub fn open(ctx: &GpuContext, dir: Option<&Path>) -> GpuResult<Self> {
+        let name = format!(
+            "pipelines-{:04x}-{:04x}-{}.bin",
+            ctx.info.vendor_id,
+            ctx.info.device_id,
+            uuid(ctx).iter().map(|b| format!("{b:02x}")).collect::<String>()
+        );
+        let path = dir.map(|d| d.join(name));
+        let data = path
+            .as_ref()
+            .filter(|p| p.metadata().is_ok_and(|m| m.is_file() && m.len() < 256 << 20))
+            .and_then(|p| std::fs::read(p).ok())
+            .filter(|d| header_matches(d, ctx))
+            .unwrap_or_default();
+        let info = vk::PipelineCacheCreateInfo::default().initial_data(&data);
+        // SAFETY: valid device; the data carries this device's header (checked above) or is empty.
+        let raw = unsafe { ctx.device.create_pipeline_cache(&info, None) }.vk("vkCreatePipelineCache")?;
+        ctx.name_object(raw, "hadou pipeline cache");
+        log::debug!("pipeline cache: {} bytes loaded", data.len());
+        Ok(PipelineCache { device: ctx.device.clone(), raw, path })
+    }
+
+    /// Writes the cache's current contents to its file (atomically; failures are logged).
+    pub fn save(&self) {
+        let Some(path) = &self.path else { return };
+        // SAFETY: valid cache of this device.
+        let data = match unsafe { self.device.get_pipeline_cache_data(self.raw) } {
+            Ok(d) => d,
+            Err(e) => return log::warn!("pipeline cache: cannot read it back: {e:?}"),
+        };
+        let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
+        let written = path
+            .parent()
+            .map_or(Ok(()), std::fs::create_dir_all)
+            .and_then(|_| std::fs::write(&tmp, &data))
+            .and_then(|_| std::fs::rename(&tmp, path));
+        if let Err(e) = written {
+            let _ = std::fs::remove_file(&tmp);
+            log::warn!("pipeline cache: cannot write {}: {e}", path.display());
+        }
+    }
+}
+
+impl Drop for PipelineCache {
+    fn drop(&mut self) {
+        // SAFETY: pipelines made with it keep what they need; no creation is in progress.
+        unsafe { self.device.destroy_pipeline_cache(self.raw, None) };
+    }
+}

@@ -1,0 +1,219 @@
+//! What a shader binds, read from its SPIR-V: descriptor bindings of set 0 with their types, and
+//! the size of its push-constant block. Pipelines take their layouts from here, so a layout cannot
+//! drift from its shader, and the pass runner checks each frame's bindings against it.
+
+use std::collections::HashMap;
+
+use ash::vk;
+
+use super::error::{GpuError, GpuResult};
+
+/// One descriptor binding of set 0.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reflected {
+    pub binding: u32,
+    pub ty: vk::DescriptorType,
+}
+
+/// A shader module's interface.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Interface {
+    /// Sorted by binding.
+    pub bindings: Vec<Reflected>,
+    /// Bytes of the push-constant block (0 when there is none).
+    pub push_bytes: u32,
+}
+
+const OP_TYPE_INT: u32 = 21;
+const OP_TYPE_FLOAT: u32 = 22;
+const OP_TYPE_VECTOR: u32 = 23;
+const OP_TYPE_MATRIX: u32 = 24;
+const OP_TYPE_IMAGE: u32 = 25;
+const OP_TYPE_SAMPLER: u32 = 26;
+const OP_TYPE_SAMPLED_IMAGE: u32 = 27;
+const OP_TYPE_ARRAY: u32 = 28;
+const OP_TYPE_STRUCT: u32 = 30;
+const OP_TYPE_POINTER: u32 = 32;
+const OP_CONSTANT: u32 = 43;
+const OP_VARIABLE: u32 = 59;
+const OP_DECORATE: u32 = 71;
+const OP_MEMBER_DECORATE: u32 = 72;
+
+const DECORATION_BUFFER_BLOCK: u32 = 3;
+const DECORATION_ARRAY_STRIDE: u32 = 6;
+const DECORATION_BINDING: u32 = 33;
+const DECORATION_DESCRIPTOR_SET: u32 = 34;
+const DECORATION_OFFSET: u32 = 35;
+
+const CLASS_UNIFORM_CONSTANT: u32 = 0;
+const CLASS_UNIFORM: u32 = 2;
+const CLASS_PUSH_CONSTANT: u32 = 9;
+const CLASS_STORAGE_BUFFER: u32 = 12;
+
+const DIM_BUFFER: u32 = 5;
+
+/// The types, decorations and variables of a module, by result id.
+#[derive(Default)]
+struct Module {
+    types: HashMap<u32, (u32, Vec<u32>)>,
+    constants: HashMap<u32, u32>,
+    decorations: HashMap<(u32, u32), u32>,
+    member_offsets: HashMap<(u32, u32), u32>,
+    /// (result type, id, storage class).
+    variables: Vec<(u32, u32, u32)>,
+}
+
+fn parse(name: &str, words: &[u32]) -> GpuResult<Module> {
+    let bad = |why: &str| GpuError::Shader { name: name.into(), message: format!("SPIR-V: {why}") };
+    if words.len() < 5 || words[0] != 0x0723_0203 {
+        return Err(bad("not a SPIR-V module"));
+    }
+    let mut m = Module::default();
+    let mut at = 5;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        let op = words[at] & 0xffff;
+        if count == 0 || at + count > words.len() {
+            return Err(bad("truncated instruction"));
+        }
+        let args = &words[at + 1..at + count];
+        match op {
+            OP_TYPE_INT..=OP_TYPE_POINTER if !args.is_empty() => {
+                m.types.insert(args[0], (op, args[1..].to_vec()));
+            }
+            OP_CONSTANT if args.len() >= 3 => {
+                m.constants.insert(args[1], args[2]);
+            }
+            OP_VARIABLE if args.len() >= 3 => m.variables.push((args[0], args[1], args[2])),
+            OP_DECORATE if args.len() >= 2 => {
+                m.decorations.insert((args[0], args[1]), args.get(2).copied().unwrap_or(0));
+            }
+            OP_MEMBER_DECORATE if args.len() >= 4 && args[2] == DECORATION_OFFSET => {
+                m.member_offsets.insert((args[0], args[1]), args[3]);
+            }
+            _ => {}
+        }
+        at += count;
+    }
+    Ok(m)
+}
+
+impl Module {
+    fn ty(&self, id: u32) -> Option<&(u32, Vec<u32>)> {
+        self.types.get(&id)
+    }
+
+    /// The descriptor type of a variable of pointee type `id` in storage class `class`.
+    fn descriptor_type(&self, id: u32, class: u32) -> Option<vk::DescriptorType> {
+        let (op, args) = self.ty(id)?;
+        match (*op, class) {
+            (OP_TYPE_ARRAY, _) => self.descriptor_type(args[0], class),
+            (OP_TYPE_STRUCT, CLASS_STORAGE_BUFFER) => Some(vk::DescriptorType::STORAGE_BUFFER),
+            (OP_TYPE_STRUCT, CLASS_UNIFORM) => {
+                if self.decorations.contains_key(&(id, DECORATION_BUFFER_BLOCK)) {
+                    Some(vk::DescriptorType::STORAGE_BUFFER)
+                } else {
+                    Some(vk::DescriptorType::UNIFORM_BUFFER)
+                }
+            }
+            (OP_TYPE_SAMPLER, CLASS_UNIFORM_CONSTANT) => Some(vk::DescriptorType::SAMPLER),
+            (OP_TYPE_SAMPLED_IMAGE, CLASS_UNIFORM_CONSTANT) => {
+                let (_, image) = self.ty(args[0])?;
+                Some(if image[1] == DIM_BUFFER {
+                    vk::DescriptorType::UNIFORM_TEXEL_BUFFER
+                } else {
+                    vk::DescriptorType::COMBINED_IMAGE_SAMPLER
+                })
+            }
+            (OP_TYPE_IMAGE, CLASS_UNIFORM_CONSTANT) => {
+                // args: sampled type, dim, depth, arrayed, ms, sampled (1 sampled, 2 storage), format
+                let (dim, sampled) = (args[1], args[5]);
+                Some(match (dim == DIM_BUFFER, sampled == 2) {
+                    (true, true) => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
+                    (true, false) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+                    (false, true) => vk::DescriptorType::STORAGE_IMAGE,
+                    (false, false) => vk::DescriptorType::SAMPLED_IMAGE,
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// Bytes of a type as laid out in a block (offsets and strides from its decorations).
+    fn size(&self, id: u32) -> u32 {
+        let Some((op, args)) = self.ty(id) else { return 0 };
+        match *op {
+            OP_TYPE_INT | OP_TYPE_FLOAT => args[0] / 8,
+            OP_TYPE_VECTOR | OP_TYPE_MATRIX => args[1] * self.size(args[0]),
+            OP_TYPE_ARRAY => {
+                let length = self.constants.get(&args[1]).copied().unwrap_or(0);
+                let stride = self.decorations.get(&(id, DECORATION_ARRAY_STRIDE)).copied();
+                length * stride.unwrap_or_else(|| self.size(args[0]))
+            }
+            OP_TYPE_STRUCT => (0..args.len() as u32)
+                .map(|i| {
+                    self.member_offsets.get(&(id, i)).copied().unwrap_or(0) + self.size(args[i as usize])
+                })
+                .max()
+                .unwrap_or(0),
+            _ => 0,
+        }
+    }
+}
+
+/// The interface of one SPIR-V module.
+pub fn reflect(name: &str, words: &[u32]) -> GpuResult<Interface> {
+    let m = parse(name, words)?;
+    let mut interface = Interface::default();
+    for &(pointer, id, class) in &m.variables {
+        let Some((OP_TYPE_POINTER, p)) = m.ty(pointer).map(|(op, a)| (*op, a)) else { continue };
+        let pointee = p[1];
+        if class == CLASS_PUSH_CONSTANT {
+            interface.push_bytes = m.size(pointee);
+            continue;
+        }
+        let Some(&binding) = m.decorations.get(&(id, DECORATION_BINDING)) else { continue };
+        let set = m.decorations.get(&(id, DECORATION_DESCRIPTOR_SET)).copied().unwrap_or(0);
+        if set != 0 {
+            return Err(GpuError::Shader {
+                name: name.into(),
+                message: format!("binding {binding} is in set {set}: hadou's pipelines have one set (0)"),
+            });
+        }
+        let ty = m.descriptor_type(pointee, class).ok_or_else(|| GpuError::Shader {
+            name: name.into(),
+            message: format!("binding {binding}: a resource type hadou does not bind"),
+        })?;
+        interface.bindings.push(Reflected { binding, ty });
+    }
+    interface.bindings.sort_by_key(|b| b.binding);
+    Ok(interface)
+}
+
+/// The layout bindings of shaders used together (vertex + fragment), with the stages that see
+/// each; an error when two stages declare one binding with different types.
+pub fn merge(
+    name: &str,
+    stages: &[(vk::ShaderStageFlags, &Interface)],
+) -> GpuResult<Vec<(Reflected, vk::ShaderStageFlags)>> {
+    let mut merged: Vec<(Reflected, vk::ShaderStageFlags)> = Vec::new();
+    for (stage, interface) in stages {
+        for b in &interface.bindings {
+            match merged.iter_mut().find(|(m, _)| m.binding == b.binding) {
+                Some((m, _)) if m.ty != b.ty => {
+                    return Err(GpuError::Shader {
+                        name: name.into(),
+                        message: format!(
+                            "binding {} is {:?} in one stage, {:?} in another",
+                            b.binding, m.ty, b.ty
+                        ),
+                    })
+                }
+                Some((_, stages)) => *stages |= *stage,
+                None => merged.push((*b, *stage)),
+            }
+        }
+    }
+    merged.sort_by_key(|(b, _)| b.binding);
+    Ok(merged)
+}
