@@ -280,3 +280,14 @@ impl Drop for Renderer {
         // The context (the last field) is dropped after this.
     }
 }
+
+#[cfg(test)]
+mod send_check {
+    /// A game keeps its renderer on a render thread or in an ECS resource.
+    #[test]
+    fn renderer_is_send() {
+        fn send<T: Send>() {}
+        send::<super::Renderer>();
+        send::<crate::Runtime>();
+    }
+}

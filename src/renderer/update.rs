@@ -136,4 +136,40 @@ impl Renderer {
         g.keyframes.clear();
         Ok(())
     }
+
+    /// Replaces every ball of metaball group `group` (object space) for every following frame:
+    /// the group may grow or shrink. Keyframes and rates are dropped. Refused (state unchanged)
+    /// when the list is empty or a ball is not finite with a radius > 0.
+    pub fn set_metaball_group(
+        &mut self,
+        group: usize,
+        balls: &[crate::effects::metaballs::Ball],
+    ) -> Result<(), Error> {
+        let loaded = self.loaded_mut()?;
+        let groups = loaded.scene.metaballs.len();
+        let Some(g) = loaded.scene.metaballs.get_mut(group) else {
+            return Err(Error::UnknownId { kind: "metaball group", index: group, count: groups });
+        };
+        let valid = |b: &crate::effects::metaballs::Ball| {
+            b.centre.is_finite() && b.q.is_finite() && b.radius.is_finite() && b.radius > 0.0
+        };
+        if balls.is_empty() || !balls.iter().all(valid) {
+            return Err(Error::InvalidUpdate {
+                what: format!("metaball group {group}: {} balls", balls.len()),
+                expected: "at least one ball, each with a finite centre and q and a finite radius > 0".into(),
+            });
+        }
+        g.balls = balls
+            .iter()
+            .map(|b| crate::scene::model::AnimatedBall {
+                centre: b.centre,
+                radius: b.radius,
+                q: b.q,
+                velocity: DVec3::ZERO,
+                q_rate: 0.0,
+            })
+            .collect();
+        g.keyframes.clear();
+        Ok(())
+    }
 }

@@ -1,0 +1,429 @@
+//! Several hadou frames in flight, the way a game drives a renderer: the host records frame n into
+//! the command buffer of slot n mod F and submits it without waiting; it waits only on the fence
+//! of frame n − F before reusing that slot (the frame contract). Every frame changes the camera, a
+//! wave, an instance transform and the metaball count (the tile lists and the ring grow). Sampled
+//! frames are compared with the same world rendered alone by the headless runtime (itself checked
+//! against the f64 twins elsewhere) and the energy with the f64 integral of *that frame's* wave —
+//! a frame reading another frame's data would fail both. hadou itself never waits: its counted
+//! device-idle and fence waits stay at zero after `prepare`. Lavapipe, validation + synchronization
+//! validation, zero messages, nothing leaked at shutdown.
+
+mod common;
+
+use ash::vk;
+use glam::{DMat4, DQuat, DVec3};
+use hadou::effects::energy_wave::line_integral;
+use hadou::effects::metaballs::Ball;
+use hadou::gpu::{ContextOptions, GpuContext};
+use hadou::passes::energy_wave::wave_params;
+use hadou::scene::camera::Camera;
+use hadou::scene::transform::TransformOp;
+use hadou::scene::Scene;
+use hadou::{Aov, AovImage, ExternalDepth, FrameInputs, FrameRequest, Renderer, RendererOptions, WaveUpdate};
+
+const SCENE: &str = r#"
+[camera]
+position = [0, 1, 9]
+look_at = [0, 0, 0]
+fov_y_deg = 50
+near = 0.5
+far = 60
+[[light]]
+direction = [-0.3, -1, -0.5]
+[[mesh]]
+name = "box"
+kind = "cube"
+size = 2
+[[instance]]
+mesh = "box"
+transform = [{ translate = [2, 0, -1] }]
+[[wave]]
+origin = [-4, 0, 0]
+direction = [1, 0.2, 0]
+a = 2
+b = 1
+core = 0.05
+length = 6
+[[metaballs]]
+balls = [{ centre = [-1, 0, 0], radius = 1.2 }]
+"#;
+
+/// The host's side: a command buffer and a fence per slot, on hadou's own device.
+struct Host {
+    device: ash::Device,
+    queue: vk::Queue,
+    pool: vk::CommandPool,
+    cmds: Vec<vk::CommandBuffer>,
+    fences: Vec<vk::Fence>,
+    submitted: Vec<bool>,
+}
+
+impl Host {
+    fn new(ctx: &GpuContext, slots: usize) -> Host {
+        let device = ctx.device.clone();
+        let info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(ctx.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let pool = unsafe { device.create_command_pool(&info, None) }.unwrap();
+        let alloc =
+            vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(slots as u32);
+        let cmds = unsafe { device.allocate_command_buffers(&alloc) }.unwrap();
+        let fences = (0..slots)
+            .map(|_| unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.unwrap())
+            .collect();
+        Host { device, queue: ctx.queue, pool, cmds, fences, submitted: vec![false; slots] }
+    }
+
+    /// Waits for the slot's previous frame (the host's guarantee), then begins its command buffer.
+    fn begin(&mut self, slot: usize) -> vk::CommandBuffer {
+        self.wait(slot);
+        let cmd = self.cmds[slot];
+        unsafe {
+            self.device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).unwrap();
+            self.device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).unwrap();
+        }
+        cmd
+    }
+
+    fn submit(&mut self, slot: usize) {
+        let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmds[slot])];
+        let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmds)];
+        unsafe {
+            self.device.end_command_buffer(self.cmds[slot]).unwrap();
+            self.device.queue_submit2(self.queue, &submit, self.fences[slot]).unwrap();
+        }
+        self.submitted[slot] = true;
+    }
+
+    fn wait(&mut self, slot: usize) {
+        if std::mem::take(&mut self.submitted[slot]) {
+            unsafe {
+                self.device.wait_for_fences(&[self.fences[slot]], true, u64::MAX).unwrap();
+                self.device.reset_fences(&[self.fences[slot]]).unwrap();
+            }
+        }
+    }
+
+    fn wait_all(&mut self) {
+        (0..self.cmds.len()).for_each(|s| self.wait(s));
+    }
+
+    fn destroy(mut self) {
+        self.wait_all();
+        unsafe {
+            self.fences.iter().for_each(|&f| self.device.destroy_fence(f, None));
+            self.device.destroy_command_pool(self.pool, None);
+        }
+    }
+}
+
+fn context() -> GpuContext {
+    let options = ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };
+    GpuContext::new(&options)
+        .unwrap_or_else(|e| panic!("GPU tests need a Vulkan device (lavapipe in CI): {e}"))
+}
+
+/// Fails when validation reported anything so far (leaked objects are reported at device destroy,
+/// into the same log, which outlives the context).
+fn assert_clean(log: &hadou::gpu::validation::ValidationLog, when: &str) {
+    let c = log.counts();
+    assert!(c.errors == 0 && c.warnings == 0, "{when}: validation {c:?}:\n{}", log.messages().join("\n"));
+}
+
+/// The world of frame `i`: what the test hands hadou, and applies to its own copy of the scene.
+struct World {
+    camera: Camera,
+    wave: WaveUpdate,
+    transform: DMat4,
+    balls: Vec<Ball>,
+}
+
+fn world(i: usize) -> World {
+    let t = i as f64;
+    let angle = 0.05 * t;
+    let camera = Camera {
+        position: DVec3::new(9.0 * angle.sin(), 1.0 + 0.02 * t, 9.0 * angle.cos()),
+        look_at: DVec3::ZERO,
+        up: DVec3::Y,
+        fov_y_deg: 50.0,
+        near: 0.5,
+        far: 60.0,
+    };
+    let wave = WaveUpdate {
+        origin: DVec3::new(-4.0 + 0.1 * t, 0.3 * (0.3 * t).sin(), 0.0),
+        direction: DVec3::new(1.0, 0.2, 0.05 * t.cos()),
+        a: 1.0 + 0.05 * t,
+        b: 0.5 + 0.02 * t,
+        length: 4.0 + 0.1 * t,
+    };
+    let transform = DMat4::from_translation(DVec3::new(2.0, 0.2 * t.sin(), -1.0))
+        * DMat4::from_quat(DQuat::from_rotation_y(0.1 * t));
+    // 1, 2, ... 60 balls: the tile lists and the tables outgrow the ring again and again.
+    let balls = (0..=i)
+        .map(|k| {
+            let a = k as f64 * 0.7;
+            Ball {
+                centre: DVec3::new(-1.0 + 0.8 * a.cos(), 0.6 * a.sin(), 0.3 * (k % 3) as f64),
+                radius: 0.6,
+                q: 1.0,
+            }
+        })
+        .collect();
+    World { camera, wave, transform, balls }
+}
+
+fn apply(hadou: &mut Renderer, w: &World) {
+    hadou.set_camera(w.camera).unwrap();
+    hadou.set_wave(0, w.wave).unwrap();
+    hadou.set_instance_transform(0, w.transform).unwrap();
+    hadou.set_metaball_group(0, &w.balls).unwrap();
+}
+
+/// The same world as a scene the headless runtime renders alone: the fields the updates set.
+fn scene_of(base: &Scene, w: &World) -> Scene {
+    let mut scene = base.clone();
+    scene.camera = w.camera;
+    let wave = &mut scene.waves[0];
+    wave.origin = w.wave.origin;
+    wave.direction = w.wave.direction.normalize();
+    wave.a = w.wave.a;
+    wave.b = w.wave.b;
+    wave.length = w.wave.length;
+    let inst = &mut scene.instances[0];
+    inst.ops = vec![TransformOp::Matrix(w.transform)];
+    inst.transform = hadou::scene::transform::Transform::from_ops(&inst.ops).unwrap();
+    let ball = |b: &Ball| hadou::scene::model::AnimatedBall {
+        centre: b.centre,
+        radius: b.radius,
+        q: b.q,
+        velocity: DVec3::ZERO,
+        q_rate: 0.0,
+    };
+    scene.metaballs[0].balls = w.balls.iter().map(ball).collect();
+    scene
+}
+
+const W: u32 = 64;
+const H: u32 = 48;
+const AOVS: [Aov; 3] = [Aov::Depth, Aov::Energy, Aov::Normal];
+
+/// 3 slots, 60 frames, all submitted without waiting; every 10th frame is read back and checked.
+#[test]
+fn sixty_frames_three_in_flight_each_sees_its_own_world() {
+    let ctx = context();
+    let log = ctx.validation_log();
+    let mut host = Host::new(&ctx, 3);
+    let options = RendererOptions { frames_in_flight: 3, ..RendererOptions::default() };
+    let mut hadou = Renderer::with_options(ctx, &options).unwrap();
+    let base = common::parse(SCENE);
+    hadou.load_scene(base.clone()).unwrap();
+    let inputs = FrameInputs::headless(W, H, 0.0);
+    hadou.prepare(&inputs).unwrap();
+    let waits = hadou.context().host_waits();
+    let mut sampled = Vec::new();
+    for i in 0..60 {
+        let w = world(i);
+        apply(&mut hadou, &w);
+        let slot = i % 3;
+        let cmd = host.begin(slot);
+        let frame = hadou.record_frame(cmd, &inputs).unwrap();
+        assert_eq!(frame.frame, i as u64);
+        if i % 10 == 9 {
+            let readback = hadou.record_aov_readback(cmd, &AOVS).unwrap();
+            sampled.push((i, w, readback));
+        }
+        host.submit(slot);
+    }
+    assert_eq!(hadou.context().host_waits(), waits, "hadou waited on the device during the frames");
+    host.wait_all();
+    hadou.frame_finished(59).unwrap();
+    let timings = hadou.latest_timings().expect("frame 59 finished");
+    assert_eq!(timings.frame, 59);
+
+    let mut rt = common::runtime();
+    for (i, w, readback) in &sampled {
+        let scene = scene_of(&base, w);
+        rt.load_scene(scene.clone()).unwrap();
+        let mut request = FrameRequest::new(W, H);
+        request.aovs = AOVS.to_vec();
+        let alone = rt.render(&request).unwrap();
+        for aov in AOVS {
+            let got = readback.aov(aov).unwrap();
+            let want = alone.aov(aov).unwrap();
+            assert!(same_bits(&got, want), "frame {i}: {} differs from the world rendered alone", aov.name());
+        }
+        check_energy(*i, &scene, &readback.aov(Aov::Energy).unwrap(), &readback.aov(Aov::Depth).unwrap());
+        // The metaballs grew with the frame: more of the image is metaball surface.
+        let hits = readback.aov(Aov::Normal).unwrap().data.chunks(4).filter(|n| n[3] > 0.0).count();
+        assert!(hits > 0, "frame {i}: something was drawn");
+    }
+    common::assert_clean(&rt);
+    drop(sampled);
+    host.destroy();
+    drop(hadou);
+    assert_clean(&log, "after shutdown (leaks included)");
+}
+
+fn same_bits(a: &AovImage, b: &AovImage) -> bool {
+    a.data.len() == b.data.len() && a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+/// Energy vs the f64 closed form of the frame's own wave, up to the GPU's own distance. Bound 1e-4
+/// (gpu_energy_wave's argument: f32 pixel rays, ≈ 3e-7, enter H only logarithmically; the closed
+/// form is a few f32 ulps). Another frame's wave or camera would be off by far more.
+fn check_energy(i: usize, scene: &Scene, energy: &AovImage, distance: &AovImage) {
+    let params = wave_params(&scene.waves[0].at(0.0));
+    let cam = &scene.camera;
+    for y in 0..H {
+        for x in 0..W {
+            let k = (y * W + x) as usize;
+            let (o, u) = cam.pixel_ray(x, y, W, H);
+            let reference = line_integral(&params, o, u, (distance.data[k] as f64).min(cam.far));
+            let got = energy.data[k] as f64;
+            let rel = if reference > 0.0 { (got - reference).abs() / reference } else { got };
+            assert!(rel <= 1e-4, "frame {i} ({x}, {y}): {got} vs f64 {reference}");
+        }
+    }
+}
+
+/// A new view of the game's depth every frame for 200 frames, the old one destroyed once its frame
+/// finished (drivers hand the same handle out again): hadou binds each frame's view into that
+/// frame's descriptor set, so nothing stale is used, nothing crashes, and it never waits.
+#[test]
+fn a_new_depth_view_every_frame() {
+    let ctx = context();
+    let log = ctx.validation_log();
+    let device = ctx.device.clone();
+    let mut host = Host::new(&ctx, 2);
+    let mut hadou = Renderer::with_options(ctx, &RendererOptions::default()).unwrap();
+    hadou.load_scene(common::parse(SCENE)).unwrap();
+    let extent = vk::Extent2D { width: 32, height: 24 };
+    let memory = hadou::gpu::memory::Memory::new(hadou.context()).unwrap();
+    let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
+    let depth =
+        memory.create_image(hadou.context(), "game depth", extent, vk::Format::D32_SFLOAT, usage).unwrap();
+    let convention = hadou::DepthConvention::Standard { near: 0.5, far: 60.0 };
+    let stored = hadou::passes::depth_import::store_depth(7.0, convention);
+    let first = FrameInputs { extent, time: 0.0, depth: None, color: None };
+    hadou.prepare(&first).unwrap();
+    let waits = hadou.context().host_waits();
+    let mut views: Vec<Option<vk::ImageView>> = vec![None; 2];
+    let mut handles = std::collections::HashSet::new();
+    let mut reused = 0;
+    let range = vk::ImageSubresourceRange::default()
+        .aspect_mask(vk::ImageAspectFlags::DEPTH)
+        .level_count(1)
+        .layer_count(1);
+    let mut readback = None;
+    for i in 0..200 {
+        let slot = i % 2;
+        let cmd = host.begin(slot);
+        // The slot's previous frame finished: its view may go, and a new one is made.
+        if let Some(old) = views[slot].take() {
+            unsafe { device.destroy_image_view(old, None) };
+        }
+        let info = vk::ImageViewCreateInfo::default()
+            .image(depth.raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(vk::Format::D32_SFLOAT)
+            .subresource_range(range);
+        let view = unsafe { device.create_image_view(&info, None) }.unwrap();
+        reused += usize::from(!handles.insert(vk::Handle::as_raw(view)));
+        views[slot] = Some(view);
+        // The game "draws" its depth: a clear to the depth of a plane 7 units away.
+        let layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+        if i == 0 {
+            let barrier = vk::ImageMemoryBarrier2::default()
+                .dst_stage_mask(vk::PipelineStageFlags2::CLEAR)
+                .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                .new_layout(layout)
+                .image(depth.raw)
+                .subresource_range(range);
+            let barriers = [barrier];
+            unsafe {
+                device.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().image_memory_barriers(&barriers),
+                )
+            };
+        }
+        let clear = vk::ClearDepthStencilValue { depth: stored as f32, stencil: 0 };
+        unsafe { device.cmd_clear_depth_stencil_image(cmd, depth.raw, layout, &clear, &[range]) };
+        let inputs = FrameInputs {
+            extent,
+            time: 0.0,
+            depth: Some(ExternalDepth {
+                image: depth.raw,
+                view,
+                format: vk::Format::D32_SFLOAT,
+                layout,
+                final_layout: layout,
+                convention,
+            }),
+            color: None,
+        };
+        hadou.record_frame(cmd, &inputs).unwrap();
+        if i == 199 {
+            readback = Some(hadou.record_aov_readback(cmd, &[Aov::Depth]).unwrap());
+        }
+        host.submit(slot);
+    }
+    assert_eq!(hadou.context().host_waits(), waits, "hadou waited on the device");
+    host.wait_all();
+    println!("{reused} of 200 views reused an earlier handle");
+    // The depth AOV of the last frame: the game's plane, z = 7 along the view axis, everywhere
+    // hadou drew nothing nearer (its own box and balls may cover part of it).
+    let d = readback.unwrap().aov(Aov::Depth).unwrap();
+    let cam = common::parse(SCENE).camera;
+    let (fwd, mut plane) = (cam.basis().forward, 0);
+    for y in 0..extent.height {
+        for x in 0..extent.width {
+            let (_, u) = cam.pixel_ray(x, y, extent.width, extent.height);
+            let want = 7.0 / u.dot(fwd);
+            let got = d.data[(y * extent.width + x) as usize] as f64;
+            assert!(got <= want * (1.0 + 1e-5), "({x}, {y}): {got} beyond the game's plane {want}");
+            plane += usize::from((got - want).abs() <= want * 1e-5);
+        }
+    }
+    assert!(plane > 200, "the game's depth shows: {plane} pixels");
+    host.destroy();
+    views.into_iter().flatten().for_each(|v| unsafe { device.destroy_image_view(v, None) });
+    drop(depth);
+    drop(memory);
+    drop(hadou);
+    assert_clean(&log, "after shutdown (leaks included)");
+}
+
+/// 20 resizes while 3 frames are in flight: old images are retired with the frames that use them
+/// (no wait), every frame has the size it asked for.
+#[test]
+fn resize_twenty_times_with_three_in_flight() {
+    let ctx = context();
+    let log = ctx.validation_log();
+    let mut host = Host::new(&ctx, 3);
+    let options = RendererOptions { frames_in_flight: 3, ..RendererOptions::default() };
+    let mut hadou = Renderer::with_options(ctx, &options).unwrap();
+    hadou.load_scene(common::load("assets/scenes/showcase.toml")).unwrap();
+    hadou.prepare(&FrameInputs::headless(40, 30, 0.0)).unwrap();
+    let waits = hadou.context().host_waits();
+    let mut reads = Vec::new();
+    for i in 0..20u32 {
+        let (w, h) = (24 + 7 * (i % 5), 16 + 5 * (i % 4));
+        let slot = (i % 3) as usize;
+        let cmd = host.begin(slot);
+        hadou.record_frame(cmd, &FrameInputs::headless(w, h, 0.1 * i as f64)).unwrap();
+        reads.push(((w, h), hadou.record_aov_readback(cmd, &[Aov::Depth, Aov::Energy]).unwrap()));
+        host.submit(slot);
+    }
+    assert_eq!(hadou.context().host_waits(), waits, "a resize waited on the device");
+    host.wait_all();
+    for ((w, h), r) in &reads {
+        let d = r.aov(Aov::Depth).unwrap();
+        assert_eq!((d.width, d.height), (*w, *h));
+        assert!(r.aov(Aov::Energy).unwrap().data.iter().all(|v| v.is_finite() && *v >= 0.0));
+    }
+    drop(reads);
+    host.destroy();
+    drop(hadou);
+    assert_clean(&log, "after shutdown (leaks included)");
+}
