@@ -184,9 +184,10 @@ impl Runtime {
         }
         if let Some(missing) = wanted.iter().find(|t| !self.renderer.produces(**t)) {
             return Err(Error::InvalidRequest(format!(
-                "AOV {} is not produced by this scene's passes ({}): e.g. `energy` needs a [[wave]]",
+                "AOV {} is not produced by this scene's passes ({}){}",
                 missing.name(),
-                self.renderer.pass_names().join(", ")
+                self.renderer.pass_names().join(", "),
+                producer_hint(*missing)
             )));
         }
         let record_start = Instant::now();
@@ -249,5 +250,14 @@ impl Drop for Runtime {
         let _ = self.renderer.context().wait_idle();
         self.commands.destroy(self.renderer.context());
         // The renderer (declared after) then destroys its resources and the context.
+    }
+}
+
+/// What a scene needs for a target that only an optional pass writes.
+fn producer_hint(target: Target) -> &'static str {
+    match target {
+        Target::Energy => ": `energy` needs a [[wave]]",
+        Target::Thickness => ": `thickness` needs an instance with a translucent material",
+        _ => "",
     }
 }
