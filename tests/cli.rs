@@ -4,7 +4,8 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 fn hadou(args: &[&str], envs: &[(&str, &str)]) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
@@ -178,4 +179,177 @@ fn no_vulkan_driver_is_a_clear_error() {
         !out.status.success() && msg.contains("no-such-gpu-xyz") && msg.contains("does not contain"),
         "{msg}"
     );
+}
+
+/// Runs `hadou` and kills it after `seconds`: a regression that blocks fails instead of hanging.
+fn hadou_within(seconds: u64, args: &[&str], envs: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
+    cmd.args(args).current_dir(common::root()).env("HADOU_VALIDATION", "1");
+    cmd.envs(envs.iter().copied()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    let mut child = cmd.spawn().expect("run hadou");
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(seconds) {
+            child.kill().unwrap();
+            let out = child.wait_with_output().unwrap();
+            panic!("{args:?} still running after {seconds} s: {}", text(&out));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// No Vulkan driver: a command that fails for its arguments fails before any GPU work.
+const NO_DRIVER: &[(&str, &str)] = &[("VK_DRIVER_FILES", "/nonexistent/hadou_icd.json")];
+
+fn mkfifo(path: &Path) {
+    assert!(Command::new("mkfifo").arg(path).status().unwrap().success(), "mkfifo {}", path.display());
+}
+
+/// Fails with exit status 1 and `error:` naming `path` (and not the missing driver: the check
+/// ran before rendering).
+fn assert_refused(out: &Output, path: &str, says: &str) {
+    let msg = text(out);
+    assert_eq!(out.status.code(), Some(1), "{msg}");
+    assert!(msg.starts_with("error: ") && msg.contains(path) && msg.contains(says), "{msg}");
+    assert!(!msg.contains("mesa-vulkan-drivers"), "the output was checked after the GPU start: {msg}");
+}
+
+#[test]
+fn special_files_are_refused_as_outputs_before_rendering() {
+    let dir = tmp_dir("special");
+    let fifo = dir.join("fifo.png");
+    mkfifo(&fifo);
+    let fifo = fifo.to_str().unwrap().to_string();
+    let folder = dir.to_str().unwrap().to_string();
+    let scene = "assets/scenes/single_cube.toml";
+    for (path, says) in [
+        ("/dev/null", "character device"),
+        ("/dev/full", "character device"),
+        (fifo.as_str(), "FIFO"),
+        (folder.as_str(), "directory"),
+    ] {
+        let out = hadou_within(60, &["render", scene, "-o", path], NO_DRIVER);
+        assert_refused(&out, path, says);
+        let aov = format!("depth={path}");
+        let out =
+            hadou_within(60, &["render", scene, "-o", &format!("{folder}/a.png"), "--aov", &aov], NO_DRIVER);
+        assert_refused(&out, path, says);
+        let out = hadou_within(60, &["profile", scene, "--json", path], NO_DRIVER);
+        assert_refused(&out, path, says);
+    }
+    use std::os::unix::fs::FileTypeExt;
+    assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
+    assert!(std::fs::metadata("/dev/full").unwrap().file_type().is_char_device());
+    assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn outputs_may_not_name_the_input_or_each_other() {
+    let dir = tmp_dir("same");
+    let scene = dir.join("s.toml");
+    let text_before = std::fs::read_to_string(common::root().join("assets/scenes/single_cube.toml")).unwrap()
+        + "\n[[material]]\nname = \"jade\"\nkind = \"translucent\"\nsigma = [1, 1, 1]\nvoxel_res = 8\n";
+    let scene_text = text_before.replace("mesh = \"cube\"\n", "mesh = \"cube\"\nmaterial = \"jade\"\n");
+    std::fs::write(&scene, &scene_text).unwrap();
+    let s = scene.to_str().unwrap();
+    let x = dir.join("x.png");
+    let x = x.to_str().unwrap();
+    let same_scene = format!("{}/./s.toml", dir.display());
+    let hdr = format!("hdr={same_scene}");
+    let depth = format!("depth={x}");
+    let cache = dir.join("cache");
+    let envs = [NO_DRIVER[0], ("HADOU_CACHE_DIR", cache.to_str().unwrap())];
+    for (args, path, says) in [
+        (vec!["render", s, "-o", s], s, "is the input"),
+        (vec!["render", s, "-o", x, "--aov", hdr.as_str()], same_scene.as_str(), "is the input"),
+        (vec!["render", s, "-o", x, "--aov", depth.as_str()], x, "is also the output"),
+        (vec!["profile", s, "--json", x, "--trace", x], x, "is also the output"),
+        (vec!["profile", s, "--trace", s], s, "is the input"),
+        (vec!["bake", s, "--out", s], s, "is the input"),
+    ] {
+        let out = hadou_within(60, &args, &envs);
+        assert_refused(&out, path, says);
+        assert_eq!(std::fs::read_to_string(&scene).unwrap(), scene_text, "{args:?} changed the scene");
+    }
+    let entries: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(entries, ["s.toml"], "nothing else written, not even the cache");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_unwritable_output_is_found_before_rendering() {
+    let dir = tmp_dir("unwritable");
+    let file = dir.join("file");
+    std::fs::write(&file, "x").unwrap();
+    let inside = format!("{}/out.png", file.display());
+    let out = hadou_within(60, &["render", "assets/scenes/single_cube.toml", "-o", &inside], NO_DRIVER);
+    assert_refused(&out, &inside, "is not a folder");
+    let out =
+        hadou_within(60, &["render", "assets/scenes/single_cube.toml", "-o", "/proc/hadou.png"], NO_DRIVER);
+    assert_refused(&out, "/proc/hadou.png", "cannot create");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn huge_frame_counts_are_errors_not_aborts() {
+    let scene = "assets/scenes/single_cube.toml";
+    for (args, says) in [
+        (vec!["profile", scene, "--frames", "4294967296"], "--frames"),
+        (vec!["profile", scene, "--frames", "18446744073709551615"], "--frames"),
+        (vec!["profile", scene, "--warmup", "18446744073709551615"], "--warmup"),
+        (vec!["report", "--frames", "18446744073709551615"], "--frames"),
+    ] {
+        let out = hadou_within(60, &args, NO_DRIVER);
+        let msg = text(&out);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {msg}");
+        assert!(
+            msg.starts_with("error: ") && msg.contains(says) && !msg.contains("panicked"),
+            "{args:?}: {msg}"
+        );
+    }
+}
+
+#[test]
+fn special_input_files_are_refused_without_blocking() {
+    let dir = tmp_dir("fifo-in");
+    let obj = dir.join("pipe.obj");
+    mkfifo(&obj);
+    let obj = obj.to_str().unwrap();
+    let out = hadou_within(60, &["bake", obj], NO_DRIVER);
+    assert_refused(&out, obj, "not a regular file");
+    let scene = dir.join("s.toml");
+    let camera = "[camera]\nposition = [0, 2, 8]\nlook_at = [0, 0, 0]\n";
+    let mesh = "[[mesh]]\nname = \"m\"\nkind = \"obj\"\npath = \"pipe.obj\"\n";
+    std::fs::write(&scene, format!("{camera}\n{mesh}\n[[instance]]\nmesh = \"m\"\n")).unwrap();
+    let out = hadou_within(60, &["render", scene.to_str().unwrap()], NO_DRIVER);
+    assert_refused(&out, "pipe.obj", "not a regular file");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn io_errors_state_the_os_text_once() {
+    let out = hadou_within(60, &["bake", "/nonexistent/mesh.obj"], NO_DRIVER);
+    let msg = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{msg}");
+    assert_eq!(msg.matches("No such file or directory").count(), 1, "{msg}");
+}
+
+#[test]
+fn a_missing_thickness_aov_names_what_produces_it() {
+    let dir = tmp_dir("thickness");
+    let aov = format!("thickness={}/t.exr", dir.display());
+    let png = format!("{}/c.png", dir.display());
+    let args = ["render", "assets/scenes/single_cube.toml", "-o", &png, "--size", "16x16", "--aov", &aov];
+    let out = hadou_within(300, &args, &[]);
+    let msg = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{msg}");
+    assert!(
+        msg.contains("thickness") && msg.contains("translucent material") && !msg.contains("wave"),
+        "{msg}"
+    );
+    let entries: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert!(entries.is_empty(), "a failed render leaves nothing behind");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -214,6 +214,37 @@ fn unreadable_scene_path_has_no_position() {
     assert_eq!(err.to_string(), format!("{}: {}", path.display(), err.message));
 }
 
+/// Loads on a thread, so a loader that blocks fails the test instead of hanging it.
+fn load_within_seconds(path: &Path) -> Result<Scene, SceneError> {
+    let (send, receive) = std::sync::mpsc::channel();
+    let path = path.to_path_buf();
+    std::thread::spawn(move || {
+        let _ = send.send(load_scene(&path));
+    });
+    receive.recv_timeout(std::time::Duration::from_secs(20)).expect("loading blocked")
+}
+
+#[test]
+fn fifo_scene_and_obj_paths_are_refused_without_blocking() {
+    let dir = std::env::temp_dir().join(format!("hadou-scene-fifo-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for fifo in ["pipe.obj", "pipe.toml"] {
+        assert!(std::process::Command::new("mkfifo").arg(dir.join(fifo)).status().unwrap().success());
+    }
+    let scene = dir.join("s.toml");
+    let text = "[[mesh]]\nname = \"m\"\nkind = \"obj\"\npath = \"pipe.obj\"\n\n[[instance]]\nmesh = \"m\"\n\n[camera]\nposition = [0, 2, 8]\nlook_at = [0, 0, 0]\n";
+    std::fs::write(&scene, text).unwrap();
+    let obj = load_within_seconds(&scene);
+    let whole = load_within_seconds(&dir.join("pipe.toml"));
+    std::fs::remove_dir_all(&dir).unwrap();
+    let err = obj.unwrap_err();
+    assert_eq!((err.line, err.column), (4, 8), "{err}");
+    assert!(err.message.contains("pipe.obj") && err.message.contains("not a regular file"), "{err}");
+    let err = whole.unwrap_err();
+    assert!(err.to_string().contains("pipe.toml") && err.message.contains("not a regular file"), "{err}");
+}
+
 fn scene_files() -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(root().join("assets/scenes"))
         .unwrap()

@@ -45,14 +45,17 @@ struct Job {
     res: u32,
 }
 
-fn jobs(args: &BakeArgs) -> anyhow::Result<Vec<Job>> {
+/// The tables to bake, and the files they were read from (which `--out` may not replace).
+fn jobs(args: &BakeArgs) -> anyhow::Result<(Vec<Job>, Vec<PathBuf>)> {
     let is_obj = args.input.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
     if is_obj {
         let mesh = hadou::scene::obj::load_obj(&args.input)?;
         let res = args.res.unwrap_or(hadou::scene::DEFAULT_VOXEL_RES);
-        return Ok(vec![Job { label: args.input.display().to_string(), mesh, res }]);
+        let job = Job { label: args.input.display().to_string(), mesh, res };
+        return Ok((vec![job], vec![args.input.clone()]));
     }
     let scene = hadou::scene::load_scene(&args.input)?;
+    let inputs = super::scene_inputs(&args.input, &scene);
     let mut out: Vec<(usize, u32)> = Vec::new();
     for inst in &scene.instances {
         if let MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Lut, .. } =
@@ -70,14 +73,15 @@ fn jobs(args: &BakeArgs) -> anyhow::Result<Vec<Job>> {
             args.input.display()
         );
     }
-    Ok(out
+    let jobs = out
         .into_iter()
         .map(|(m, res)| Job {
             label: format!("mesh \"{}\"", scene.meshes[m].name),
             mesh: scene.meshes[m].mesh.clone(),
             res,
         })
-        .collect())
+        .collect();
+    Ok((jobs, inputs))
 }
 
 pub fn run(args: BakeArgs) -> anyhow::Result<()> {
@@ -86,9 +90,12 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
             bail!("--res {res}: expected 1..={}", hadou::effects::voxelize::MAX_VOXEL_RES);
         }
     }
-    let jobs = jobs(&args)?;
-    if args.out.is_some() && jobs.len() != 1 {
-        bail!("--out needs exactly one table, but {} has {}", args.input.display(), jobs.len());
+    let (jobs, inputs) = jobs(&args)?;
+    if let Some(out) = &args.out {
+        if jobs.len() != 1 {
+            bail!("--out needs exactly one table, but {} has {}", args.input.display(), jobs.len());
+        }
+        super::check_outputs(&[out], &inputs)?;
     }
     let options =
         BakeOptions { threads: args.threads, max_texture_dim: args.max_texture_dim, exact_only: false };
@@ -157,8 +164,5 @@ fn print_summary(job: &Job, lut: &ThicknessLut, stats: Option<&BakeStats>, secon
 
 fn write_out(out: &Path, mesh: &Mesh, lut: &ThicknessLut, options: &BakeOptions) -> anyhow::Result<()> {
     let bytes = bake_cache::encode(lut, bake_cache::mesh_hash(mesh), options.max_texture_dim);
-    let tmp = out.with_extension("hlut.tmp");
-    std::fs::write(&tmp, bytes)
-        .and_then(|()| std::fs::rename(&tmp, out))
-        .with_context(|| format!("cannot write {}", out.display()))
+    Ok(hadou::output::write_atomically(out, &bytes)?)
 }

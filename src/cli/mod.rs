@@ -7,7 +7,7 @@ mod render;
 mod report;
 mod view;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand};
@@ -68,4 +68,20 @@ fn load(scene: &Path, size: Option<&str>) -> anyhow::Result<(hadou::scene::Scene
     let scene = hadou::scene::load_scene(scene)?;
     let size = size.unwrap_or((scene.render.width, scene.render.height));
     Ok((scene, size))
+}
+
+/// The files a scene command reads: the scene and its OBJ meshes (outputs may not replace them).
+fn scene_inputs(path: &Path, scene: &hadou::scene::Scene) -> Vec<PathBuf> {
+    let objs = scene.meshes.iter().filter_map(|m| match &m.spec {
+        hadou::scene::mesh::MeshSpec::Obj { path } => Some(path.clone()),
+        _ => None,
+    });
+    std::iter::once(path.to_path_buf()).chain(objs).collect()
+}
+
+/// Refuses, before any work, outputs that are not regular files, that name an input or each
+/// other, or whose folder takes no new file (see `hadou::output`).
+fn check_outputs(outputs: &[&Path], inputs: &[PathBuf]) -> anyhow::Result<()> {
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    Ok(hadou::output::check_outputs(outputs, &inputs)?)
 }

@@ -1,11 +1,12 @@
 //! `hadou profile SCENE [--size WxH] [--frames N] [--warmup K] [--json F] [--trace F]`
 
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::Args;
+use hadou::output::OutputSet;
 use hadou::profile::{chrome_trace, ProfileReport};
 use hadou::{FrameRequest, Runtime, RuntimeOptions};
 
@@ -40,14 +41,23 @@ pub fn run(args: ProfileArgs) -> anyhow::Result<()> {
     if !args.dt.is_finite() {
         bail!("--dt must be finite");
     }
+    let total = args.warmup.checked_add(args.frames).with_context(|| {
+        format!("--warmup {} plus --frames {} is more frames than can be counted", args.warmup, args.frames)
+    })?;
+    // The per-frame records are reserved up front, so a count this machine cannot hold is an
+    // error now rather than an abort later.
+    let mut frames = Vec::new();
+    let mut starts = Vec::new();
+    frames.try_reserve_exact(args.frames).and_then(|()| starts.try_reserve_exact(args.frames)).map_err(
+        |e| anyhow::anyhow!("--frames {}: cannot hold the timings of that many frames ({e})", args.frames),
+    )?;
     let (scene, (width, height)) = super::load(&args.scene, args.size.as_deref())?;
+    let outputs: Vec<&Path> = args.json.iter().chain(&args.trace).map(PathBuf::as_path).collect();
+    super::check_outputs(&outputs, &super::scene_inputs(&args.scene, &scene))?;
     let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
     runtime.load_scene(scene)?;
     let mut request = FrameRequest::new(width, height);
     request.color = false;
-    let total = args.warmup + args.frames;
-    let mut frames = Vec::with_capacity(args.frames);
-    let mut starts = Vec::with_capacity(args.frames);
     let run_start = Instant::now();
     let mut last_report = Instant::now();
     for i in 0..total {
@@ -79,13 +89,16 @@ pub fn run(args: ProfileArgs) -> anyhow::Result<()> {
         args.warmup,
         &frames,
     );
+    // Both files or neither.
+    let mut set = OutputSet::default();
     if let Some(path) = &args.json {
         let json = serde_json::to_string_pretty(&report).context("serializing the report")?;
-        hadou::output::write_atomically(path, json.as_bytes())?;
+        set.stage(path, json.as_bytes())?;
     }
     if let Some(path) = &args.trace {
-        hadou::output::write_atomically(path, chrome_trace(&frames, &starts).as_bytes())?;
+        set.stage(path, chrome_trace(&frames, &starts).as_bytes())?;
     }
+    set.commit()?;
     print!("{}", report.table());
     Ok(())
 }

@@ -1,9 +1,10 @@
 //! `hadou render SCENE -o out.png [--size WxH] [--time T] [--aov NAME=FILE.exr …]`
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use clap::Args;
+use hadou::output::{self, OutputSet};
 use hadou::{Aov, FrameRequest, Runtime, RuntimeOptions};
 
 #[derive(Args, Debug)]
@@ -47,6 +48,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .map(|a| parse_aov(a).with_context(|| format!("--aov {a}")))
         .collect::<Result<Vec<_>, _>>()?;
     let (scene, (width, height)) = super::load(&args.scene, args.size.as_deref())?;
+    let outputs: Vec<&Path> =
+        std::iter::once(args.output.as_path()).chain(aovs.iter().map(|(_, p)| p.as_path())).collect();
+    super::check_outputs(&outputs, &super::scene_inputs(&args.scene, &scene))?;
     let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
     runtime.load_scene(scene)?;
     let request = FrameRequest {
@@ -58,11 +62,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     let frame = runtime.render(&request)?;
     let color = frame.color.as_deref().context("the frame returned no colour")?;
-    hadou::output::write_png(&args.output, width, height, color)?;
+    // All outputs or none: a failed write replaces nothing.
+    let mut set = OutputSet::default();
+    set.stage(&args.output, &output::encode_png(&args.output, width, height, color)?)?;
     for (aov, path) in &aovs {
         let image = frame.aov(*aov).context("the frame returned no AOV")?;
-        hadou::output::write_exr(path, aov.name(), image)?;
+        set.stage(path, &output::encode_exr(path, aov.name(), image)?)?;
     }
+    set.commit()?;
     let passes: Vec<String> =
         frame.stats.passes.iter().map(|p| format!("{} {:.3} ms", p.name, p.gpu_ms)).collect();
     println!("wrote {} ({width}x{height}); gpu: {}", args.output.display(), passes.join(", "));

@@ -42,6 +42,10 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
         if frames == 0 {
             bail!("--frames must be at least 1");
         }
+        // The sections count `warmup + frames`: that sum must not wrap.
+        if frames.checked_add(opts.warmup).is_none() {
+            bail!("--frames {frames}: too many frames to count");
+        }
         opts.frames = frames;
     }
     // Everything that can be checked is checked before minutes of measuring; the file is read

@@ -157,19 +157,25 @@ impl BakeCache {
     /// The cached table of `mesh` at `res`, or why there is none usable. `Ok(None)`: no file.
     pub fn load(&self, mesh: &Mesh, res: u32, options: &BakeOptions) -> Result<Option<ThicknessLut>, String> {
         let path = self.path_for(mesh, res, options);
-        let bytes = match std::fs::read(&path) {
-            Ok(b) => b,
+        let meta = match std::fs::metadata(&path) {
+            Ok(meta) => meta,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
             Err(e) => return Err(format!("cannot read it: {e}")),
         };
+        // Checked before opening: a FIFO would block, a device (a link to /dev/zero) never ends.
+        if !meta.is_file() {
+            return Err("not a regular file".into());
+        }
         let expect = Expect { hash: mesh_hash(mesh), res, max_dim: options.max_texture_dim, mesh };
-        decode(&bytes, &expect).map(Some)
+        read_bounded(&path, &expect).map(Some)
     }
 
     /// Writes `lut` (a bake of `mesh`) atomically: a temporary file, then a rename.
     pub fn store(&self, mesh: &Mesh, lut: &ThicknessLut, options: &BakeOptions) -> std::io::Result<PathBuf> {
         std::fs::create_dir_all(&self.dir)?;
         let path = self.path_for(mesh, lut.res, options);
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        crate::output::remove_stale_temps(&self.dir, &name);
         let bytes = encode(lut, mesh_hash(mesh), options.max_texture_dim);
         write_atomic(&path, &bytes)?;
         Ok(path)
@@ -307,8 +313,45 @@ fn check<T: PartialEq + std::fmt::Debug>(what: &str, found: T, expected: T) -> R
     }
 }
 
-/// Parses and validates a cache file against what was asked for.
+/// Reads and decodes a cache file, never more bytes than the header and the payload the
+/// request implies (plus one, to see a file that is too long).
+fn read_bounded(path: &Path, expect: &Expect) -> Result<ThicknessLut, String> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path).map_err(|e| format!("cannot read it: {e}"))?;
+    let mut read = |limit: u64| -> Result<Vec<u8>, String> {
+        let mut bytes = Vec::new();
+        (&mut file).take(limit).read_to_end(&mut bytes).map_err(|e| format!("cannot read it: {e}"))?;
+        Ok(bytes)
+    };
+    let head = read(HEADER_LEN as u64)?;
+    let header = decode_header(&head, expect)?;
+    let payload = read(header.payload_len.saturating_add(1))?;
+    decode_payload(&header, &payload, expect)
+}
+
+/// Parses and validates a cache file against what was asked for (the tests' whole-buffer form).
+#[cfg(test)]
 fn decode(bytes: &[u8], expect: &Expect) -> Result<ThicknessLut, String> {
+    let header = decode_header(bytes, expect)?;
+    decode_payload(&header, bytes.get(HEADER_LEN..).unwrap_or_default(), expect)
+}
+
+/// The header's fields, checked against the request; `payload_len` is the length the request
+/// implies (the header must agree).
+#[derive(Clone, Copy)]
+struct Header {
+    dims: [u32; 3],
+    n: usize,
+    vertices: usize,
+    width: u32,
+    height: u32,
+    origin: DVec3,
+    voxel_size: f64,
+    payload_len: u64,
+    payload_sum: u64,
+}
+
+fn decode_header(bytes: &[u8], expect: &Expect) -> Result<Header, String> {
     let mut r = Reader { bytes, at: 0 };
     check("magic", r.take::<8>()?, MAGIC)?;
     check("format version", r.u32()?, FORMAT_VERSION)?;
@@ -343,8 +386,13 @@ fn decode(bytes: &[u8], expect: &Expect) -> Result<ThicknessLut, String> {
     let voxels: usize = dims.iter().map(|&d| d as usize).product();
     let want_len = n as u64 * 12 + (vertices as u64 + voxels as u64) * 4 + layout.bytes() as u64;
     check("payload length", payload_len, want_len)?;
-    let payload = bytes.get(HEADER_LEN..).unwrap_or_default();
-    check("file length", payload.len() as u64, want_len)?;
+    Ok(Header { dims, n, vertices, width, height, origin, voxel_size, payload_len, payload_sum })
+}
+
+fn decode_payload(header: &Header, payload: &[u8], expect: &Expect) -> Result<ThicknessLut, String> {
+    let Header { dims, n, vertices, width, height, origin, voxel_size, payload_len, payload_sum } = *header;
+    let voxels: usize = dims.iter().map(|&d| d as usize).product();
+    check("file length", payload.len() as u64, payload_len)?;
     if fnv(payload) != payload_sum {
         return Err("payload checksum does not match (corrupt file)".into());
     }
@@ -439,5 +487,44 @@ mod tests {
         assert!(decode(&bytes, &wrong).unwrap_err().contains("mesh hash"));
         let wrong_res = Expect { res: 7, ..expect };
         assert!(decode(&bytes, &wrong_res).unwrap_err().contains("resolution"));
+    }
+
+    /// A FIFO, a link to /dev/zero and an over-long file where a cache file should be: refused
+    /// without blocking or reading without end, then rebuilt.
+    #[test]
+    fn special_and_overlong_files_are_refused_then_rebuilt() {
+        let dir = std::env::temp_dir().join(format!("hadou-cache-special-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let cache = BakeCache::new(&dir);
+        let mesh = procedural::cube(1.0).unwrap();
+        let options = BakeOptions { threads: 1, ..BakeOptions::default() };
+        let path = cache.path_for(&mesh, 6, &options);
+        let (lut, _) = bake(&mesh, 6, &options, &|_, _| {}).unwrap();
+        let good = encode(&lut, mesh_hash(&mesh), options.max_texture_dim);
+        std::fs::create_dir_all(&dir).unwrap();
+        let fifo = || assert!(std::process::Command::new("mkfifo").arg(&path).status().unwrap().success());
+        let zero = || std::os::unix::fs::symlink("/dev/zero", &path).unwrap();
+        let long = || std::fs::write(&path, [good.as_slice(), &[0]].concat()).unwrap();
+        for (make, says) in [
+            (&fifo as &dyn Fn(), "not a regular file"),
+            (&zero as &dyn Fn(), "not a regular file"),
+            (&long as &dyn Fn(), "file length"),
+        ] {
+            let _ = std::fs::remove_file(&path);
+            make();
+            // On a thread, so a regression fails the test instead of hanging it.
+            let (send, receive) = std::sync::mpsc::channel();
+            let (c, m, o) = (cache.clone(), mesh.clone(), options);
+            std::thread::spawn(move || {
+                let _ = send.send(c.get_or_bake(&m, 6, &o, &|_, _| {}).map(|g| g.outcome));
+            });
+            let outcome = receive.recv_timeout(std::time::Duration::from_secs(60)).expect("blocked");
+            match outcome.unwrap() {
+                CacheOutcome::Rebuilt { reason, .. } => assert!(reason.contains(says), "{reason}"),
+                other => panic!("{says}: {other:?}"),
+            }
+            assert_eq!(std::fs::read(&path).unwrap(), good, "rebuilt as a regular file");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -30,9 +30,14 @@ pub const DEFAULT_ALBEDO: f64 = 0.7;
 
 /// Reads and validates the scene file at `path`.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| {
-        SceneError::whole_file(path, format!("cannot read scene file: {e} (expected a readable file)"))
-    })?;
+    let unreadable =
+        |e| SceneError::whole_file(path, format!("cannot read scene file: {e} (expected a readable file)"));
+    // The type is checked before opening: a FIFO would block, a device might never end.
+    let meta = std::fs::metadata(path).map_err(unreadable)?;
+    if !meta.is_file() {
+        return Err(unreadable(std::io::Error::other("not a regular file")));
+    }
+    let bytes = std::fs::read(path).map_err(unreadable)?;
     let text = String::from_utf8(bytes).map_err(|e| not_utf8(path, &e))?;
     parse_scene(&text, path)
 }

@@ -140,9 +140,10 @@ fn spec(o: &Owner, d: &MeshDef, kind: &str) -> Result<MeshSpec, SceneError> {
 fn obj_path(o: &Owner, d: &MeshDef) -> Result<PathBuf, SceneError> {
     let path = o.required("path", d.path.as_ref(), "a path to a .obj file, relative to the scene file")?;
     let resolved = resolve(o.ctx.path, path.get_ref());
-    let readable = std::fs::File::open(&resolved).and_then(|f| f.metadata()).and_then(|m| {
+    // The type is checked before opening: opening a FIFO blocks until a writer comes.
+    let readable = std::fs::metadata(&resolved).and_then(|m| {
         if m.is_file() {
-            Ok(())
+            std::fs::File::open(&resolved).map(drop)
         } else {
             Err(std::io::Error::other("not a regular file"))
         }

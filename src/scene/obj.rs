@@ -23,11 +23,26 @@ use super::mesh::{is_degenerate, Mesh, MeshError};
 /// Statements that are valid OBJ but carry nothing hadou uses.
 const IGNORED: &[&str] = &["o", "g", "s", "usemtl", "mtllib", "l"];
 
-/// Loads an OBJ file. A missing or unreadable file is `MeshError::Io`; bytes that are not UTF-8
-/// are replaced (they can only matter inside tokens, which then fail to parse).
+/// Loads an OBJ file. A missing or unreadable file, or one that is not a regular file, is
+/// `MeshError::Io`; bytes that are not UTF-8 are replaced (they can only matter inside tokens,
+/// which then fail to parse).
 pub fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: path.to_path_buf(), source })?;
+    let io = |source| MeshError::Io { path: path.to_path_buf(), source };
+    // Checked before opening: opening a FIFO would block until a writer comes, and a device
+    // may never end.
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(io(std::io::Error::other("not a regular file")));
+    }
+    let bytes = std::fs::read(path).map_err(io)?;
     parse_obj(&String::from_utf8_lossy(&bytes), path)
+}
+
+/// The lines of OBJ text: ended by LF, CR LF or a lone CR (old Mac exports), after a UTF-8 byte
+/// order mark if there is one.
+fn lines(text: &str) -> impl Iterator<Item = &str> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    text.split_terminator('\n').flat_map(|l| l.strip_suffix('\r').unwrap_or(l).split('\r'))
 }
 
 /// Parses OBJ text; `path` only labels errors and warnings.
@@ -40,7 +55,7 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Mesh, MeshError> {
         corners: Vec::new(),
         lines: Vec::new(),
     };
-    for (i, line) in text.lines().enumerate() {
+    for (i, line) in lines(text).enumerate() {
         p.statement(i + 1, line)?;
     }
     p.finish()
@@ -400,6 +415,46 @@ mod tests {
     #[test]
     fn missing_file_is_io() {
         assert!(matches!(load_obj(&test_data("does_not_exist.obj")), Err(MeshError::Io { .. })));
+    }
+
+    #[test]
+    fn special_files_are_refused_without_reading() {
+        let dir = std::env::temp_dir().join(format!("hadou-obj-fifo-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let fifo = dir.join("mesh.obj");
+        let _ = std::fs::remove_file(&fifo);
+        assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+        // On a thread, so a regression fails the test instead of hanging it.
+        let (send, receive) = std::sync::mpsc::channel();
+        let path = fifo.clone();
+        std::thread::spawn(move || {
+            let _ = send.send(load_obj(&path).map(|_| ()).map_err(|e| e.to_string()));
+        });
+        let got = receive.recv_timeout(std::time::Duration::from_secs(10));
+        std::fs::remove_dir_all(&dir).unwrap();
+        let msg = got.expect("loading a FIFO blocked").unwrap_err();
+        assert!(msg.contains("mesh.obj") && msg.contains("not a regular file"), "{msg}");
+        let msg = load_obj(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert!(msg.contains("/dev/zero") && msg.contains("not a regular file"), "{msg}");
+    }
+
+    #[test]
+    fn bom_and_every_line_ending_are_read_alike() {
+        let lf = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+        let want = parse_obj(lf, Path::new("lf.obj")).unwrap();
+        for (name, text) in [
+            ("bom", format!("\u{feff}{lf}")),
+            ("crlf", lf.replace('\n', "\r\n")),
+            ("cr", lf.replace('\n', "\r")),
+            ("bom cr no final break", format!("\u{feff}{}", lf.trim_end().replace('\n', "\r"))),
+        ] {
+            assert_eq!(parse_obj(&text, Path::new("x.obj")).unwrap(), want, "{name}");
+        }
+        // Positions stay right: a bad token on line 3 of a CR-only file, column 1 after a BOM.
+        let e = parse_obj("v 0 0 0\rv 1 0 0\rv 1 x 0\r", Path::new("cr.obj")).unwrap_err().to_string();
+        assert!(e.starts_with("cr.obj:3:5:"), "{e}");
+        let e = parse_obj("\u{feff}w 1\n", Path::new("bom.obj")).unwrap_err().to_string();
+        assert!(e.starts_with("bom.obj:1:1:"), "{e}");
     }
 
     #[test]
