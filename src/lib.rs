@@ -21,7 +21,7 @@ pub use aov::{Aov, AovImage};
 pub use frame::{FrameStats, PassTiming};
 pub use gpu::{DeviceInfo, GpuError, HostWaits, ValidationCounts};
 pub use renderer::{
-    DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameTimings, RecordedFrame, Renderer,
+    AovReadback, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameTimings, RecordedFrame, Renderer,
     RendererOptions, WaveUpdate,
 };
 pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};

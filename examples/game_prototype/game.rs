@@ -1,14 +1,15 @@
 //! The game: its state and loop step (charge, fire, the slime's wobble), its own scene drawn by
 //! its own raster into its own colour and depth, and hadou embedded on its device for the energy
 //! wave, the translucent target and the metaball slime. Windowed (main.rs) or headless
-//! (`Game::offscreen_frame`, used by tests/game_prototype.rs).
+//! (`Game::offscreen_submit`, used by tests/game_prototype.rs). Both run `FRAMES_IN_FLIGHT`
+//! frames in flight: the game waits only on the fence of the frame that last used a slot.
 #![allow(dead_code)]
 
 use ash::vk;
 use glam::{DMat4, DVec3};
 use hadou::{Aov, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, Renderer, WaveUpdate};
 
-use super::gpu::{GameImage, GameVk, HostBuffer};
+use super::gpu::{GameImage, GameVk, HostBuffer, FRAMES_IN_FLIGHT};
 use super::painter::{BoxDraw, GameCamera, PaintTarget, Painter};
 
 /// hadou's part of the scene: the translucent target (lit from behind), the slime, the wave.
@@ -238,12 +239,24 @@ pub struct Game {
     painter: Option<Painter>,
     depth: Option<GameImage>,
     offscreen: Option<GameImage>,
+    /// Per slot: the headless frame in flight there.
+    pending: Vec<Option<Pending>>,
 }
 
-/// What a headless frame read back.
+/// What a headless frame read back, and the state it was rendered from.
 pub struct OffscreenFrame {
     pub color: Vec<u8>,
     pub aovs: Vec<(Aov, hadou::AovImage)>,
+    pub state: GameState,
+}
+
+/// A headless frame submitted and not yet read.
+pub struct Pending {
+    frame: u64,
+    state: GameState,
+    aovs: Vec<Aov>,
+    readback: hadou::AovReadback,
+    color: HostBuffer,
 }
 
 impl Game {
@@ -252,12 +265,14 @@ impl Game {
         // SAFETY: GameVk's handles are valid and enable EnabledFeatures::REQUIRED; Game::destroy
         // drops hadou before the device is destroyed.
         let ctx = unsafe { hadou::gpu::GpuContext::from_raw(vk.hadou_raw()) }.map_err(|e| e.to_string())?;
-        let mut hadou = Renderer::new(ctx).map_err(|e| e.to_string())?;
+        let options = hadou::RendererOptions { frames_in_flight: FRAMES_IN_FLIGHT, ..Default::default() };
+        let mut hadou = Renderer::with_options(ctx, &options).map_err(|e| e.to_string())?;
         let scene = hadou::scene::parse_scene(HADOU_SCENE, "game_prototype.toml".as_ref())
             .map_err(|e| e.to_string())?;
         hadou.load_scene(scene).map_err(|e| e.to_string())?;
         hadou.set_camera(camera().for_hadou()).map_err(|e| e.to_string())?;
-        Ok(Game { vk, hadou, state: GameState::default(), painter: None, depth: None, offscreen: None })
+        let pending = (0..FRAMES_IN_FLIGHT).map(|_| None).collect();
+        Ok(Game { vk, hadou, state: GameState::default(), painter: None, depth: None, offscreen: None, pending })
     }
 
     /// Steps the state and hands hadou this frame's wave, slime and camera (no pipeline rebuilt).
@@ -337,18 +352,25 @@ impl Game {
         Ok(())
     }
 
-    /// One headless frame into the game's own offscreen image: record, read back the colour and
-    /// `aovs`, submit, wait.
-    pub fn offscreen_frame(&mut self, extent: vk::Extent2D, aovs: &[Aov]) -> Result<OffscreenFrame, String> {
+    /// Records and submits one headless frame into the game's own offscreen image (colour and
+    /// `aovs` read back) in the next slot, without waiting for it. Returns the frame that used the
+    /// slot before, now finished (the wait for it is the game's frame-in-flight wait).
+    pub fn offscreen_submit(&mut self, extent: vk::Extent2D, aovs: &[Aov]) -> Result<Option<OffscreenFrame>, String> {
         let format = vk::Format::R8G8B8A8_SRGB;
         if self.offscreen.as_ref().is_none_or(|o| o.extent != extent) {
-            unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
+            let done = self.offscreen_finish()?;
+            if !done.is_empty() {
+                return Err("resize the offscreen image only after offscreen_finish".into());
+            }
             if let Some(o) = self.offscreen.take() {
                 self.vk.destroy_image(o);
             }
             let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
             self.offscreen = Some(self.vk.create_image(extent, format, usage)?);
         }
+        let slot = self.hadou.next_frame() as usize % FRAMES_IN_FLIGHT;
+        self.vk.begin_slot(slot)?;
+        let done = self.pending[slot].take().map(|p| self.collect(p)).transpose()?;
         let Some(image) = &self.offscreen else { return Err("no offscreen image".into()) };
         let target = ColorTarget {
             image: image.image,
@@ -357,33 +379,50 @@ impl Game {
             extent,
             final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
         };
-        self.vk.begin()?;
+        let frame = self.hadou.next_frame();
         self.record(&target)?;
         let readback = self.hadou.record_aov_readback(self.vk.cmd, aovs).map_err(|e| e.to_string())?;
-        let buffer: HostBuffer =
-            self.vk.create_host_buffer(extent.width as u64 * extent.height as u64 * 4)?;
+        let color = self.vk.create_host_buffer(extent.width as u64 * extent.height as u64 * 4)?;
         if let Some(image) = &self.offscreen {
-            self.vk.record_copy_to_host(image, &buffer);
+            self.vk.record_copy_to_host(image, &color);
         }
-        let submitted = self.vk.submit_and_wait(None, None);
-        // The fence signalled: hadou may read this frame's timings and free what it retired.
-        if let Some(last) = self.hadou.next_frame().checked_sub(1) {
-            self.hadou.frame_finished(last).map_err(|e| e.to_string())?;
-        }
-        let frame = OffscreenFrame {
-            color: buffer.bytes().to_vec(),
-            aovs: aovs.iter().filter_map(|&a| readback.aov(a).map(|img| (a, img))).collect(),
-        };
-        drop(readback);
-        self.vk.destroy_buffer(buffer);
-        submitted.map(|_| frame)
+        self.vk.submit_slot()?;
+        let state = self.state.clone();
+        self.pending[slot] = Some(Pending { frame, state, aovs: aovs.to_vec(), readback, color });
+        Ok(done)
+    }
+
+    /// Waits for the frames in flight and returns them, oldest first.
+    pub fn offscreen_finish(&mut self) -> Result<Vec<OffscreenFrame>, String> {
+        self.vk.wait_slots()?;
+        let mut pending: Vec<Pending> = self.pending.iter_mut().filter_map(Option::take).collect();
+        pending.sort_by_key(|p| p.frame);
+        pending.into_iter().map(|p| self.collect(p)).collect()
+    }
+
+    /// One headless frame, waited for (benchmarks that want every frame's numbers at once).
+    pub fn offscreen_frame(&mut self, extent: vk::Extent2D, aovs: &[Aov]) -> Result<OffscreenFrame, String> {
+        self.offscreen_submit(extent, aovs)?;
+        self.offscreen_finish()?.pop().ok_or_else(|| "no frame".into())
+    }
+
+    /// Reads a finished frame and tells hadou it finished (its timings, its retired objects).
+    fn collect(&mut self, p: Pending) -> Result<OffscreenFrame, String> {
+        self.hadou.frame_finished(p.frame).map_err(|e| e.to_string())?;
+        let aovs = p.aovs.iter().filter_map(|&a| p.readback.aov(a).map(|img| (a, img))).collect();
+        let frame = OffscreenFrame { color: p.color.bytes().to_vec(), aovs, state: p.state };
+        self.vk.destroy_buffer(p.color);
+        Ok(frame)
     }
 
     /// hadou's objects first, then the game's, then the device (`from_raw`'s ownership rule).
     pub fn destroy(self) -> std::sync::Arc<super::gpu::Messages> {
-        let Game { vk, hadou, painter, depth, offscreen, .. } = self;
+        let Game { vk, hadou, painter, depth, offscreen, pending, .. } = self;
         unsafe {
             let _ = vk.device.device_wait_idle();
+        }
+        for p in pending.into_iter().flatten() {
+            vk.destroy_buffer(p.color);
         }
         drop(hadou);
         if let Some(p) = painter {

@@ -1,6 +1,6 @@
-//! The game's own Vulkan — instance (with validation), device, queue, one command buffer and
-//! fence, images, and a raster pipeline for flat-shaded boxes into standard-Z depth. Nothing here
-//! calls hadou: hadou is embedded on top of these objects (game.rs).
+//! The game's own Vulkan — instance (with validation), device, queue, a command buffer and fence
+//! per frame in flight, images, and a raster pipeline for flat-shaded boxes into standard-Z depth.
+//! Nothing here calls hadou: hadou is embedded on top of these objects (game.rs).
 #![allow(dead_code)]
 
 use std::ffi::{c_char, c_void, CStr};
@@ -59,10 +59,18 @@ pub struct GameVk {
     pub messages: Arc<Messages>,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     pool: vk::CommandPool,
+    /// The command buffer being recorded: slot `slot`'s.
     pub cmd: vk::CommandBuffer,
+    /// The fence of the slot being recorded.
     pub fence: vk::Fence,
+    pub slot: usize,
+    /// Per frame in flight: its command buffer and fence, and whether a submission is pending.
+    slots: Vec<(vk::CommandBuffer, vk::Fence, bool)>,
     memory_props: vk::PhysicalDeviceMemoryProperties,
 }
+
+/// The game's frames in flight (hadou's renderer is made with the same number).
+pub const FRAMES_IN_FLIGHT: usize = 2;
 
 const VALIDATION: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -152,10 +160,17 @@ impl GameVk {
             .queue_family_index(queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         let pool = unsafe { device.create_command_pool(&pool_info, None) }.map_err(|e| e.to_string())?;
-        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
-        let cmd = unsafe { device.allocate_command_buffers(&alloc) }.map_err(|e| e.to_string())?[0];
-        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
-            .map_err(|e| e.to_string())?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .command_buffer_count(FRAMES_IN_FLIGHT as u32);
+        let cmds = unsafe { device.allocate_command_buffers(&alloc) }.map_err(|e| e.to_string())?;
+        let mut slots = Vec::new();
+        for cmd in cmds {
+            let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+                .map_err(|e| e.to_string())?;
+            slots.push((cmd, fence, false));
+        }
+        let (cmd, fence, _) = slots[0];
         let memory_props = unsafe { instance.get_physical_device_memory_properties(physical) };
         Ok(GameVk {
             entry,
@@ -169,6 +184,8 @@ impl GameVk {
             pool,
             cmd,
             fence,
+            slot: 0,
+            slots,
             memory_props,
         })
     }
@@ -185,6 +202,56 @@ impl GameVk {
             enabled: hadou::gpu::EnabledFeatures::REQUIRED,
             debug_utils: true,
         }
+    }
+
+    /// Makes `slot` the one recorded: waits for its previous submission (the game's frame n − F,
+    /// which is what hadou's frame contract needs), then begins its command buffer.
+    pub fn begin_slot(&mut self, slot: usize) -> Result<(), String> {
+        let (cmd, fence, pending) = self.slots[slot];
+        if pending {
+            unsafe {
+                self.device.wait_for_fences(&[fence], true, u64::MAX).map_err(|e| e.to_string())?;
+                self.device.reset_fences(&[fence]).map_err(|e| e.to_string())?;
+            }
+            self.slots[slot].2 = false;
+        }
+        (self.cmd, self.fence, self.slot) = (cmd, fence, slot);
+        self.begin()
+    }
+
+    /// Makes `slot` the one recorded when the caller already waited for its previous frame (a
+    /// swapchain frame's fence), and begins its command buffer.
+    pub fn begin_waited_slot(&mut self, slot: usize) -> Result<(), String> {
+        let (cmd, fence, _) = self.slots[slot];
+        (self.cmd, self.fence, self.slot) = (cmd, fence, slot);
+        self.begin()
+    }
+
+    /// Ends and submits the slot being recorded with its own fence; does not wait.
+    pub fn submit_slot(&mut self) -> Result<(), String> {
+        unsafe {
+            self.device.end_command_buffer(self.cmd).map_err(|e| e.to_string())?;
+            let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
+            let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmds)];
+            self.device.queue_submit2(self.queue, &submit, self.fence).map_err(|e| e.to_string())?;
+        }
+        self.slots[self.slot].2 = true;
+        Ok(())
+    }
+
+    /// Waits for every pending slot.
+    pub fn wait_slots(&mut self) -> Result<(), String> {
+        for slot in 0..self.slots.len() {
+            let (_, fence, pending) = self.slots[slot];
+            if pending {
+                unsafe {
+                    self.device.wait_for_fences(&[fence], true, u64::MAX).map_err(|e| e.to_string())?;
+                    self.device.reset_fences(&[fence]).map_err(|e| e.to_string())?;
+                }
+                self.slots[slot].2 = false;
+            }
+        }
+        Ok(())
     }
 
     pub fn begin(&self) -> Result<(), String> {
@@ -378,7 +445,9 @@ impl GameVk {
     pub fn destroy(self) {
         unsafe {
             let _ = self.device.device_wait_idle();
-            self.device.destroy_fence(self.fence, None);
+            for (_, fence, _) in &self.slots {
+                self.device.destroy_fence(*fence, None);
+            }
             self.device.destroy_command_pool(self.pool, None);
             self.device.destroy_device(None);
             if let Some((d, m)) = &self.debug {

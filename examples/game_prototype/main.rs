@@ -73,8 +73,8 @@ fn start(window: &Window) -> Result<Running, String> {
         // The game writes linear colour: an _SRGB swapchain encodes it.
         formats: vec![vk::Format::B8G8R8A8_SRGB, vk::Format::R8G8B8A8_SRGB],
         usage: vk::ImageUsageFlags::COLOR_ATTACHMENT,
-        // hadou writes its per-frame parameters on the host: one frame in flight.
-        frames_in_flight: 1,
+        // As many frames in flight as the game (and hadou) have slots.
+        frames_in_flight: gpu::FRAMES_IN_FLIGHT,
         ..PresentConfig::default()
     };
     // SAFETY: handles from one instance; the surface presents from the chosen queue family;
@@ -94,7 +94,8 @@ impl Running {
         else {
             return Ok(()); // minimized or out of date: nothing drawn this time
         };
-        self.game.vk.begin()?;
+        // The presenter waited on this slot's fence: frame n − FRAMES_IN_FLIGHT has finished.
+        self.game.vk.begin_waited_slot(acquired.slot)?;
         let target = ColorTarget {
             image: acquired.image,
             view: acquired.view,
