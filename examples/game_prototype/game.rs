@@ -241,6 +241,10 @@ pub struct Game {
     offscreen: Option<GameImage>,
     /// Per slot: the headless frame in flight there.
     pending: Vec<Option<Pending>>,
+    /// Frames in flight (1..=FRAMES_IN_FLIGHT); hadou's renderer has as many slots.
+    frames_in_flight: usize,
+    /// CPU time of the last `Renderer::record_frame` (ms).
+    pub last_record_ms: f64,
 }
 
 /// What a headless frame read back, and the state it was rendered from.
@@ -262,17 +266,25 @@ pub struct Pending {
 impl Game {
     /// Embeds hadou on the game's device and loads hadou's part of the scene.
     pub fn new(vk: GameVk) -> Result<Game, String> {
+        Self::with_frames_in_flight(vk, FRAMES_IN_FLIGHT)
+    }
+
+    /// As `new`, with `frames` frames in flight (1 or 2: benchmarks compare them).
+    pub fn with_frames_in_flight(vk: GameVk, frames: usize) -> Result<Game, String> {
+        let frames = frames.clamp(1, FRAMES_IN_FLIGHT);
         // SAFETY: GameVk's handles are valid and enable EnabledFeatures::REQUIRED; Game::destroy
         // drops hadou before the device is destroyed.
         let ctx = unsafe { hadou::gpu::GpuContext::from_raw(vk.hadou_raw()) }.map_err(|e| e.to_string())?;
-        let options = hadou::RendererOptions { frames_in_flight: FRAMES_IN_FLIGHT, ..Default::default() };
+        let options = hadou::RendererOptions { frames_in_flight: frames, ..Default::default() };
         let mut hadou = Renderer::with_options(ctx, &options).map_err(|e| e.to_string())?;
         let scene = hadou::scene::parse_scene(HADOU_SCENE, "game_prototype.toml".as_ref())
             .map_err(|e| e.to_string())?;
         hadou.load_scene(scene).map_err(|e| e.to_string())?;
         hadou.set_camera(camera().for_hadou()).map_err(|e| e.to_string())?;
-        let pending = (0..FRAMES_IN_FLIGHT).map(|_| None).collect();
-        Ok(Game { vk, hadou, state: GameState::default(), painter: None, depth: None, offscreen: None, pending })
+        let pending = (0..frames).map(|_| None).collect();
+        let (painter, depth, offscreen) = (None, None, None);
+        let state = GameState::default();
+        Ok(Game { vk, hadou, state, painter, depth, offscreen, pending, frames_in_flight: frames, last_record_ms: 0.0 })
     }
 
     /// Steps the state and hands hadou this frame's wave, slime and camera (no pipeline rebuilt).
@@ -348,7 +360,9 @@ impl Game {
                 final_layout: target.final_layout,
             }),
         };
+        let start = std::time::Instant::now();
         self.hadou.record_frame(g.cmd, &inputs).map_err(|e| e.to_string())?;
+        self.last_record_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(())
     }
 
@@ -368,7 +382,7 @@ impl Game {
             let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
             self.offscreen = Some(self.vk.create_image(extent, format, usage)?);
         }
-        let slot = self.hadou.next_frame() as usize % FRAMES_IN_FLIGHT;
+        let slot = self.hadou.next_frame() as usize % self.frames_in_flight;
         self.vk.begin_slot(slot)?;
         let done = self.pending[slot].take().map(|p| self.collect(p)).transpose()?;
         let Some(image) = &self.offscreen else { return Err("no offscreen image".into()) };

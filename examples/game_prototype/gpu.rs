@@ -64,6 +64,8 @@ pub struct GameVk {
     /// The fence of the slot being recorded.
     pub fence: vk::Fence,
     pub slot: usize,
+    /// How long the last `begin_slot` waited for the slot's previous frame (ms).
+    pub last_wait_ms: f64,
     /// Per frame in flight: its command buffer and fence, and whether a submission is pending.
     slots: Vec<(vk::CommandBuffer, vk::Fence, bool)>,
     memory_props: vk::PhysicalDeviceMemoryProperties,
@@ -185,6 +187,7 @@ impl GameVk {
             cmd,
             fence,
             slot: 0,
+            last_wait_ms: 0.0,
             slots,
             memory_props,
         })
@@ -208,6 +211,7 @@ impl GameVk {
     /// which is what hadou's frame contract needs), then begins its command buffer.
     pub fn begin_slot(&mut self, slot: usize) -> Result<(), String> {
         let (cmd, fence, pending) = self.slots[slot];
+        let start = std::time::Instant::now();
         if pending {
             unsafe {
                 self.device.wait_for_fences(&[fence], true, u64::MAX).map_err(|e| e.to_string())?;
@@ -215,6 +219,7 @@ impl GameVk {
             }
             self.slots[slot].2 = false;
         }
+        self.last_wait_ms = start.elapsed().as_secs_f64() * 1e3;
         (self.cmd, self.fence, self.slot) = (cmd, fence, slot);
         self.begin()
     }

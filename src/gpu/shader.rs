@@ -7,28 +7,8 @@ use std::path::PathBuf;
 
 use super::error::{GpuError, GpuResult};
 
-/// Every shader file hadou ships, by its path under `shaders/`.
-pub const EMBEDDED: &[(&str, &str)] = &[
-    ("common/frame.glsl", include_str!("../../shaders/common/frame.glsl")),
-    ("common/camera.glsl", include_str!("../../shaders/common/camera.glsl")),
-    ("common/energy_wave.glsl", include_str!("../../shaders/common/energy_wave.glsl")),
-    ("energy_wave.comp", include_str!("../../shaders/energy_wave.comp")),
-    ("energy_probe.comp", include_str!("../../shaders/energy_probe.comp")),
-    ("common/metaballs.glsl", include_str!("../../shaders/common/metaballs.glsl")),
-    ("metaballs.comp", include_str!("../../shaders/metaballs.comp")),
-    ("raster.vert", include_str!("../../shaders/raster.vert")),
-    ("raster.frag", include_str!("../../shaders/raster.frag")),
-    ("tonemap.comp", include_str!("../../shaders/tonemap.comp")),
-    ("common/translucency.glsl", include_str!("../../shaders/common/translucency.glsl")),
-    ("light_id.vert", include_str!("../../shaders/light_id.vert")),
-    ("light_id.frag", include_str!("../../shaders/light_id.frag")),
-    ("translucency.comp", include_str!("../../shaders/translucency.comp")),
-    ("depth_import.comp", include_str!("../../shaders/depth_import.comp")),
-    ("fullscreen.vert", include_str!("../../shaders/fullscreen.vert")),
-    ("composite.frag", include_str!("../../shaders/composite.frag")),
-    ("ceiling_fma.comp", include_str!("../../shaders/ceiling_fma.comp")),
-    ("ceiling_copy.comp", include_str!("../../shaders/ceiling_copy.comp")),
-];
+/// Every shader file hadou ships, by its path under `shaders/` (listed by build.rs).
+pub const EMBEDDED: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 
 pub struct ShaderCompiler {
     compiler: shaderc::Compiler,
