@@ -38,7 +38,10 @@ fn embed_shaders() {
             let path = entry.path();
             if path.is_dir() {
                 dirs.push(path);
-            } else if matches!(path.extension().and_then(|e| e.to_str()), Some("comp" | "vert" | "frag" | "glsl")) {
+            } else if matches!(
+                path.extension().and_then(|e| e.to_str()),
+                Some("comp" | "vert" | "frag" | "glsl")
+            ) {
                 files.push(path);
             }
         }
@@ -50,6 +53,7 @@ fn embed_shaders() {
         out += &format!("    ({rel:?}, include_str!({:?})),\n", path.display().to_string());
     }
     out += "]\n";
-    let dest = std::path::Path::new(&std::env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("shaders.rs");
+    let dest =
+        std::path::Path::new(&std::env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("shaders.rs");
     std::fs::write(dest, out).expect("write shaders.rs");
 }

@@ -47,7 +47,10 @@ fn main() -> Result<(), String> {
     let frames: usize = arg("--frames").unwrap_or(40);
     let cpu_ms: f64 = arg("--cpu-ms").unwrap_or(10.0);
     let size: String = arg("--size").unwrap_or_else(|| "640x360".into());
-    let (w, h) = size.split_once('x').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))).ok_or("--size WxH")?;
+    let (w, h) = size
+        .split_once('x')
+        .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)))
+        .ok_or("--size WxH")?;
     let png: Option<String> = arg("--png");
     let extent = vk::Extent2D { width: w, height: h };
     println!("{w}×{h}, {frames} frames after {WARMUP} warm-up, {cpu_ms} ms of game CPU work per frame\n");

@@ -7,7 +7,7 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// Keep in sync with WaveStyle in src/passes/energy_wave.rs.
+// WaveStyle in src/passes/energy_wave.rs (size checked when bound: gpu::reflect).
 struct WaveStyle {
     vec4 emission;  // rgb: colour × intensity
     uvec4 method;   // x: 0 analytic, 1 raymarch; y: steps; z: jitter
@@ -19,7 +19,7 @@ layout(set = 0, binding = 2, r32f) uniform writeonly image2D energy;
 layout(set = 0, binding = 3, std430) readonly buffer Waves { Wave waves[]; };
 layout(set = 0, binding = 4, std430) readonly buffer Styles { WaveStyle styles[]; };
 
-// Keep in sync with RayParams in src/passes/energy_wave.rs.
+// RayParams in src/passes/energy_wave.rs (size checked at pipeline creation).
 layout(push_constant) uniform RayParams {
     vec4 right;    // right × tan(fov/2) × aspect
     vec4 up;       // up × tan(fov/2)

@@ -21,8 +21,8 @@ pub use aov::{Aov, AovImage};
 pub use frame::{FrameStats, PassTiming};
 pub use gpu::{DeviceInfo, GpuError, HostWaits, ValidationCounts};
 pub use renderer::{
-    AovReadback, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameTimings, RecordedFrame, Renderer,
-    RendererOptions, WaveUpdate,
+    AovReadback, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameTimings, RecordedFrame,
+    Renderer, RendererOptions, WaveUpdate,
 };
 pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};
 

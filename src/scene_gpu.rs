@@ -84,7 +84,7 @@ impl SceneGpu {
     }
 
     pub fn materials_range(&self) -> BufferRange {
-        BufferRange::whole(self.materials.raw)
+        BufferRange::whole(self.materials.raw).of::<crate::passes::gpu_structs::MaterialData>()
     }
 
     /// The instance table to upload this frame.

@@ -284,7 +284,17 @@ impl Game {
         let pending = (0..frames).map(|_| None).collect();
         let (painter, depth, offscreen) = (None, None, None);
         let state = GameState::default();
-        Ok(Game { vk, hadou, state, painter, depth, offscreen, pending, frames_in_flight: frames, last_record_ms: 0.0 })
+        Ok(Game {
+            vk,
+            hadou,
+            state,
+            painter,
+            depth,
+            offscreen,
+            pending,
+            frames_in_flight: frames,
+            last_record_ms: 0.0,
+        })
     }
 
     /// Steps the state and hands hadou this frame's wave, slime and camera (no pipeline rebuilt).
@@ -369,7 +379,11 @@ impl Game {
     /// Records and submits one headless frame into the game's own offscreen image (colour and
     /// `aovs` read back) in the next slot, without waiting for it. Returns the frame that used the
     /// slot before, now finished (the wait for it is the game's frame-in-flight wait).
-    pub fn offscreen_submit(&mut self, extent: vk::Extent2D, aovs: &[Aov]) -> Result<Option<OffscreenFrame>, String> {
+    pub fn offscreen_submit(
+        &mut self,
+        extent: vk::Extent2D,
+        aovs: &[Aov],
+    ) -> Result<Option<OffscreenFrame>, String> {
         let format = vk::Format::R8G8B8A8_SRGB;
         if self.offscreen.as_ref().is_none_or(|o| o.extent != extent) {
             let done = self.offscreen_finish()?;

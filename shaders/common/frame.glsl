@@ -1,4 +1,5 @@
-// Structs shared with Rust. Keep in sync with src/passes/gpu_structs.rs (sizes asserted there).
+// Structs shared with Rust: src/passes/gpu_structs.rs. Their sizes are checked against this
+// layout whenever they are bound (src/gpu/reflect.rs), offsets asserted there.
 #ifndef HADOU_FRAME_GLSL
 #define HADOU_FRAME_GLSL
 

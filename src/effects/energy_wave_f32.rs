@@ -86,7 +86,7 @@ use glam::DVec3;
 
 use super::energy_wave::{frame, WaveFrame, WaveParams};
 
-/// One wave as the GPU reads it (std430; keep in sync with `struct Wave` in
+/// One wave as the GPU reads it (std430; its size is checked against `struct Wave` in
 /// shaders/common/energy_wave.glsl). Camera-relative: rebuild it when the camera or the wave
 /// moves. O − M = q₀·D + R × D and O − T = (q₀ − ℓ)·D + R × D: the camera in the frame of the beam,
 /// which (unlike O − M rounded per component) keeps a camera near the axis far from M, or near M

@@ -315,11 +315,20 @@ pub struct BufferRange {
     pub offset: u64,
     /// Bytes, or `vk::WHOLE_SIZE`.
     pub range: u64,
+    /// Bytes of one element of the Rust type the range holds (0: untyped). Checked against the
+    /// element the shader declares (`Reflected::element_bytes`) when the range is bound, so a Rust
+    /// struct and its GLSL twin cannot drift apart in size.
+    pub element_bytes: u32,
 }
 
 impl BufferRange {
     pub fn whole(buffer: vk::Buffer) -> Self {
-        BufferRange { buffer, offset: 0, range: vk::WHOLE_SIZE }
+        BufferRange { buffer, offset: 0, range: vk::WHOLE_SIZE, element_bytes: 0 }
+    }
+
+    /// The same range, holding elements of `T`.
+    pub fn of<T>(self) -> Self {
+        BufferRange { element_bytes: std::mem::size_of::<T>() as u32, ..self }
     }
 }
 
@@ -405,7 +414,19 @@ pub fn bind_set(
     bound: &[Bound],
 ) -> GpuResult<vk::DescriptorSet> {
     for b in &pipeline.bindings {
-        let given = bound.get(b.binding as usize).map(Bound::descriptor_type);
+        let given = bound.get(b.binding as usize);
+        if let Some(Bound::Uniform(r) | Bound::Storage(r)) = given {
+            if r.element_bytes != 0 && b.element_bytes != 0 && r.element_bytes != b.element_bytes {
+                return Err(GpuError::Shader {
+                    name: pipeline.name.clone(),
+                    message: format!(
+                        "binding {}: the shader's element is {} bytes, the Rust type bound to it {}",
+                        b.binding, b.element_bytes, r.element_bytes
+                    ),
+                });
+            }
+        }
+        let given = given.map(Bound::descriptor_type);
         if given != Some(b.ty) {
             return Err(GpuError::Shader {
                 name: pipeline.name.clone(),

@@ -13,6 +13,10 @@ use super::error::{GpuError, GpuResult};
 pub struct Reflected {
     pub binding: u32,
     pub ty: vk::DescriptorType,
+    /// Uniform and storage buffers: bytes of one element as the shader lays it out — the array
+    /// stride of a block ending in a runtime array (`Wave waves[]`), else the block's size; 0 for
+    /// other descriptors.
+    pub element_bytes: u32,
 }
 
 /// A shader module's interface.
@@ -32,6 +36,7 @@ const OP_TYPE_IMAGE: u32 = 25;
 const OP_TYPE_SAMPLER: u32 = 26;
 const OP_TYPE_SAMPLED_IMAGE: u32 = 27;
 const OP_TYPE_ARRAY: u32 = 28;
+const OP_TYPE_RUNTIME_ARRAY: u32 = 29;
 const OP_TYPE_STRUCT: u32 = 30;
 const OP_TYPE_POINTER: u32 = 32;
 const OP_CONSTANT: u32 = 43;
@@ -139,6 +144,17 @@ impl Module {
         }
     }
 
+    /// A buffer block's element size (see `Reflected::element_bytes`).
+    fn element_bytes(&self, block: u32) -> u32 {
+        let Some((OP_TYPE_STRUCT, members)) = self.ty(block).map(|(op, a)| (*op, a)) else { return 0 };
+        match members.last().and_then(|&m| self.ty(m).map(|(op, _)| (m, *op))) {
+            Some((array, OP_TYPE_RUNTIME_ARRAY)) => {
+                self.decorations.get(&(array, DECORATION_ARRAY_STRIDE)).copied().unwrap_or(0)
+            }
+            _ => self.size(block),
+        }
+    }
+
     /// Bytes of a type as laid out in a block (offsets and strides from its decorations).
     fn size(&self, id: u32) -> u32 {
         let Some((op, args)) = self.ty(id) else { return 0 };
@@ -184,7 +200,9 @@ pub fn reflect(name: &str, words: &[u32]) -> GpuResult<Interface> {
             name: name.into(),
             message: format!("binding {binding}: a resource type hadou does not bind"),
         })?;
-        interface.bindings.push(Reflected { binding, ty });
+        let buffer = matches!(ty, vk::DescriptorType::UNIFORM_BUFFER | vk::DescriptorType::STORAGE_BUFFER);
+        let element_bytes = if buffer { m.element_bytes(pointee) } else { 0 };
+        interface.bindings.push(Reflected { binding, ty, element_bytes });
     }
     interface.bindings.sort_by_key(|b| b.binding);
     Ok(interface)
@@ -216,4 +234,79 @@ pub fn merge(
     }
     merged.sort_by_key(|(b, _)| b.binding);
     Ok(merged)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::mem::size_of;
+
+    use super::*;
+    use crate::effects::energy_wave_f32::GpuWave;
+    use crate::gpu::shader::ShaderCompiler;
+    use crate::passes::energy_wave::{RayParams, WaveStyle};
+    use crate::passes::gpu_structs::{FrameUniforms, InstanceData, MaterialData};
+    use crate::passes::metaballs::MetaballParams;
+    use crate::passes::translucency::TranslucencyParams;
+
+    fn interface(name: &str, defines: &[(&str, &str)]) -> Interface {
+        let words = ShaderCompiler::new().unwrap().compile(name, defines).unwrap();
+        reflect(name, &words).unwrap()
+    }
+
+    fn element(i: &Interface, binding: u32) -> u32 {
+        i.bindings.iter().find(|b| b.binding == binding).map_or(0, |b| b.element_bytes)
+    }
+
+    /// Every Rust struct a pass binds has its GLSL twin's size, as the shader's SPIR-V lays it
+    /// out (std140/std430 offsets and strides included): the check `bind_set` makes each frame,
+    /// made here for every shader at once.
+    #[test]
+    fn rust_structs_have_their_shader_twins_sizes() {
+        let size = |n: usize| n as u32;
+        let ew = interface("energy_wave.comp", &[]);
+        assert_eq!(element(&ew, 3), size(size_of::<GpuWave>()));
+        assert_eq!(element(&ew, 4), size(size_of::<WaveStyle>()));
+        assert_eq!(ew.push_bytes, size(size_of::<RayParams>()));
+        let probe = interface("energy_probe.comp", &[]);
+        assert_eq!(element(&probe, 0), size(size_of::<GpuWave>()));
+        let raster = interface("raster.vert", &[]);
+        assert_eq!(element(&raster, 0), size(size_of::<FrameUniforms>()));
+        assert_eq!(element(&raster, 1), size(size_of::<InstanceData>()));
+        assert_eq!(element(&raster, 2), size(size_of::<MaterialData>()));
+        assert_eq!(element(&interface("light_id.vert", &[]), 0), size(size_of::<InstanceData>()));
+        let mb = interface("metaballs.comp", &[("MB_WITH_CLIP", "1"), ("MB_WITH_TRACE", "1")]);
+        assert_eq!(element(&mb, 4), size(size_of::<FrameUniforms>()));
+        assert_eq!(element(&mb, 5), size(size_of::<MaterialData>()));
+        assert_eq!(mb.push_bytes, size(size_of::<MetaballParams>()));
+        let tr = interface("translucency.comp", &[]);
+        assert_eq!(element(&tr, 0), size(size_of::<TranslucencyParams>()));
+        assert_eq!(element(&tr, 11), size(size_of::<MaterialData>()));
+        assert_eq!(interface("tonemap.comp", &[]).push_bytes, 12);
+    }
+
+    /// The reflection sees a drifted layout: a vec3 + float member pair versus vec3 + vec4.
+    #[test]
+    fn a_drifted_struct_changes_the_reflected_size() {
+        let compile = |body: &str| {
+            let source = format!(
+                "#version 460\nlayout(local_size_x = 1) in;\nstruct S {{ {body} }};\n\
+                 layout(set = 0, binding = 0, std430) buffer B {{ S s[]; }};\n\
+                 layout(push_constant) uniform P {{ uvec2 a; float b; }} p;\n\
+                 void main() {{ s[0] = s[1]; s[0].x.x += p.b; }}\n"
+            );
+            let compiler = shaderc::Compiler::new().unwrap();
+            let mut options = shaderc::CompileOptions::new().unwrap();
+            options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_3 as u32);
+            let words = compiler
+                .compile_into_spirv(&source, shaderc::ShaderKind::Compute, "t.comp", "main", Some(&options))
+                .unwrap();
+            reflect("t.comp", words.as_binary()).unwrap()
+        };
+        let packed = compile("vec3 x; float w;");
+        let padded = compile("vec3 x; vec4 w;");
+        assert_eq!(element(&packed, 0), 16);
+        assert_eq!(element(&padded, 0), 32);
+        assert_eq!(packed.push_bytes, 12);
+        assert_eq!(packed.bindings[0].ty, vk::DescriptorType::STORAGE_BUFFER);
+    }
 }

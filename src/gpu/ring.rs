@@ -35,7 +35,7 @@ pub struct RingSlice {
 
 impl RingSlice {
     pub fn range(self) -> BufferRange {
-        BufferRange { buffer: self.buffer, offset: self.offset, range: self.size }
+        BufferRange { buffer: self.buffer, offset: self.offset, range: self.size, element_bytes: 0 }
     }
 }
 

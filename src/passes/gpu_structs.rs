@@ -1,5 +1,6 @@
-//! Structs shared with GLSL. Keep in sync with shaders/common/frame.glsl; the size and offset
-//! assertions below fail the build when the two drift apart.
+//! Structs shared with GLSL (shaders/common/frame.glsl). Each is bound as a typed buffer range, so
+//! its size is checked against the shader's layout whenever it is bound (`gpu::reflect`); the offset
+//! assertions below pin the members inside it.
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DMat4, DVec3};

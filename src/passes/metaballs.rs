@@ -50,7 +50,7 @@ pub const TILE: u32 = 8;
 /// Keep in sync with shaders/metaballs.comp.
 const TILES_PER_ROW: u32 = 8192;
 
-/// Push constants. Keep in sync with `MetaballParams` in shaders/metaballs.comp.
+/// Push constants of shaders/metaballs.comp (size checked against the shader at pipeline creation).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct MetaballParams {

@@ -91,9 +91,10 @@ pub struct FrameContext<'a> {
 }
 
 impl FrameContext<'_> {
-    /// Copies `data` into the slot's ring for this frame.
+    /// Copies `data` into the slot's ring for this frame; the range knows its element type (its
+    /// size is checked against the shader's when bound).
     pub fn upload<T: Pod>(&mut self, data: &[T]) -> GpuResult<BufferRange> {
-        Ok(self.ring.push(self.ctx, self.memory, bytemuck::cast_slice(data))?.range())
+        Ok(self.ring.push(self.ctx, self.memory, bytemuck::cast_slice(data))?.range().of::<T>())
     }
 
     /// Copies `data` into the slot's ring and binds it as a uniform texel buffer of `texels`.

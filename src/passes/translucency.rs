@@ -114,7 +114,8 @@ pub struct TranslucentInstance {
     pub info: [u32; 4],
 }
 
-/// The light's view. Keep in sync with `LightViewData` in shaders/common/translucency.glsl.
+/// The light's view: light_id's push constants (size checked against the shader at pipeline
+/// creation) and a member of `TranslucencyParams`; `LightViewData` in shaders/common/translucency.glsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct LightViewData {
@@ -126,7 +127,7 @@ pub struct LightViewData {
     pub dir: [f32; 4],
 }
 
-/// The translucency pass's uniforms. Keep in sync with shaders/translucency.comp.
+/// The translucency pass's uniforms (size checked against shaders/translucency.comp when bound).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TranslucencyParams {

@@ -175,9 +175,12 @@ impl Renderer {
             loaded.instances_dirty = false;
         }
         let uniforms = FrameUniforms::new(&loaded.scene, extent.width, extent.height);
-        let uniforms = s.ring.push(ctx, memory, bytemuck::bytes_of(&uniforms))?.range();
-        let instances: BufferRange =
-            s.ring.push(ctx, memory, bytemuck::cast_slice(loaded.gpu.instance_table()))?.range();
+        let uniforms = s.ring.push(ctx, memory, bytemuck::bytes_of(&uniforms))?.range().of::<FrameUniforms>();
+        let instances: BufferRange = s
+            .ring
+            .push(ctx, memory, bytemuck::cast_slice(loaded.gpu.instance_table()))?
+            .range()
+            .of::<crate::passes::gpu_structs::InstanceData>();
 
         let targets = self.targets.get_or_insert_with(|| Targets::new(extent));
         targets.extent = extent;
