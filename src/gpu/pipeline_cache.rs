@@ -2,6 +2,8 @@
 //! a second run builds its pipelines from the driver's cache. The file is checked against the
 //! device before the driver sees it (Vulkan's header: length, version, vendor, device, UUID), and
 //! written atomically when the renderer is dropped. Any problem only costs the cache, never an error.
+//! Lavapipe keeps nothing but the header in it (Mesa caches compiled shaders on disk itself);
+//! drivers of real GPUs keep their pipeline binaries there.
 
 use std::path::{Path, PathBuf};
 
@@ -65,7 +67,10 @@ impl PipelineCache {
             Ok(d) => d,
             Err(e) => return log::warn!("pipeline cache: cannot read it back: {e:?}"),
         };
-        let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
+        // Unique per save: renderers of one process may be dropped at once.
+        static SAVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = SAVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let tmp = path.with_extension(format!("{}.{n}.tmp", std::process::id()));
         let written = path
             .parent()
             .map_or(Ok(()), std::fs::create_dir_all)

@@ -1,0 +1,59 @@
+//! The pipeline cache on disk: written when the renderer is dropped, read back by the next one,
+//! and a file that is not this device's cache (garbage, another device's header) is ignored and
+//! replaced, never an error. Lavapipe, validation on.
+
+mod common;
+
+use hadou::gpu::{ContextOptions, GpuContext};
+use hadou::{FrameInputs, Renderer, RendererOptions};
+
+fn renderer(dir: &std::path::Path) -> Renderer {
+    let options = ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };
+    let ctx = GpuContext::new(&options).unwrap_or_else(|e| panic!("GPU tests need a Vulkan device: {e}"));
+    let options = RendererOptions { pipeline_cache_dir: Some(dir.to_path_buf()), ..RendererOptions::default() };
+    let mut r = Renderer::with_options(ctx, &options).unwrap();
+    r.load_scene(common::load("assets/scenes/showcase.toml")).unwrap();
+    r.prepare(&FrameInputs::headless(32, 32, 0.0)).unwrap();
+    r
+}
+
+fn cache_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("pipelines-")))
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn the_cache_is_saved_reused_and_a_foreign_file_is_replaced() {
+    let dir = std::env::temp_dir().join(format!("hadou-pipeline-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let first = renderer(&dir);
+    let log = first.context().validation_log();
+    drop(first);
+    let files = cache_files(&dir);
+    assert_eq!(files.len(), 1, "one cache file per device: {files:?}");
+    let saved = std::fs::read(&files[0]).unwrap();
+    // Vulkan's header: length, version 1, vendor, device, UUID (32 bytes), then the driver's data
+    // (lavapipe keeps none: Mesa's own disk cache holds its compiled shaders).
+    assert!(saved.len() >= 32 && u32::from_le_bytes(saved[4..8].try_into().unwrap()) == 1, "{saved:?}");
+
+    // The second renderer starts from it and saves it again (the same pipelines: no growth).
+    drop(renderer(&dir));
+    let again = std::fs::read(&files[0]).unwrap();
+    assert!(again.len() >= saved.len() / 2 && again.len() <= saved.len() * 2, "{} vs {}", again.len(), saved.len());
+
+    // Garbage where the cache was: ignored, then replaced by a valid cache.
+    std::fs::write(&files[0], b"not a pipeline cache").unwrap();
+    drop(renderer(&dir));
+    let replaced = std::fs::read(&files[0]).unwrap();
+    assert!(replaced.len() >= 32 && replaced[..32] == saved[..32], "a valid cache again");
+    let counts = log.counts();
+    assert!(counts.errors == 0 && counts.warnings == 0, "{:?}", log.messages());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
