@@ -2,9 +2,11 @@
 //! (the game's own raster, then hadou recorded into the game's command buffer, a simulated game
 //! CPU frame of `--cpu-ms` between frames), once with 1 frame in flight (the game waits for each
 //! frame before recording the next: what hadou allowed before frame slots) and once with 2.
-//! Prints, per variant: the host's CPU wait per frame for a slot, `record_frame` p50/p99, frames
-//! per second, and the p50 of each of hadou's passes (GPU timestamps of finished frames, never
-//! waited for) with the share of the embedded-only passes (depth_import, composite).
+//! Prints, per variant: the host's fence wait per frame for a slot, the time inside
+//! `vkQueueSubmit` (lavapipe runs the frame's commands there, on the submitting thread),
+//! `record_frame` p50/p99, frames per second, and the p50 of each of hadou's passes (GPU
+//! timestamps of finished frames, never waited for) with the share of the embedded-only passes
+//! (depth_import, composite).
 //!
 //! LP_NUM_THREADS=1 cargo run --release --example embed_overhead -- [--frames N] [--size WxH]
 //! [--cpu-ms MS] [--png FILE (the last frame)]
@@ -54,13 +56,15 @@ fn main() -> Result<(), String> {
     let png: Option<String> = arg("--png");
     let extent = vk::Extent2D { width: w, height: h };
     println!("{w}×{h}, {frames} frames after {WARMUP} warm-up, {cpu_ms} ms of game CPU work per frame\n");
-    println!("| frames in flight | CPU wait / frame p50 | p99 | record_frame p50 | p99 | frames/s | hadou GPU frame p50 |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|");
+    println!(
+        "| frames in flight | fence wait / frame p50 | p99 | vkQueueSubmit p50 | record_frame p50 | p99 | frames/s | hadou GPU frame p50 |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
     let mut shares = Vec::new();
     for in_flight in [1usize, 2] {
         let vk = gpu::GameVk::new(false, &[], &[], &|_, _, _, _| true)?;
         let mut g = Game::with_frames_in_flight(vk, in_flight)?;
-        let (mut waits, mut records, mut gpu) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut waits, mut records, mut gpu, mut submits) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
         let mut start = Instant::now();
         let mut last_seen = None;
@@ -76,6 +80,7 @@ fn main() -> Result<(), String> {
                 continue;
             }
             waits.push(g.vk.last_wait_ms);
+            submits.push(g.vk.last_submit_ms);
             records.push(g.last_record_ms);
             if let Some(t) = g.hadou.latest_timings().filter(|t| Some(t.frame) != last_seen) {
                 last_seen = Some(t.frame);
@@ -94,9 +99,10 @@ fn main() -> Result<(), String> {
         }
         let p = |v: &[f64], q| percentile(v, q);
         println!(
-            "| {in_flight} | {:.2} ms | {:.2} ms | {:.3} ms | {:.3} ms | {fps:.1} | {:.2} ms |",
+            "| {in_flight} | {:.2} ms | {:.2} ms | {:.2} ms | {:.3} ms | {:.3} ms | {fps:.1} | {:.2} ms |",
             p(&waits, 0.5),
             p(&waits, 0.99),
+            p(&submits, 0.5),
             p(&records, 0.5),
             p(&records, 0.99),
             p(&gpu, 0.5)

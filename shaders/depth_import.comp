@@ -14,7 +14,8 @@ layout(push_constant) uniform Params {
     vec4 right;
     vec4 up;
     vec4 forward;
-    // width, height, 1 if the game's depth is reverse-Z (nearer is larger), 0
+    // width, height, 1 if the game's depth is reverse-Z (nearer is larger), the staging buffer's
+    // row length (the width rounded up to whole 8-pixel workgroups)
     uvec4 dims;
     // the game's projection: stored d = -A + B / z; hadou's near, far
     vec4 planes;
@@ -22,8 +23,12 @@ layout(push_constant) uniform Params {
 
 void main() {
     uvec2 p = gl_GlobalInvocationID.xy;
-    if (p.x >= params.dims.x || p.y >= params.dims.y) return;
-    float d = texelFetch(game_depth, ivec2(p), 0).r;
+    bool inside = p.x < params.dims.x && p.y < params.dims.y;
+    // Lanes past the edge read the edge pixel and write the padding of the staging buffer: the
+    // buffer store needs no mask (on lavapipe a masked storage-buffer store is a loop over the
+    // lanes), and the copy into `depth` skips the padding.
+    ivec2 q = ivec2(min(p, params.dims.xy - 1u));
+    float d = texelFetch(game_depth, q, 0).r;
     float a = params.planes.x, b = params.planes.y;
     bool reversed = params.dims.z != 0u;
     // The far plane (the game's cleared depth) is sky: no surface, as in hadou's own raster.
@@ -37,6 +42,6 @@ void main() {
     float dist = sky ? uintBitsToFloat(0x7f800000u) : z * ray_scale;
     float hn = params.planes.z, hf = params.planes.w;
     float own = sky ? 0.0 : clamp(hn * (hf - z) / (z * (hf - hn)), 0.0, 1.0);
-    imageStore(distance_image, ivec2(p), vec4(dist, 0.0, 0.0, 0.0));
-    hadou_depth[p.y * params.dims.x + p.x] = own;
+    if (inside) imageStore(distance_image, ivec2(p), vec4(dist, 0.0, 0.0, 0.0));
+    hadou_depth[p.y * params.dims.w + p.x] = own;
 }

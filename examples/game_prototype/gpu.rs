@@ -66,6 +66,8 @@ pub struct GameVk {
     pub slot: usize,
     /// How long the last `begin_slot` waited for the slot's previous frame (ms).
     pub last_wait_ms: f64,
+    /// How long the last `submit_slot` took (ms): on lavapipe the frame runs inside it.
+    pub last_submit_ms: f64,
     /// Per frame in flight: its command buffer and fence, and whether a submission is pending.
     slots: Vec<(vk::CommandBuffer, vk::Fence, bool)>,
     memory_props: vk::PhysicalDeviceMemoryProperties,
@@ -188,6 +190,7 @@ impl GameVk {
             fence,
             slot: 0,
             last_wait_ms: 0.0,
+            last_submit_ms: 0.0,
             slots,
             memory_props,
         })
@@ -234,6 +237,7 @@ impl GameVk {
 
     /// Ends and submits the slot being recorded with its own fence; does not wait.
     pub fn submit_slot(&mut self) -> Result<(), String> {
+        let start = std::time::Instant::now();
         unsafe {
             self.device.end_command_buffer(self.cmd).map_err(|e| e.to_string())?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
@@ -241,6 +245,7 @@ impl GameVk {
             self.device.queue_submit2(self.queue, &submit, self.fence).map_err(|e| e.to_string())?;
         }
         self.slots[self.slot].2 = true;
+        self.last_submit_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(())
     }
 

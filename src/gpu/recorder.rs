@@ -156,9 +156,11 @@ impl Recorder<'_> {
         unsafe { self.device().cmd_draw(self.cmd, 3, 1, 0, 0) };
     }
 
-    /// Copies a tightly packed buffer into the whole depth image (in TRANSFER_DST layout).
-    pub fn copy_buffer_to_depth(&self, buffer: &Buffer, image: &ImageHandles) {
+    /// Copies a buffer of rows of `row_length` texels into the whole depth image (in TRANSFER_DST
+    /// layout).
+    pub fn copy_buffer_to_depth(&self, buffer: &Buffer, row_length: u32, image: &ImageHandles) {
         let region = vk::BufferImageCopy::default()
+            .buffer_row_length(row_length)
             .image_subresource(
                 vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::DEPTH).layer_count(1),
             )

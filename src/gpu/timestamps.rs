@@ -74,7 +74,39 @@ impl TimestampPool {
         self.used = 0;
     }
 
-    /// The written timestamps as nanoseconds if the GPU has written all of them, else None; never waits.
+    /// Records a copy of the timestamps written so far into `buffer` (8 bytes each, in order),
+    /// made visible to the host: read it with `ticks_ns` once the frame is known finished. Lavapipe's
+    /// `vkGetQueryPoolResults` waits for the whole device even without `WAIT`, so a frame path reads
+    /// its timestamps from this buffer instead, without a driver call. The copy waits on the
+    /// device for the queries (WAIT_BIT), never on the host.
+    pub fn record_copy(&self, ctx: &GpuContext, cmd: vk::CommandBuffer, buffer: vk::Buffer) {
+        use super::barriers::{cmd_barriers, memory_barrier};
+        let copy = vk::PipelineStageFlags2::COPY;
+        let write = vk::AccessFlags2::TRANSFER_WRITE;
+        // An earlier copy into the same buffer (this frame's, or the slot's previous frame's).
+        let before = memory_barrier(copy, write, copy, write);
+        cmd_barriers(&ctx.device, cmd, &[], &[before]);
+        if self.used > 0 {
+            let flags = vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT;
+            // SAFETY: recording outside a render pass; the buffer holds `capacity` u64s.
+            unsafe { ctx.device.cmd_copy_query_pool_results(cmd, self.pool, 0, self.used, buffer, 0, 8, flags) };
+        }
+        let after = memory_barrier(copy, write, vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ);
+        cmd_barriers(&ctx.device, cmd, &[], &[after]);
+    }
+
+    /// The timestamps `record_copy` put into `bytes` (the buffer's mapped contents), in nanoseconds.
+    pub fn ticks_ns(&self, bytes: &[u8]) -> Vec<f64> {
+        bytes
+            .chunks_exact(8)
+            .take(self.used as usize)
+            .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+            .map(|t| (t & self.valid_mask) as f64 * self.period_ns)
+            .collect()
+    }
+
+    /// The written timestamps as nanoseconds if the GPU has written all of them, else None (for
+    /// one-off measurements: on lavapipe this call waits for the device).
     pub fn try_read_ns(&self, ctx: &GpuContext) -> GpuResult<Option<Vec<f64>>> {
         if self.used == 0 {
             return Ok(Some(Vec::new()));

@@ -94,7 +94,9 @@ impl Pass for DepthImportPass {
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let extent = frame.extent;
-        let size = extent.width as u64 * extent.height as u64 * 4;
+        // Whole 8×8 workgroups: every lane stores into the buffer, the copy skips the padding.
+        let (row, rows) = (extent.width.next_multiple_of(8), extent.height.next_multiple_of(8));
+        let size = row as u64 * rows as u64 * 4;
         if self.staging.as_ref().is_none_or(|b| b.size != size.max(4)) {
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
             let name = "depth_import staging";
@@ -109,7 +111,7 @@ impl Pass for DepthImportPass {
             right,
             up,
             forward,
-            dims: [extent.width, extent.height, u32::from(self.convention.reversed()), 0],
+            dims: [extent.width, extent.height, u32::from(self.convention.reversed()), row],
             planes: [a as f32, b as f32, camera.near as f32, camera.far as f32],
         };
         let staging = self
@@ -135,7 +137,7 @@ impl Pass for DepthImportPass {
         rec.dispatch_2d(width, height, (8, 8));
         rec.compute_to_copy_barrier();
         if let Some(staging) = &self.staging {
-            rec.copy_buffer_to_depth(staging, &pass.targets.image(Target::Depth));
+            rec.copy_buffer_to_depth(staging, self.params.dims[3], &pass.targets.image(Target::Depth));
         }
     }
 }

@@ -222,7 +222,7 @@ impl Renderer {
         self.finished_through = Some(frame);
         for i in 0..self.slots.len() {
             let passes = self.loaded.as_ref().map(|l| l.passes.as_slice()).unwrap_or_default();
-            if let Some(done) = self.slots[i].finish(&self.ctx, i, frame, passes)? {
+            if let Some(done) = self.slots[i].finish(i, frame, passes) {
                 if self.latest.as_ref().is_none_or(|l| l.frame < done.frame) {
                     self.latest = Some(done);
                 }

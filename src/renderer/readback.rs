@@ -92,6 +92,8 @@ impl Renderer {
             cmd_barriers(&ctx.device, cmd, &[], &[to_host]);
         });
         s.scopes.push(scope);
+        // The read-back's timestamps join the frame's copy.
+        s.record_timestamp_copy(ctx, cmd);
         Ok(readback)
     }
 }

@@ -156,6 +156,7 @@ impl Renderer {
             self.abandon_frame();
             return Err(e.into());
         }
+        s.record_timestamp_copy(&self.ctx, cmd);
         Ok(frame)
     }
 
@@ -243,6 +244,7 @@ impl Renderer {
         }
         cmd_barriers(&ctx.device, cmd, &release, &[]);
         targets.drop_imports();
+        s.record_timestamp_copy(ctx, cmd);
         log::trace!("frame {frame} recorded in slot {slot}");
         Ok(())
     }

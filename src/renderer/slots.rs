@@ -3,10 +3,13 @@
 
 use super::timings::FinishedFrame;
 use crate::frame::{pass_timings, FrameStats, Scope};
+use gpu_allocator::MemoryLocation;
+
+use crate::gpu::memory::{Buffer, Memory};
 use crate::gpu::pipeline::DescriptorPool;
 use crate::gpu::ring::UploadRing;
 use crate::gpu::timestamps::TimestampPool;
-use crate::gpu::{GpuContext, GpuResult};
+use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::passes::Pass;
 
 /// Two timestamps per scope: a frame has a handful of passes, the import, composite and read-back.
@@ -18,6 +21,8 @@ pub(super) struct Slot {
     pub pool: DescriptorPool,
     pub ring: UploadRing,
     pub timestamps: TimestampPool,
+    /// The frame's timestamps, copied there by the GPU at the end of the frame (host-visible).
+    ticks: Buffer,
     pub scopes: Vec<Scope>,
     /// The frame recorded in this slot and not yet reported finished.
     pending: Option<u64>,
@@ -30,7 +35,11 @@ impl Slot {
         // Queries start undefined: reset before the first use.
         timestamps.host_reset(ctx);
         let ring = UploadRing::new(ctx, &format!("frame slot {index} ring"));
-        Ok(Slot { pool, ring, timestamps, scopes: Vec::new(), pending: None })
+        let usage = vk::BufferUsageFlags::TRANSFER_DST;
+        let name = format!("frame slot {index} timestamps");
+        let size = 8 * u64::from(QUERIES_PER_FRAME);
+        let ticks = Memory::new(ctx)?.create_buffer(ctx, &name, size, usage, MemoryLocation::GpuToCpu)?;
+        Ok(Slot { pool, ring, timestamps, ticks, scopes: Vec::new(), pending: None })
     }
 
     /// Starts recording `frame` here; the slot's previous frame has finished and was reported.
@@ -43,30 +52,33 @@ impl Slot {
         Ok(())
     }
 
+    /// Records the copy of the frame's timestamps so far (after its last scope).
+    pub fn record_timestamp_copy(&self, ctx: &GpuContext, cmd: vk::CommandBuffer) {
+        self.timestamps.record_copy(ctx, cmd, self.ticks.raw);
+    }
+
     /// The frame recorded last will not be submitted.
     pub fn abandon(&mut self) {
         self.pending = None;
     }
 
-    /// If this slot's frame is `through` or older: what it measured (timestamps read without
-    /// waiting: the frame is known finished) and what its passes counted.
+    /// If this slot's frame is `through` or older: what it measured (the timestamps the GPU copied
+    /// into the slot's buffer: the frame is known finished) and what its passes counted.
     pub fn finish(
         &mut self,
-        ctx: &GpuContext,
         slot: usize,
         through: u64,
         passes: &[Box<dyn Pass>],
-    ) -> GpuResult<Option<FinishedFrame>> {
-        let Some(frame) = self.pending.filter(|&f| f <= through) else { return Ok(None) };
+    ) -> Option<FinishedFrame> {
+        let frame = self.pending.filter(|&f| f <= through)?;
         self.pending = None;
         let mut stats = FrameStats::default();
-        // A frame the host said finished has all its timestamps; None only if it broke the contract.
-        if let Some(ticks) = self.timestamps.try_read_ns(ctx)? {
-            let (timings, gpu_frame_ms) = pass_timings(&self.scopes, &ticks);
-            stats.passes = timings;
-            stats.gpu_frame_ms = gpu_frame_ms;
-        }
+        // The frame finished, so the GPU's copy of its timestamps is in the buffer: no driver call.
+        let ticks = self.timestamps.ticks_ns(self.ticks.mapped().unwrap_or_default());
+        let (timings, gpu_frame_ms) = pass_timings(&self.scopes, &ticks);
+        stats.passes = timings;
+        stats.gpu_frame_ms = gpu_frame_ms;
         passes.iter().for_each(|p| p.finished(slot, &mut stats));
-        Ok(Some(FinishedFrame { frame, stats }))
+        Some(FinishedFrame { frame, stats })
     }
 }
