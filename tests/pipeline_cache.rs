@@ -10,7 +10,8 @@ use hadou::{FrameInputs, Renderer, RendererOptions};
 fn renderer(dir: &std::path::Path) -> Renderer {
     let options = ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };
     let ctx = GpuContext::new(&options).unwrap_or_else(|e| panic!("GPU tests need a Vulkan device: {e}"));
-    let options = RendererOptions { pipeline_cache_dir: Some(dir.to_path_buf()), ..RendererOptions::default() };
+    let options =
+        RendererOptions { pipeline_cache_dir: Some(dir.to_path_buf()), ..RendererOptions::default() };
     let mut r = Renderer::with_options(ctx, &options).unwrap();
     r.load_scene(common::load("assets/scenes/showcase.toml")).unwrap();
     r.prepare(&FrameInputs::headless(32, 32, 0.0)).unwrap();
@@ -46,7 +47,12 @@ fn the_cache_is_saved_reused_and_a_foreign_file_is_replaced() {
     // The second renderer starts from it and saves it again (the same pipelines: no growth).
     drop(renderer(&dir));
     let again = std::fs::read(&files[0]).unwrap();
-    assert!(again.len() >= saved.len() / 2 && again.len() <= saved.len() * 2, "{} vs {}", again.len(), saved.len());
+    assert!(
+        again.len() >= saved.len() / 2 && again.len() <= saved.len() * 2,
+        "{} vs {}",
+        again.len(),
+        saved.len()
+    );
 
     // Garbage where the cache was: ignored, then replaced by a valid cache.
     std::fs::write(&files[0], b"not a pipeline cache").unwrap();

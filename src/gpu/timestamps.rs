@@ -89,7 +89,9 @@ impl TimestampPool {
         if self.used > 0 {
             let flags = vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT;
             // SAFETY: recording outside a render pass; the buffer holds `capacity` u64s.
-            unsafe { ctx.device.cmd_copy_query_pool_results(cmd, self.pool, 0, self.used, buffer, 0, 8, flags) };
+            unsafe {
+                ctx.device.cmd_copy_query_pool_results(cmd, self.pool, 0, self.used, buffer, 0, 8, flags)
+            };
         }
         let after = memory_barrier(copy, write, vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ);
         cmd_barriers(&ctx.device, cmd, &[], &[after]);
