@@ -1,18 +1,28 @@
 #![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
 
 pub mod aov;
+#[doc(hidden)]
 pub mod effects;
+#[doc(hidden)]
 pub mod frame;
 pub mod gpu;
+#[doc(hidden)]
 pub mod output;
+#[doc(hidden)]
 pub mod passes;
+#[doc(hidden)]
 pub mod present;
+#[doc(hidden)]
 pub mod profile;
 pub mod renderer;
+#[doc(hidden)]
 pub mod report;
 pub mod runtime;
 pub mod scene;
+#[doc(hidden)]
 pub mod scene_gpu;
+#[doc(hidden)]
 pub mod targets;
 #[doc(hidden)]
 pub mod testing;
