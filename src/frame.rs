@@ -112,9 +112,6 @@ pub(crate) fn record_passes(
     let mut views: Vec<TexelView> = Vec::new();
     let mut prepared = Vec::with_capacity(passes.len());
     for pass in passes.iter_mut() {
-        for image in pass.images() {
-            f.targets.ensure(f.ctx, f.memory, image.target, image.extent)?;
-        }
         let mut frame = FrameContext {
             ctx: f.ctx,
             memory: f.memory,
@@ -131,6 +128,10 @@ pub(crate) fn record_passes(
             views: &mut views,
         };
         let bindings = pass.prepare(&mut frame)?;
+        // After prepare: a pass may size its images from this frame (the light maps).
+        for image in pass.images() {
+            f.targets.ensure(f.ctx, f.memory, image.target, image.extent)?;
+        }
         let mut written = Vec::new();
         let bound: Vec<Bound> = bindings
             .iter()

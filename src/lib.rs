@@ -81,12 +81,6 @@ pub enum Error {
     /// An update with values hadou cannot use; `expected` says what is.
     #[error("{what}: {expected}")]
     InvalidUpdate { what: String, expected: String },
-    /// A translucent instance was moved (its light view and tables are fitted at load).
-    #[error(
-        "instance {0} is translucent: its transform is fixed at load (its light view and thickness \
-         tables are fitted to it)"
-    )]
-    TranslucentFixed(usize),
     /// `hadou report`: a measurement could not be made (the reason).
     #[error("report: {0}")]
     Report(String),

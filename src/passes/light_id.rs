@@ -19,9 +19,8 @@
 
 use std::sync::Arc;
 
-use super::translucency::{LightViewData, TranslucentData};
+use super::translucency::{LightDraw, LightViewData, TranslucentData, TranslucentFrame};
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
-use crate::effects::translucency::light_map_size;
 use crate::gpu::barriers::ImageAccess;
 use crate::gpu::pipeline::{create_graphics_pipeline, Blend, Bound, GraphicsDesc, Pipeline};
 use crate::gpu::recorder::ColorTarget;
@@ -37,7 +36,10 @@ pub struct LightIdPass {
     pipeline: Pipeline,
     mirrored: Pipeline,
     data: Arc<TranslucentData>,
+    // This frame's light view, draws and map size (instances move).
     view: LightViewData,
+    lit: bool,
+    draws: Vec<LightDraw>,
     /// The maps' side in texels (`light_map_size`).
     size: u32,
 }
@@ -51,8 +53,9 @@ impl LightIdPass {
     ) -> GpuResult<Self> {
         let pipeline = Self::pipeline(ctx, compiler, false)?;
         let mirrored = Self::pipeline(ctx, compiler, true)?;
-        let view = data.view_data();
-        Ok(LightIdPass { pipeline, mirrored, data, view, size: light_map_size(scene) })
+        let now = TranslucentFrame::new(scene, &data);
+        let (view, lit, draws, size) = (now.view_data, now.view.is_some(), now.draws, now.map_size);
+        Ok(LightIdPass { pipeline, mirrored, data, view, lit, draws, size })
     }
 
     fn pipeline(ctx: &GpuContext, compiler: &mut ShaderCompiler, mirrored: bool) -> GpuResult<Pipeline> {
@@ -107,12 +110,15 @@ impl Pass for LightIdPass {
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
+        // Instances may have moved: this frame's light view, draws and map size.
+        let now = TranslucentFrame::new(frame.scene, &self.data);
+        (self.view, self.lit, self.draws, self.size) = (now.view_data, now.view.is_some(), now.draws, now.map_size);
         let d = &self.data;
         Ok(vec![
             Binding::Bound(Bound::Storage(frame.instances)),
             Binding::Bound(Bound::UniformTexel(d.grid.view)),
             Binding::Bound(Bound::UniformTexel(d.records.view)),
-            Binding::Bound(Bound::UniformTexel(d.instances.view)),
+            Binding::Bound(frame.texels("light_id instances", &now.instances, crate::gpu::texel_buffer::Texels::U32x4)?),
         ])
     }
 
@@ -131,11 +137,11 @@ impl Pass for LightIdPass {
             },
         ];
         rec.begin_rendering(ids.extent, &colors, pass.targets.image(Target::LightDepth).view, 1.0);
-        if self.data.view.is_some() {
+        if self.lit {
             for (i, (pipeline, mirrored)) in
                 [(&self.pipeline, false), (&self.mirrored, true)].into_iter().enumerate()
             {
-                let mut draws = self.data.draws.iter().filter(|d| d.mirrored == mirrored).peekable();
+                let mut draws = self.draws.iter().filter(|d| d.mirrored == mirrored).peekable();
                 if draws.peek().is_none() {
                     continue;
                 }

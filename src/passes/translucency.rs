@@ -207,33 +207,67 @@ pub struct LutSummary {
     pub grid_bytes: u64,
 }
 
-/// The scene's translucency data on the GPU, shared by `light_id` and `translucency`.
+/// The scene's baked translucency data on the GPU, shared by `light_id` and `translucency`: what
+/// does not change when instances move (the tables are in object space, exact under any affine
+/// transform). What does — the light's view, the instance matrices, the light draws — is a
+/// `TranslucentFrame`, made each frame.
 pub struct TranslucentData {
-    pub view: Option<LightView>,
     pub tables: Vec<LutSummary>,
+    /// The (mesh, voxel_res) of each table, in table order.
+    pub keys: Vec<(usize, u32)>,
+    pub lut_image: Image,
+    pub sampler: Sampler,
+    // Read as texel buffers (see gpu::texel_buffer for why): the nearest grids (one uint per
+    // texel), the LutRecords (3 four-uint texels each) and the surface-voxel centres (1).
+    pub grid: TexelBuffer,
+    pub records: TexelBuffer,
+    pub centres: TexelBuffer,
+}
+
+/// What the translucent instances look like this frame, from the scene's current transforms and
+/// lights.
+pub struct TranslucentFrame {
+    /// The first light's view fitted to the translucent instances; `None` without a light.
+    pub view: Option<LightView>,
+    pub view_data: LightViewData,
     /// The first light's colour × intensity.
     pub radiance: glam::DVec3,
     /// Runs of translucent instances in the scene's instance table, for the light_id pass.
     pub draws: Vec<LightDraw>,
-    pub lut_image: Image,
-    pub sampler: Sampler,
-    // Read as texel buffers (see gpu::texel_buffer for why): the nearest grids (one uint per
-    // texel), the LutRecords (3 four-uint texels each), the TranslucentInstances (9) and the
-    // surface-voxel centres (1).
-    pub grid: TexelBuffer,
-    pub records: TexelBuffer,
-    pub instances: TexelBuffer,
-    pub centres: TexelBuffer,
+    /// Per scene instance (`instance_table`).
+    pub instances: Vec<TranslucentInstance>,
+    /// The light maps' side (`light_map_size`).
+    pub map_size: u32,
+}
+
+impl TranslucentFrame {
+    pub fn new(scene: &Scene, data: &TranslucentData) -> Self {
+        let view = LightView::fit(scene);
+        let view_data = view.as_ref().map(LightViewData::new).unwrap_or(LightViewData {
+            centre: [0.0, 0.0, 0.0, 1.0],
+            right: [1.0, 0.0, 0.0, 0.0],
+            up: [0.0, 1.0, 0.0, 0.0],
+            dir: [0.0, 0.0, 1.0, 0.0],
+        });
+        TranslucentFrame {
+            view,
+            view_data,
+            radiance: scene.lights.first().map_or(glam::DVec3::ZERO, |l| l.color * l.intensity),
+            draws: draw_runs(scene),
+            instances: instance_table(scene, &data.keys),
+            map_size: light_map_size(scene),
+        }
+    }
 }
 
 /// Host-side contents of `TranslucentData`'s buffers and image.
 struct Packed {
     tables: Vec<LutSummary>,
+    keys: Vec<(usize, u32)>,
     atlas: Vec<u8>,
     extent: vk::Extent2D,
     grid: Vec<u32>,
     records: Vec<LutRecord>,
-    instances: Vec<TranslucentInstance>,
     centres: Vec<[f32; 4]>,
 }
 
@@ -266,30 +300,50 @@ fn bake_table(scene: &Scene, mesh: usize, res: u32, limit: u32) -> GpuResult<Thi
     })
 }
 
-fn pack(scene: &Scene, limit: u32) -> GpuResult<Packed> {
+/// The (mesh, voxel_res) of every table the scene's LUT instances need, in first-use order.
+fn table_keys(scene: &Scene) -> Vec<(usize, u32)> {
     let mut keys: Vec<(usize, u32)> = Vec::new();
-    let mut instances = Vec::with_capacity(scene.instances.len().max(1));
     for (id, inst) in scene.instances.iter().enumerate() {
-        let mode = translucent_mode(scene, id);
-        let lut = match mode {
-            Some((res, ThicknessMode::Lut)) => {
-                let key = (inst.mesh, res);
-                match keys.iter().position(|k| *k == key) {
-                    Some(k) => k as u32,
-                    None => {
-                        keys.push(key);
-                        keys.len() as u32 - 1
-                    }
-                }
+        if let Some((res, ThicknessMode::Lut)) = translucent_mode(scene, id) {
+            if !keys.contains(&(inst.mesh, res)) {
+                keys.push((inst.mesh, res));
             }
-            _ => NO_LUT,
-        };
-        instances.push(TranslucentInstance {
-            model: mat4_f32(inst.transform.matrix),
-            inverse_model: mat4_f32(inst.transform.inverse),
-            info: [lut, u32::from(mode.is_some()), 0, 0],
-        });
+        }
     }
+    keys
+}
+
+/// Per scene instance, its transform and table as the passes read them (`TranslucentInstance`),
+/// for this frame's transforms; at least one record (an empty table still binds).
+pub fn instance_table(scene: &Scene, keys: &[(usize, u32)]) -> Vec<TranslucentInstance> {
+    let mut instances: Vec<TranslucentInstance> = scene
+        .instances
+        .iter()
+        .enumerate()
+        .map(|(id, inst)| {
+            let mode = translucent_mode(scene, id);
+            let lut = match mode {
+                Some((res, ThicknessMode::Lut)) => {
+                    keys.iter().position(|k| *k == (inst.mesh, res)).map_or(NO_LUT, |k| k as u32)
+                }
+                _ => NO_LUT,
+            };
+            TranslucentInstance {
+                model: mat4_f32(inst.transform.matrix),
+                inverse_model: mat4_f32(inst.transform.inverse),
+                info: [lut, u32::from(mode.is_some()), 0, 0],
+            }
+        })
+        .collect();
+    if instances.is_empty() {
+        let zero = [[0.0; 4]; 4];
+        instances.push(TranslucentInstance { model: zero, inverse_model: zero, info: [NO_LUT, 0, 0, 0] });
+    }
+    instances
+}
+
+fn pack(scene: &Scene, limit: u32) -> GpuResult<Packed> {
+    let keys = table_keys(scene);
     let (mut tables, mut grid, mut records, mut texels) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut centres: Vec<[f32; 4]> = Vec::new();
     for &(mesh, res) in &keys {
@@ -321,14 +375,10 @@ fn pack(scene: &Scene, limit: u32) -> GpuResult<Packed> {
     }
     let extent = atlas_extent(texels.len() as u64, limit)?;
     texels.resize(extent.width as usize * extent.height as usize, 0);
-    if instances.is_empty() {
-        let zero = [[0.0; 4]; 4];
-        instances.push(TranslucentInstance { model: zero, inverse_model: zero, info: [NO_LUT, 0, 0, 0] });
-    }
     if records.is_empty() {
         records.push(LutRecord::default());
     }
-    Ok(Packed { tables, atlas: texels, extent, grid, records, instances, centres })
+    Ok(Packed { tables, keys, atlas: texels, extent, grid, records, centres })
 }
 
 /// One instanced draw of the light_id pass.
@@ -375,7 +425,6 @@ impl TranslucentData {
             |name: &str, bytes: &[u8], texels| TexelBuffer::from_bytes(ctx, memory, name, bytes, texels);
         let grid = texels("translucency nearest grids", bytemuck::cast_slice(&packed.grid), word)?;
         let records = texels("translucency lut records", bytemuck::cast_slice(&packed.records), quad)?;
-        let instances = texels("translucency instances", bytemuck::cast_slice(&packed.instances), quad)?;
         let centres = texels("translucency centres", bytemuck::cast_slice(&packed.centres), quad)?;
         let format = vk::Format::R8_UNORM;
         let lut_image =
@@ -392,29 +441,7 @@ impl TranslucentData {
             packed.atlas.len(),
             packed.centres.len() * 16
         );
-        let radiance = scene.lights.first().map_or(glam::DVec3::ZERO, |l| l.color * l.intensity);
-        Ok(TranslucentData {
-            view: LightView::fit(scene),
-            tables: packed.tables,
-            radiance,
-            draws: draw_runs(scene),
-            lut_image,
-            sampler,
-            grid,
-            records,
-            instances,
-            centres,
-        })
-    }
-
-    /// The light view's push constants (a unit view when the scene has no light: nothing is drawn).
-    pub fn view_data(&self) -> LightViewData {
-        self.view.as_ref().map(LightViewData::new).unwrap_or(LightViewData {
-            centre: [0.0, 0.0, 0.0, 1.0],
-            right: [1.0, 0.0, 0.0, 0.0],
-            up: [0.0, 1.0, 0.0, 0.0],
-            dir: [0.0, 0.0, 1.0, 0.0],
-        })
+        Ok(TranslucentData { tables: packed.tables, keys: packed.keys, lut_image, sampler, grid, records, centres })
     }
 }
 
@@ -485,6 +512,8 @@ impl Pass for TranslucencyPass {
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let (scene, extent) = (frame.scene, frame.extent);
         let data = &self.data;
+        // Instances may have moved: this frame's light view and matrices.
+        let now = TranslucentFrame::new(scene, data);
         let cam = &scene.camera;
         let [right, up, forward] = cam.ray_frame(extent.width, extent.height).to_f32();
         self.rect = translucent_pixels(scene, extent);
@@ -494,10 +523,10 @@ impl Pass for TranslucencyPass {
             up,
             forward,
             camera: v4(cam.position, 1.0),
-            radiance: v4(data.radiance, if data.view.is_some() { 1.0 } else { 0.0 }),
-            view: data.view_data(),
-            // The same function sized the light maps (translucent instances stay where they loaded).
-            dims: [extent.width, extent.height, light_map_size(scene), scene.instances.len() as u32],
+            radiance: v4(now.radiance, if now.view.is_some() { 1.0 } else { 0.0 }),
+            view: now.view_data,
+            // light_id sized its maps from the same frame.
+            dims: [extent.width, extent.height, now.map_size, scene.instances.len() as u32],
             lut: [data.lut_image.extent.width, 0, 0, 0],
             rect: self.rect.map_or([0; 4], |r| [r.x0, r.y0, r.x1, r.y1]),
         };
@@ -512,7 +541,7 @@ impl Pass for TranslucencyPass {
             Binding::Bound(Bound::Sampled(data.lut_image.view, data.sampler.raw)),
             Binding::Bound(Bound::UniformTexel(data.grid.view)),
             Binding::Bound(Bound::UniformTexel(data.records.view)),
-            Binding::Bound(Bound::UniformTexel(data.instances.view)),
+            Binding::Bound(frame.texels("translucency instances", &now.instances, Texels::U32x4)?),
             Binding::Bound(Bound::Storage(frame.scene_gpu.materials_range())),
             Binding::Bound(Bound::UniformTexel(data.centres.view)),
             Binding::Image(Target::Normal),

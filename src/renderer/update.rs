@@ -6,7 +6,6 @@ use glam::{DMat4, DVec3};
 use super::Renderer;
 use crate::scene::camera::Camera;
 use crate::scene::transform::{Transform, TransformOp};
-use crate::scene::MaterialKind;
 use crate::Error;
 
 /// A wave's state from now on, at every time: keyframes and velocity are dropped.
@@ -56,16 +55,13 @@ impl Renderer {
     }
 
     /// Places instance `id` by transform operations, applied in the order listed (as in scene files).
-    /// Translucent instances keep their load-time transform: their light view and thickness
-    /// tables are fitted to it (reload the scene to move them).
+    /// Any instance moves, translucent ones included: their tables are in object space (exact
+    /// under any affine transform) and the light's view is fitted again each frame.
     pub fn set_instance_ops(&mut self, id: usize, ops: &[TransformOp]) -> Result<(), Error> {
         let loaded = self.loaded_mut()?;
         let count = loaded.scene.instances.len();
-        let Some(instance) = loaded.scene.instances.get(id) else {
+        if loaded.scene.instances.get(id).is_none() {
             return Err(Error::UnknownId { kind: "instance", index: id, count });
-        };
-        if matches!(loaded.scene.materials[instance.material].kind, MaterialKind::Translucent { .. }) {
-            return Err(Error::TranslucentFixed(id));
         }
         let transform = Transform::from_ops(ops)
             .map_err(|e| Error::InvalidUpdate { what: format!("instance {id}"), expected: e.to_string() })?;
