@@ -258,6 +258,7 @@ fn sixty_frames_three_in_flight_each_sees_its_own_world() {
         assert!(hits > 0, "frame {i}: something was drawn");
     }
     common::assert_clean(&rt);
+    common::assert_clean(&rt);
     drop(sampled);
     host.destroy();
     drop(hadou);
@@ -423,6 +424,108 @@ fn resize_twenty_times_with_three_in_flight() {
         assert!(r.aov(Aov::Energy).unwrap().data.iter().all(|v| v.is_finite() && *v >= 0.0));
     }
     drop(reads);
+    host.destroy();
+    drop(hadou);
+    assert_clean(&log, "after shutdown (leaks included)");
+}
+
+const JADE: &str = r#"
+[camera]
+position = [0, 0.6, 5]
+look_at = [0, 0, 0]
+fov_y_deg = 40
+near = 0.1
+far = 50
+[[light]]
+direction = [0.2, -0.25, 1]
+intensity = 4
+[[mesh]]
+name = "block"
+kind = "cube"
+size = 1.2
+[[material]]
+name = "jade"
+kind = "translucent"
+albedo = [0.55, 0.85, 0.65]
+sigma = [3.0, 1.2, 2.2]
+voxel_res = 32
+[[instance]]
+name = "jade"
+mesh = "block"
+material = "jade"
+"#;
+
+/// A translucent instance (a block) rotated, scaled non-uniformly (mirrored in some frames) and
+/// moved every frame, two frames in flight: each sampled frame's thickness AOV equals, bit for
+/// bit, the same world loaded still and rendered alone — moving costs no accuracy, because the
+/// tables are in object space (exact under any affine transform) and the light's view, the
+/// instance matrices and the light map are made again each frame. The thickness itself is
+/// compared with the exact f64 thickness of that frame's transform and its error printed; the
+/// LUT's own accuracy bound is issue 13's: even still, this block under this back light has a p95
+/// of 1.2 voxels at some orientations (tests/gpu_translucency.rs asserts ≤ 1 on its placements).
+#[test]
+fn a_moving_translucent_instance_renders_as_the_same_world_still() {
+    use hadou::report::translucency::{abs_stats, samples, world_voxel};
+    let ctx = context();
+    let log = ctx.validation_log();
+    let mut host = Host::new(&ctx, 2);
+    let mut hadou = Renderer::with_options(ctx, &RendererOptions::default()).unwrap();
+    let mut scene = common::parse(JADE);
+    hadou.load_scene(scene.clone()).unwrap();
+    let (w, h) = (200u32, 150u32);
+    let inputs = FrameInputs::headless(w, h, 0.0);
+    hadou.prepare(&inputs).unwrap();
+    let waits = hadou.context().host_waits();
+    let mut sampled = Vec::new();
+    for i in 0..12 {
+        let t = i as f64;
+        let mirror = if i % 4 == 3 { -1.0 } else { 1.0 };
+        let matrix =
+            DMat4::from_translation(DVec3::new(
+                0.25 * (0.7 * t).sin(),
+                0.1 * t - 0.5,
+                -0.3 * (0.5 * t).cos(),
+            )) * DMat4::from_quat(DQuat::from_axis_angle(DVec3::new(0.3, 1.0, 0.2).normalize(), 0.35 * t))
+                * DMat4::from_scale(DVec3::new(mirror * (1.0 + 0.05 * t), 0.8 + 0.03 * t, 1.1));
+        hadou.set_instance_transform(0, matrix).unwrap();
+        let ops = vec![TransformOp::Matrix(matrix)];
+        scene.instances[0].transform = hadou::scene::transform::Transform::from_ops(&ops).unwrap();
+        scene.instances[0].ops = ops;
+        let slot = i % 2;
+        let cmd = host.begin(slot);
+        hadou.record_frame(cmd, &inputs).unwrap();
+        if i % 4 >= 2 {
+            let readback = hadou.record_aov_readback(cmd, &[Aov::Thickness, Aov::Depth]).unwrap();
+            sampled.push((i, scene.clone(), readback));
+        }
+        host.submit(slot);
+    }
+    assert_eq!(hadou.context().host_waits(), waits, "moving a translucent instance waited");
+    host.wait_all();
+    let mut rt = common::runtime();
+    for (i, scene, readback) in &sampled {
+        let thickness = readback.aov(Aov::Thickness).unwrap();
+        let depth = readback.aov(Aov::Depth).unwrap();
+        rt.load_scene(scene.clone()).unwrap();
+        let mut request = FrameRequest::new(w, h);
+        request.aovs = vec![Aov::Thickness];
+        let still = rt.render(&request).unwrap();
+        assert!(
+            same_bits(&thickness, still.aov(Aov::Thickness).unwrap()),
+            "frame {i}: differs from the still world"
+        );
+        let (samples, _) = samples(scene, (w, h), &thickness.data, &depth.data).unwrap();
+        let voxel = world_voxel(scene, 0).unwrap();
+        assert!(samples.len() > 1000, "frame {i}: only {} translucent pixels", samples.len());
+        let (mean, p95, max) = abs_stats(samples.iter().map(|s| (s.gpu - s.exact) / voxel));
+        println!(
+            "frame {i}: {} px, |error| mean {mean:.3}, p95 {p95:.3}, max {max:.2} voxels",
+            samples.len()
+        );
+        assert!(mean.is_finite() && max.is_finite(), "frame {i}: every thickness finite");
+    }
+    common::assert_clean(&rt);
+    drop(sampled);
     host.destroy();
     drop(hadou);
     assert_clean(&log, "after shutdown (leaks included)");

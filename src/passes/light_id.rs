@@ -112,13 +112,18 @@ impl Pass for LightIdPass {
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         // Instances may have moved: this frame's light view, draws and map size.
         let now = TranslucentFrame::new(frame.scene, &self.data);
-        (self.view, self.lit, self.draws, self.size) = (now.view_data, now.view.is_some(), now.draws, now.map_size);
+        (self.view, self.lit, self.draws, self.size) =
+            (now.view_data, now.view.is_some(), now.draws, now.map_size);
         let d = &self.data;
         Ok(vec![
             Binding::Bound(Bound::Storage(frame.instances)),
             Binding::Bound(Bound::UniformTexel(d.grid.view)),
             Binding::Bound(Bound::UniformTexel(d.records.view)),
-            Binding::Bound(frame.texels("light_id instances", &now.instances, crate::gpu::texel_buffer::Texels::U32x4)?),
+            Binding::Bound(frame.texels(
+                "light_id instances",
+                &now.instances,
+                crate::gpu::texel_buffer::Texels::U32x4,
+            )?),
         ])
     }
 

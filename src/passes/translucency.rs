@@ -441,7 +441,15 @@ impl TranslucentData {
             packed.atlas.len(),
             packed.centres.len() * 16
         );
-        Ok(TranslucentData { tables: packed.tables, keys: packed.keys, lut_image, sampler, grid, records, centres })
+        Ok(TranslucentData {
+            tables: packed.tables,
+            keys: packed.keys,
+            lut_image,
+            sampler,
+            grid,
+            records,
+            centres,
+        })
     }
 }
 
