@@ -50,7 +50,8 @@ void main() {
     // - The loop over waves is a do-while: a `for` loop tests its exit at the top of the next
     //   iteration, so its last pass runs the whole body once more with every lane masked off
     //   (lavapipe executes masked code; this doubled the cost of one wave). A scene with no
-    //   wave never runs this pass; `live` keeps the result right even then.
+    //   wave never runs this pass, and one whose waves all have a = b = 0 binds one zeroed wave
+    //   with a count of 0: `live` keeps the result right then.
     Wave wave0 = waves[0];
     WaveStyle style0 = styles[0];
     uvec2 p = gl_GlobalInvocationID.xy;

@@ -28,8 +28,10 @@ pub mod targets;
 pub mod testing;
 
 pub use aov::{Aov, AovImage};
+pub use effects::metaballs::Ball;
 pub use frame::{FrameStats, PassTiming};
 pub use gpu::{DeviceInfo, GpuError, HostWaits, ValidationCounts};
+pub use renderer::world::{GroupId, MetaballsDesc, WaveDesc, WaveId};
 pub use renderer::{
     AovReadback, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameTimings, RecordedFrame,
     Renderer, RendererOptions, WaveUpdate,
@@ -78,6 +80,9 @@ pub enum Error {
     /// An update named an instance, wave, metaball group or ball the scene does not have.
     #[error("{kind} {index}: the scene has {count}")]
     UnknownId { kind: &'static str, index: usize, count: usize },
+    /// An id of a wave or metaball group that was despawned (or never spawned here).
+    #[error("id {0} names nothing in the world (despawned?)")]
+    StaleId(u64),
     /// An update with values hadou cannot use; `expected` says what is.
     #[error("{what}: {expected}")]
     InvalidUpdate { what: String, expected: String },

@@ -110,11 +110,22 @@ impl Pass for EnergyWavePass {
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let scene = frame.scene;
         let camera = scene.camera.position;
-        let states: Vec<WaveState> = scene.waves.iter().map(|w| w.at(frame.time)).collect();
-        let waves: Vec<GpuWave> = states.iter().map(|s| gpu_wave(&wave_params(s), camera)).collect();
-        let styles: Vec<WaveStyle> =
-            states.iter().zip(&scene.waves).map(|(s, w)| wave_style(s, w.method)).collect();
+        // A wave with a = b = 0 integrates to 0 everywhere: it is not uploaded or looped over.
+        let live: Vec<(WaveState, WaveMethod)> = scene
+            .waves
+            .iter()
+            .map(|w| (w.at(frame.time), w.method))
+            .filter(|(s, _)| s.a != 0.0 || s.b != 0.0)
+            .collect();
+        let waves: Vec<GpuWave> = live.iter().map(|(s, _)| gpu_wave(&wave_params(s), camera)).collect();
+        let styles: Vec<WaveStyle> = live.iter().map(|(s, m)| wave_style(s, *m)).collect();
         self.params = RayParams::new(scene, frame.extent, waves.len() as u32);
+        // The shader reads wave 0 before its loop (count 0 still binds one, zeroed, unused).
+        let (waves, styles) = if waves.is_empty() {
+            (vec![bytemuck::Zeroable::zeroed()], vec![WaveStyle::default()])
+        } else {
+            (waves, styles)
+        };
         Ok(vec![
             Binding::Image(Target::Distance),
             Binding::Image(Target::Hdr),

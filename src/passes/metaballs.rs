@@ -304,16 +304,24 @@ pub struct MetaballsPass {
     warned_dropped: std::sync::atomic::AtomicU64,
 }
 
+/// Which casts the scene's groups use: (Bézier clipping, sphere tracing).
+fn casts(scene: &Scene) -> (bool, bool) {
+    let trace = |g: &crate::scene::model::MetaballGroup| matches!(g.method, CastMethod::SphereTrace { .. });
+    (scene.metaballs.iter().any(|g| !trace(g)), scene.metaballs.iter().any(trace))
+}
+
+/// The pass is compiled with only the casts the scene uses: a world that starts using another
+/// builds it again.
+pub fn variant(scene: &Scene) -> String {
+    format!("{:?}", casts(scene))
+}
+
 impl MetaballsPass {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler, scene: &Scene) -> GpuResult<Self> {
         // Only the casts the scene's groups use are compiled in.
-        let trace =
-            |g: &crate::scene::model::MetaballGroup| matches!(g.method, CastMethod::SphereTrace { .. });
+        let (clip, trace) = casts(scene);
         let with = |b: bool| if b { "1" } else { "0" };
-        let defines = [
-            ("MB_WITH_CLIP", with(scene.metaballs.iter().any(|g| !trace(g)))),
-            ("MB_WITH_TRACE", with(scene.metaballs.iter().any(trace))),
-        ];
+        let defines = [("MB_WITH_CLIP", with(clip)), ("MB_WITH_TRACE", with(trace))];
         let spirv = compiler.compile("metaballs.comp", &defines)?;
         let push = std::mem::size_of::<MetaballParams>() as u32;
         let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, push)?;

@@ -23,13 +23,16 @@ use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{GpuContext, GpuResult};
 use crate::scene::Scene;
 
+/// Data passes of one scene share (built once, e.g. the baked thickness tables).
+pub type Shared = Vec<Arc<dyn Any + Send + Sync>>;
+
 /// What building a pass has at hand, and data passes of one scene share (built once).
 pub struct Builder<'a> {
     pub ctx: &'a GpuContext,
     pub memory: &'a Memory,
     pub compiler: &'a mut ShaderCompiler,
     pub scene: &'a Scene,
-    shared: Vec<Arc<dyn Any + Send + Sync>>,
+    shared: &'a mut Shared,
 }
 
 impl Builder<'_> {
@@ -47,11 +50,17 @@ impl Builder<'_> {
     }
 }
 
-/// A scene pass: its name (the pass's `name()`), when a scene needs it, how it is built.
+/// A scene pass: its name (the pass's `name()`), when a scene needs it, what in the scene its
+/// build depends on (a pass built for another variant is built again), how it is built.
 pub struct Entry {
     pub name: &'static str,
     pub needed: fn(&Scene) -> bool,
+    pub variant: fn(&Scene) -> String,
     pub build: fn(&mut Builder) -> GpuResult<Box<dyn Pass>>,
+}
+
+fn no_variant(_: &Scene) -> String {
+    String::new()
 }
 
 fn boxed(pass: impl Pass + 'static) -> Box<dyn Pass> {
@@ -64,15 +73,22 @@ fn translucent_data(b: &mut Builder) -> GpuResult<Arc<TranslucentData>> {
 
 /// Every scene pass, in frame order.
 pub const PASSES: &[Entry] = &[
-    Entry { name: "raster", needed: |_| true, build: |b| Ok(boxed(RasterPass::new(b.ctx, b.compiler)?)) },
+    Entry {
+        name: "raster",
+        needed: |_| true,
+        variant: no_variant,
+        build: |b| Ok(boxed(RasterPass::new(b.ctx, b.compiler)?)),
+    },
     Entry {
         name: "metaballs",
         needed: |s| !s.metaballs.is_empty(),
+        variant: super::metaballs::variant,
         build: |b| Ok(boxed(MetaballsPass::new(b.ctx, b.compiler, b.scene)?)),
     },
     Entry {
         name: "light_id",
         needed: translucency::needed,
+        variant: no_variant,
         build: |b| {
             let data = translucent_data(b)?;
             Ok(boxed(LightIdPass::new(b.ctx, b.compiler, data, b.scene)?))
@@ -81,6 +97,7 @@ pub const PASSES: &[Entry] = &[
     Entry {
         name: "translucency",
         needed: translucency::needed,
+        variant: no_variant,
         build: |b| {
             let data = translucent_data(b)?;
             Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, data)?))
@@ -89,6 +106,7 @@ pub const PASSES: &[Entry] = &[
     Entry {
         name: "energy_wave",
         needed: |s| !s.waves.is_empty(),
+        variant: no_variant,
         build: |b| Ok(boxed(EnergyWavePass::new(b.ctx, b.compiler)?)),
     },
 ];
@@ -98,6 +116,13 @@ pub fn plan(scene: &Scene) -> Vec<&'static str> {
     PASSES.iter().filter(|e| (e.needed)(scene)).map(|e| e.name).collect()
 }
 
+/// A built scene pass, with the registry name and variant it was built for.
+pub struct Active {
+    pub name: &'static str,
+    pub variant: String,
+    pub pass: Box<dyn Pass>,
+}
+
 /// Builds the scene passes `scene` needs. A failure part-way drops what was built (freed with
 /// the frames that may use it).
 pub fn build(
@@ -105,7 +130,28 @@ pub fn build(
     memory: &Memory,
     compiler: &mut ShaderCompiler,
     scene: &Scene,
-) -> GpuResult<Vec<Box<dyn Pass>>> {
-    let mut builder = Builder { ctx, memory, compiler, scene, shared: Vec::new() };
-    PASSES.iter().filter(|e| (e.needed)(scene)).map(|e| (e.build)(&mut builder)).collect()
+    shared: &mut Shared,
+) -> GpuResult<Vec<Active>> {
+    let mut builder = Builder { ctx, memory, compiler, scene, shared };
+    PASSES
+        .iter()
+        .filter(|e| (e.needed)(scene))
+        .map(|e| Ok(Active { name: e.name, variant: (e.variant)(scene), pass: (e.build)(&mut builder)? }))
+        .collect()
+}
+
+/// Builds the scene pass registered as `name` (it must be one of `PASSES`).
+pub fn build_one(
+    ctx: &GpuContext,
+    memory: &Memory,
+    compiler: &mut ShaderCompiler,
+    scene: &Scene,
+    name: &str,
+    shared: &mut Shared,
+) -> GpuResult<Box<dyn Pass>> {
+    let entry = PASSES.iter().find(|e| e.name == name).ok_or_else(|| crate::gpu::GpuError::Limit {
+        what: name.into(),
+        message: "no such pass in the registry".into(),
+    })?;
+    (entry.build)(&mut Builder { ctx, memory, compiler, scene, shared })
 }

@@ -25,6 +25,7 @@ mod record;
 mod slots;
 mod timings;
 mod update;
+pub mod world;
 
 pub use inputs::{DepthConvention, ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
 pub use readback::AovReadback;
@@ -37,6 +38,7 @@ use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::GpuContext;
 use crate::passes::composite::CompositePass;
 use crate::passes::depth_import::DepthImportPass;
+use crate::passes::registry::{Active, Shared};
 use crate::passes::tonemap::TonemapPass;
 use crate::passes::Pass;
 use crate::scene::Scene;
@@ -69,9 +71,23 @@ pub const MAX_FRAMES_IN_FLIGHT: usize = 4;
 struct Loaded {
     scene: Scene,
     gpu: SceneGpu,
-    passes: Vec<Box<dyn Pass>>,
+    /// The scene passes the world needs now, in frame order.
+    passes: Vec<Active>,
+    /// Passes the world needed before and does not now: kept built, not run.
+    parked: Vec<Active>,
+    /// Data the scene's passes share (the baked thickness tables).
+    shared: Shared,
+    /// The id of each of `scene.waves` and `scene.metaballs` (spawned or from the file).
+    wave_ids: Vec<u64>,
+    group_ids: Vec<u64>,
     /// Instance transforms changed since the instance table was built.
     instances_dirty: bool,
+}
+
+impl Loaded {
+    fn pass_list(&self) -> impl Iterator<Item = &dyn Pass> {
+        self.passes.iter().map(|a| a.pass.as_ref())
+    }
 }
 
 /// The passes that run only for some frames: the game's depth in, the output out.
@@ -93,6 +109,8 @@ pub struct Renderer {
     slots: Vec<Slot>,
     /// The number the next recorded frame gets.
     next_frame: u64,
+    /// The last id handed to a spawned (or loaded) wave or metaball group.
+    next_id: u64,
     /// The slot of the frame recorded last (where a read-back recorded after it goes).
     current: Option<usize>,
     /// Frames up to this one are known to have finished.
@@ -128,6 +146,7 @@ impl Renderer {
             edges: Edges::default(),
             slots,
             next_frame: 0,
+            next_id: 0,
             current: None,
             finished_through: None,
             latest: None,
@@ -163,7 +182,7 @@ impl Renderer {
     /// The scene passes the loaded scene runs, in order, and the output pass of a headless frame.
     pub fn pass_names(&self) -> Vec<&'static str> {
         let Some(l) = &self.loaded else { return Vec::new() };
-        l.passes.iter().map(|p| p.name()).chain(["tonemap"]).collect()
+        l.pass_list().map(|p| p.name()).chain(["tonemap"]).collect()
     }
 
     /// Whether a headless frame of the loaded scene writes `target` (so it can be read back).
@@ -172,7 +191,7 @@ impl Renderer {
             || self
                 .loaded
                 .as_ref()
-                .is_some_and(|l| l.passes.iter().any(|p| p.images().iter().any(|u| u.target == target)))
+                .is_some_and(|l| l.pass_list().any(|p| p.images().iter().any(|u| u.target == target)))
     }
 
     /// Uploads the scene and builds the passes it needs (pipelines are built here, never per
@@ -182,8 +201,14 @@ impl Renderer {
     /// own fence: call it while nothing else submits to that queue.
     pub fn load_scene(&mut self, scene: Scene) -> Result<(), Error> {
         let gpu = SceneGpu::new(&self.ctx, &self.memory, &scene)?;
-        let passes = crate::passes::registry::build(&self.ctx, &self.memory, &mut self.compiler, &scene)?;
-        self.loaded = Some(Loaded { scene, gpu, passes, instances_dirty: false });
+        let mut shared = Shared::new();
+        let passes =
+            crate::passes::registry::build(&self.ctx, &self.memory, &mut self.compiler, &scene, &mut shared)?;
+        let wave_ids = (0..scene.waves.len()).map(|_| self.next_id()).collect();
+        let group_ids = (0..scene.metaballs.len()).map(|_| self.next_id()).collect();
+        let parked = Vec::new();
+        self.loaded =
+            Some(Loaded { scene, gpu, passes, parked, shared, wave_ids, group_ids, instances_dirty: false });
         Ok(())
     }
 
@@ -200,7 +225,7 @@ impl Renderer {
             self.edges.tonemap.as_ref().filter(|_| inputs.color.is_none()).map(|p| p as &dyn Pass),
             self.edges.composite.as_ref().filter(|_| inputs.color.is_some()).map(|p| p as &dyn Pass),
         ];
-        let passes = loaded.passes.iter().map(|p| p.as_ref()).chain(edges.into_iter().flatten());
+        let passes = loaded.pass_list().chain(edges.into_iter().flatten());
         for pass in passes {
             for image in pass.images() {
                 targets.ensure(&self.ctx, &self.memory, image.target, image.extent)?;
@@ -221,8 +246,8 @@ impl Renderer {
         }
         self.finished_through = Some(frame);
         for i in 0..self.slots.len() {
-            let passes = self.loaded.as_ref().map(|l| l.passes.as_slice()).unwrap_or_default();
-            if let Some(done) = self.slots[i].finish(i, frame, passes) {
+            let passes: Vec<&dyn Pass> = self.loaded.iter().flat_map(|l| l.pass_list()).collect();
+            if let Some(done) = self.slots[i].finish(i, frame, &passes) {
                 if self.latest.as_ref().is_none_or(|l| l.frame < done.frame) {
                     self.latest = Some(done);
                 }

@@ -207,7 +207,7 @@ impl Renderer {
         if let (Some(_), Some(p)) = (&inputs.depth, &mut self.edges.depth_import) {
             passes.push(p);
         }
-        passes.extend(loaded.passes.iter_mut().map(|p| p.as_mut() as &mut dyn Pass));
+        passes.extend(loaded.passes.iter_mut().map(|a| a.pass.as_mut() as &mut dyn Pass));
         match (&inputs.color, &mut self.edges.composite, &mut self.edges.tonemap) {
             (Some(_), Some(c), _) => passes.push(c),
             (None, _, Some(t)) => passes.push(t),

@@ -64,7 +64,7 @@ impl Slot {
 
     /// If this slot's frame is `through` or older: what it measured (the timestamps the GPU copied
     /// into the slot's buffer: the frame is known finished) and what its passes counted.
-    pub fn finish(&mut self, slot: usize, through: u64, passes: &[Box<dyn Pass>]) -> Option<FinishedFrame> {
+    pub fn finish(&mut self, slot: usize, through: u64, passes: &[&dyn Pass]) -> Option<FinishedFrame> {
         let frame = self.pending.filter(|&f| f <= through)?;
         self.pending = None;
         let mut stats = FrameStats::default();

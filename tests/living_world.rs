@@ -1,0 +1,282 @@
+//! A living world: waves and metaball groups spawned and despawned over 300 frames with 3 frames
+//! in flight, the passes following the world (the energy and metaballs passes come and go), no
+//! wait on the device after `prepare`, nothing leaked, and sampled frames equal to the same world
+//! rendered alone by the headless runtime (itself checked against the f64 twins) and, for the
+//! energy, to the f64 integral of that frame's waves. Bad calls are typed errors that leave the
+//! world as it was. Lavapipe, validation + synchronization validation, zero messages.
+
+mod common;
+
+use ash::vk;
+use glam::{DMat4, DVec3};
+use hadou::effects::energy_wave::line_integral;
+use hadou::gpu::{ContextOptions, GpuContext};
+use hadou::passes::energy_wave::wave_params;
+use hadou::{
+    Aov, AovImage, Ball, Error, FrameInputs, FrameRequest, MetaballsDesc, Renderer, RendererOptions, WaveDesc,
+};
+
+const SCENE: &str = r#"
+[camera]
+position = [0, 1, 9]
+look_at = [0, 0, 0]
+fov_y_deg = 50
+near = 0.5
+far = 60
+[[light]]
+direction = [-0.3, -1, -0.5]
+[[mesh]]
+name = "box"
+kind = "cube"
+size = 2
+[[material]]
+name = "slime"
+albedo = [0.3, 0.8, 0.4]
+[[instance]]
+mesh = "box"
+transform = [{ translate = [2, 0, -1] }]
+"#;
+
+fn context() -> GpuContext {
+    let options = ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };
+    GpuContext::new(&options)
+        .unwrap_or_else(|e| panic!("GPU tests need a Vulkan device (lavapipe in CI): {e}"))
+}
+
+/// The host: a command buffer and a fence per slot; it waits only on the fence of the frame that
+/// last used a slot (the frame contract).
+struct Host {
+    device: ash::Device,
+    queue: vk::Queue,
+    pool: vk::CommandPool,
+    slots: Vec<(vk::CommandBuffer, vk::Fence, bool)>,
+}
+
+impl Host {
+    fn new(ctx: &GpuContext, n: usize) -> Host {
+        let device = ctx.device.clone();
+        let info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(ctx.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let pool = unsafe { device.create_command_pool(&info, None) }.unwrap();
+        let alloc =
+            vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(n as u32);
+        let cmds = unsafe { device.allocate_command_buffers(&alloc) }.unwrap();
+        let slots = cmds
+            .into_iter()
+            .map(|c| {
+                (c, unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.unwrap(), false)
+            })
+            .collect();
+        Host { device, queue: ctx.queue, pool, slots }
+    }
+
+    fn begin(&mut self, slot: usize) -> vk::CommandBuffer {
+        self.wait(slot);
+        let cmd = self.slots[slot].0;
+        unsafe {
+            self.device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).unwrap();
+            self.device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).unwrap();
+        }
+        cmd
+    }
+
+    fn submit(&mut self, slot: usize) {
+        let (cmd, fence, _) = self.slots[slot];
+        let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
+        let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmds)];
+        unsafe {
+            self.device.end_command_buffer(cmd).unwrap();
+            self.device.queue_submit2(self.queue, &submit, fence).unwrap();
+        }
+        self.slots[slot].2 = true;
+    }
+
+    fn wait(&mut self, slot: usize) {
+        let (_, fence, pending) = self.slots[slot];
+        if pending {
+            unsafe {
+                self.device.wait_for_fences(&[fence], true, u64::MAX).unwrap();
+                self.device.reset_fences(&[fence]).unwrap();
+            }
+            self.slots[slot].2 = false;
+        }
+    }
+
+    fn destroy(mut self) {
+        (0..self.slots.len()).for_each(|s| self.wait(s));
+        unsafe {
+            self.slots.iter().for_each(|s| self.device.destroy_fence(s.1, None));
+            self.device.destroy_command_pool(self.pool, None);
+        }
+    }
+}
+
+fn wave(k: usize) -> WaveDesc {
+    let a = k as f64 * 0.37;
+    WaveDesc {
+        origin: DVec3::new(-4.0 + (k % 7) as f64, (a.sin() * 1.5).round() * 0.5, -((k % 3) as f64)),
+        direction: DVec3::new(1.0, 0.3 * a.cos(), 0.2 * a.sin()),
+        a: 0.5 + (k % 4) as f64 * 0.3,
+        b: 0.2 + (k % 5) as f64 * 0.2,
+        core: 0.05,
+        length: 2.0 + (k % 6) as f64,
+        color: DVec3::new(0.3, 0.6, 1.0),
+        intensity: 0.5,
+    }
+}
+
+fn metaballs(k: usize) -> MetaballsDesc {
+    let n = 1 + k % 5;
+    let balls = (0..n)
+        .map(|i| {
+            let a = (k * 3 + i) as f64 * 0.9;
+            Ball { centre: DVec3::new(0.6 * a.cos(), 0.4 * a.sin(), 0.2 * i as f64), radius: 0.7, q: 1.0 }
+        })
+        .collect();
+    let at = DVec3::new(-2.5 + (k % 6) as f64, -1.0 + (k % 3) as f64, 0.0);
+    MetaballsDesc { balls, threshold: 0.5, material: "slime".into(), transform: DMat4::from_translation(at) }
+}
+
+const W: u32 = 40;
+const H: u32 = 30;
+const AOVS: [Aov; 3] = [Aov::Depth, Aov::Energy, Aov::Normal];
+
+fn same_bits(a: &AovImage, b: &AovImage) -> bool {
+    a.data.len() == b.data.len() && a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+/// 100 waves and 50 metaball groups spawned and despawned over 300 frames, 3 in flight.
+#[test]
+fn spawn_and_despawn_over_three_hundred_frames() {
+    let ctx = context();
+    let log = ctx.validation_log();
+    let mut host = Host::new(&ctx, 3);
+    let options = RendererOptions { frames_in_flight: 3, ..RendererOptions::default() };
+    let mut hadou = Renderer::with_options(ctx, &options).unwrap();
+    hadou.load_scene(common::parse(SCENE)).unwrap();
+    assert_eq!(hadou.pass_names(), ["raster", "tonemap"], "no effect: only the raster runs");
+    let inputs = FrameInputs::headless(W, H, 0.0);
+    hadou.prepare(&inputs).unwrap();
+    let waits = hadou.context().host_waits();
+    let (mut waves, mut groups) = (Vec::new(), Vec::new());
+    let (mut spawned_waves, mut spawned_groups) = (0, 0);
+    let (mut with_energy, mut without_energy) = (0, 0);
+    let mut sampled = Vec::new();
+    for i in 0..300usize {
+        // Waves: one spawned every other frame (100 in all), each living 8 to 20 frames; the
+        // world is without waves now and then, so the energy pass goes and comes back.
+        if i % 2 == 0 && spawned_waves < 100 && (i / 40) % 3 != 2 {
+            waves.push((hadou.spawn_wave(&wave(spawned_waves)).unwrap(), i + 8 + spawned_waves % 13));
+            spawned_waves += 1;
+        }
+        // Metaball groups: one every sixth frame (50 in all), each living 10 to 25 frames.
+        if i % 6 == 1 && spawned_groups < 50 {
+            groups.push((
+                hadou.spawn_metaballs(&metaballs(spawned_groups)).unwrap(),
+                i + 10 + spawned_groups % 16,
+            ));
+            spawned_groups += 1;
+        }
+        for (id, _) in waves.iter().filter(|(_, until)| *until == i) {
+            hadou.despawn_wave(*id).unwrap();
+        }
+        waves.retain(|(_, until)| *until != i);
+        for (id, _) in groups.iter().filter(|(_, until)| *until == i) {
+            hadou.despawn_metaballs(*id).unwrap();
+        }
+        groups.retain(|(_, until)| *until != i);
+        let names = hadou.pass_names();
+        assert_eq!(names.contains(&"energy_wave"), !waves.is_empty(), "frame {i}: {names:?}");
+        assert_eq!(names.contains(&"metaballs"), !groups.is_empty(), "frame {i}: {names:?}");
+        if waves.is_empty() {
+            without_energy += 1;
+        } else {
+            with_energy += 1;
+        }
+        let slot = i % 3;
+        let cmd = host.begin(slot);
+        hadou.record_frame(cmd, &inputs).unwrap();
+        if i % 37 == 36 && !waves.is_empty() && !groups.is_empty() {
+            let readback = hadou.record_aov_readback(cmd, &AOVS).unwrap();
+            sampled.push((i, hadou.scene().unwrap().clone(), readback));
+        }
+        host.submit(slot);
+    }
+    assert_eq!((spawned_waves, spawned_groups), (100, 50));
+    assert!(
+        with_energy > 50 && without_energy > 20,
+        "the energy pass came and went: {with_energy}/{without_energy}"
+    );
+    assert_eq!(hadou.context().host_waits(), waits, "spawning or despawning waited on the device");
+    (0..3).for_each(|s| host.wait(s));
+    assert!(sampled.len() >= 4, "{} frames sampled", sampled.len());
+
+    let mut rt = common::runtime();
+    for (i, world, readback) in &sampled {
+        rt.load_scene(world.clone()).unwrap();
+        let mut request = FrameRequest::new(W, H);
+        request.aovs = AOVS.to_vec();
+        let alone = rt.render(&request).unwrap();
+        for aov in AOVS {
+            let got = readback.aov(aov).unwrap();
+            assert!(
+                same_bits(&got, alone.aov(aov).unwrap()),
+                "frame {i}: {} differs from the world alone",
+                aov.name()
+            );
+        }
+        // Energy vs the f64 integral of that frame's waves up to the GPU's distance (bound 1e-4:
+        // f32 pixel rays enter H only logarithmically; tests/gpu_energy_wave.rs argues it).
+        let (energy, distance) = (readback.aov(Aov::Energy).unwrap(), readback.aov(Aov::Depth).unwrap());
+        let cam = &world.camera;
+        for y in 0..H {
+            for x in 0..W {
+                let k = (y * W + x) as usize;
+                let (o, u) = cam.pixel_ray(x, y, W, H);
+                let l = (distance.data[k] as f64).min(cam.far);
+                let reference: f64 =
+                    world.waves.iter().map(|w| line_integral(&wave_params(&w.at(0.0)), o, u, l)).sum();
+                let got = energy.data[k] as f64;
+                let rel = if reference > 0.0 { (got - reference).abs() / reference } else { got };
+                assert!(rel <= 1e-4, "frame {i} ({x}, {y}): {got} vs f64 {reference}");
+            }
+        }
+    }
+    common::assert_clean(&rt);
+    drop(sampled);
+    host.destroy();
+    drop(hadou);
+    let c = log.counts();
+    assert!(c.errors == 0 && c.warnings == 0, "validation (leaks included): {:?}", log.messages());
+}
+
+/// Bad calls: a despawned id, NaN, an unknown material, no balls — typed errors, world unchanged.
+#[test]
+fn bad_calls_are_typed_errors_and_change_nothing() {
+    let mut hadou = Renderer::with_options(context(), &RendererOptions::default()).unwrap();
+    hadou.load_scene(common::parse(SCENE)).unwrap();
+    let id = hadou.spawn_wave(&wave(0)).unwrap();
+    let group = hadou.spawn_metaballs(&metaballs(0)).unwrap();
+    let before = hadou.scene().unwrap().clone();
+    let nan = WaveDesc { a: f64::NAN, ..wave(1) };
+    assert!(matches!(hadou.spawn_wave(&nan), Err(Error::InvalidUpdate { .. })));
+    assert!(matches!(hadou.update_wave(id, &nan), Err(Error::InvalidUpdate { .. })));
+    let zero_dir = WaveDesc { direction: DVec3::ZERO, ..wave(1) };
+    assert!(matches!(hadou.spawn_wave(&zero_dir), Err(Error::InvalidUpdate { .. })));
+    let unknown = MetaballsDesc { material: "no such".into(), ..metaballs(1) };
+    assert!(matches!(hadou.spawn_metaballs(&unknown), Err(Error::InvalidUpdate { .. })));
+    let empty = MetaballsDesc { balls: Vec::new(), ..metaballs(1) };
+    assert!(matches!(hadou.spawn_metaballs(&empty), Err(Error::InvalidUpdate { .. })));
+    let singular = MetaballsDesc { transform: DMat4::ZERO, ..metaballs(1) };
+    assert!(matches!(hadou.spawn_metaballs(&singular), Err(Error::InvalidUpdate { .. })));
+    assert_eq!(hadou.scene().unwrap().waves, before.waves, "a refused call changes nothing");
+    assert_eq!(hadou.scene().unwrap().metaballs, before.metaballs);
+    hadou.despawn_wave(id).unwrap();
+    hadou.despawn_metaballs(group).unwrap();
+    assert!(matches!(hadou.despawn_wave(id), Err(Error::StaleId(_))));
+    assert!(matches!(hadou.update_wave(id, &wave(2)), Err(Error::StaleId(_))));
+    assert!(matches!(hadou.despawn_metaballs(group), Err(Error::StaleId(_))));
+    assert_eq!(hadou.pass_names(), ["raster", "tonemap"]);
+    assert_eq!(hadou.validation_counts().errors, 0);
+}
