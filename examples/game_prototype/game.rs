@@ -7,7 +7,10 @@
 
 use ash::vk;
 use glam::{DMat4, DVec3};
-use hadou::{Aov, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, Renderer, WaveUpdate};
+use hadou::{
+    Aov, Ball, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, Renderer, WaveDesc, WaveId,
+    WaveUpdate,
+};
 
 use super::gpu::{GameImage, GameVk, HostBuffer, FRAMES_IN_FLIGHT};
 use super::painter::{BoxDraw, GameCamera, PaintTarget, Painter};
@@ -64,21 +67,10 @@ balls = [
   { centre = [-0.7, 0.1, 0.4], radius = 1.1 },
 ]
 
-[[wave]]
-name = "shot"
-origin = [-5, 1, 0]
-direction = [1, 0, 0]
-a = 0.02
-b = 0.02
-core = 0.05
-length = 0.3
-color = [0.35, 0.65, 1.0]
-# The 1/r kernels glow over the whole view: a small intensity keeps the far glow faint.
-intensity = 0.08
 "#;
 
 /// The slime's balls at rest (object space), as in HADOU_SCENE.
-const SLIME: [[f64; 3]; 3] = [[0.0, 0.0, 0.0], [0.9, 0.2, 0.0], [-0.7, 0.1, 0.4]];
+const SLIME: [([f64; 3], f64); 3] = [([0.0, 0.0, 0.0], 1.5), ([0.9, 0.2, 0.0], 1.2), ([-0.7, 0.1, 0.4], 1.1)];
 
 /// The keys held this frame (README: Space charges, releasing fires; A/D or ←/→ move; R resets).
 #[derive(Clone, Copy, Debug, Default)]
@@ -176,15 +168,46 @@ impl GameState {
         }
     }
 
-    /// The slime's balls this frame: each bobs on its own phase (object-space centre, q).
-    pub fn slime(&self) -> [(DVec3, f64); 3] {
-        let t = self.time;
-        SLIME.map(|c| {
-            let c = DVec3::from(c);
-            let phase = 2.1 * c.x + 1.3 * c.z;
-            let bob = DVec3::new(0.12 * (1.7 * t + phase).sin(), 0.18 * (2.3 * t + phase).sin(), 0.0);
-            (c + bob, 1.0)
+    /// The wave hadou draws this frame, if any: the charging wave at the hand, or the shot in
+    /// flight; none between shots (hadou's energy pass is then not run).
+    pub fn wave_desc(&self) -> Option<WaveDesc> {
+        if self.shot.is_none() && self.charge == 0.0 {
+            return None;
+        }
+        let w = self.wave();
+        let (color, intensity) = (DVec3::new(0.35, 0.65, 1.0), 0.08);
+        Some(WaveDesc {
+            origin: w.origin,
+            direction: w.direction,
+            a: w.a,
+            b: w.b,
+            core: 0.05,
+            length: w.length,
+            color,
+            intensity,
         })
+    }
+
+    /// The slime's balls this frame: each bobs on its own phase, and every few seconds two drops
+    /// bud off the blob, drift apart as separate blobs and merge back.
+    pub fn slime(&self) -> Vec<Ball> {
+        let t = self.time;
+        let mut balls: Vec<Ball> = SLIME
+            .iter()
+            .map(|&(c, radius)| {
+                let c = DVec3::from(c);
+                let phase = 2.1 * c.x + 1.3 * c.z;
+                let bob = DVec3::new(0.12 * (1.7 * t + phase).sin(), 0.18 * (2.3 * t + phase).sin(), 0.0);
+                Ball { centre: c + bob, radius, q: 1.0 }
+            })
+            .collect();
+        // 0 → 1 → 0 over a 4 s cycle: how far the drops are from the blob.
+        let apart = (0.5 - 0.5 * (std::f64::consts::TAU * t / 4.0).cos()).powi(2);
+        for side in [-1.0, 1.0] {
+            let centre = DVec3::new(side * (0.4 + 2.2 * apart), 0.3 + 0.8 * apart, 0.2);
+            balls.push(Ball { centre, radius: 0.9, q: 1.0 });
+        }
+        balls
     }
 
     /// The game's own scene: floor, player, two pillars.
@@ -241,6 +264,8 @@ pub struct Game {
     offscreen: Option<GameImage>,
     /// Per slot: the headless frame in flight there.
     pending: Vec<Option<Pending>>,
+    /// The wave hadou draws for the game (spawned while charging or in flight).
+    wave: Option<WaveId>,
     /// Frames in flight (1..=FRAMES_IN_FLIGHT); hadou's renderer has as many slots.
     frames_in_flight: usize,
     /// CPU time of the last `Renderer::record_frame` (ms).
@@ -292,6 +317,7 @@ impl Game {
             depth,
             offscreen,
             pending,
+            wave: None,
             frames_in_flight: frames,
             last_record_ms: 0.0,
         })
@@ -300,11 +326,21 @@ impl Game {
     /// Steps the state and hands hadou this frame's wave, slime and camera (no pipeline rebuilt).
     pub fn update(&mut self, input: &Input, dt: f64) -> Result<(), String> {
         self.state.step(input, dt);
-        self.hadou.set_wave(0, self.state.wave()).map_err(|e| e.to_string())?;
-        for (i, (centre, q)) in self.state.slime().into_iter().enumerate() {
-            self.hadou.set_metaball(0, i, centre, q).map_err(|e| e.to_string())?;
-        }
-        Ok(())
+        let err = |e: hadou::Error| e.to_string();
+        // The wave lives while it is charged or flies: spawned, moved, despawned.
+        self.wave = match (self.state.wave_desc(), self.wave) {
+            (Some(desc), None) => Some(self.hadou.spawn_wave(&desc).map_err(err)?),
+            (Some(desc), Some(id)) => {
+                self.hadou.update_wave(id, &desc).map_err(err)?;
+                Some(id)
+            }
+            (None, Some(id)) => {
+                self.hadou.despawn_wave(id).map_err(err)?;
+                None
+            }
+            (None, None) => None,
+        };
+        self.hadou.set_metaball_group(0, &self.state.slime()).map_err(err)
     }
 
     fn ensure(&mut self, format: vk::Format, extent: vk::Extent2D) -> Result<(), String> {
@@ -409,14 +445,16 @@ impl Game {
         };
         let frame = self.hadou.next_frame();
         self.record(&target)?;
-        let readback = self.hadou.record_aov_readback(self.vk.cmd, aovs).map_err(|e| e.to_string())?;
+        // Only what this frame's world produces (no wave: no energy pass, no energy AOV).
+        let aovs: Vec<Aov> = aovs.iter().copied().filter(|a| self.hadou.produces(a.target())).collect();
+        let readback = self.hadou.record_aov_readback(self.vk.cmd, &aovs).map_err(|e| e.to_string())?;
         let color = self.vk.create_host_buffer(extent.width as u64 * extent.height as u64 * 4)?;
         if let Some(image) = &self.offscreen {
             self.vk.record_copy_to_host(image, &color);
         }
         self.vk.submit_slot()?;
         let state = self.state.clone();
-        self.pending[slot] = Some(Pending { frame, state, aovs: aovs.to_vec(), readback, color });
+        self.pending[slot] = Some(Pending { frame, state, aovs, readback, color });
         Ok(done)
     }
 
