@@ -23,8 +23,10 @@ pub enum Aov {
 }
 
 impl Aov {
+    /// Every AOV, in declaration order.
     pub const ALL: [Aov; 5] = [Aov::Depth, Aov::Hdr, Aov::Normal, Aov::Energy, Aov::Thickness];
 
+    /// The CLI's name for it: "depth", "hdr", "normal", "energy" or "thickness".
     pub fn name(self) -> &'static str {
         match self {
             Aov::Depth => "depth",
@@ -35,10 +37,12 @@ impl Aov {
         }
     }
 
+    /// The AOV called `name` (see `name`); None for any other string.
     pub fn from_name(name: &str) -> Option<Aov> {
         Aov::ALL.into_iter().find(|a| a.name() == name)
     }
 
+    /// The internal image it is read from.
     pub fn target(self) -> Target {
         match self {
             Aov::Depth => Target::Distance,
@@ -49,6 +53,7 @@ impl Aov {
         }
     }
 
+    /// f32 values per pixel: 1 for depth, energy and thickness, 4 for hdr and normal.
     pub fn channels(self) -> u32 {
         match self {
             Aov::Depth | Aov::Energy | Aov::Thickness => 1,
@@ -60,9 +65,13 @@ impl Aov {
 /// A read-back AOV: `channels` interleaved f32 per pixel, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AovImage {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// Values per pixel (`Aov::channels`).
     pub channels: u32,
+    /// width × height × channels values, row-major.
     pub data: Vec<f32>,
 }
 

@@ -58,16 +58,35 @@ pub enum Error {
     FramesInFlight(usize),
     /// A frame size the device cannot hold.
     #[error("frame size {width}x{height} outside 1..={max} (the device's maxImageDimension2D)")]
-    FrameSize { width: u32, height: u32, max: u32 },
+    FrameSize {
+        /// Requested width in pixels.
+        width: u32,
+        /// Requested height in pixels.
+        height: u32,
+        /// The largest side the device takes.
+        max: u32,
+    },
     /// `frame_finished` named a frame that was never recorded.
     #[error("frame {frame} was not recorded (frames 0..{recorded} were)")]
-    FrameNotRecorded { frame: u64, recorded: u64 },
+    FrameNotRecorded {
+        /// The frame named.
+        frame: u64,
+        /// How many frames were recorded.
+        recorded: u64,
+    },
     /// A read-back was asked for before any frame was recorded.
     #[error("no frame recorded yet (or it was 0 × 0)")]
     NoFrameRecorded,
     /// An image the scene's passes do not write was asked for (an AOV of an effect it lacks).
     #[error("AOV {target} is not produced by this scene's passes ({passes}): it needs {needs}")]
-    NotProduced { target: &'static str, passes: String, needs: &'static str },
+    NotProduced {
+        /// The image asked for.
+        target: &'static str,
+        /// The scene's passes, comma-separated.
+        passes: String,
+        /// What the scene lacks for that image, e.g. "a [[wave]]".
+        needs: &'static str,
+    },
     /// The game's depth convention cannot be inverted.
     #[error("external depth: {0}")]
     DepthConvention(String),
@@ -79,13 +98,25 @@ pub enum Error {
     DepthFormat(ash::vk::Format),
     /// An update named an instance, wave, metaball group or ball the scene does not have.
     #[error("{kind} {index}: the scene has {count}")]
-    UnknownId { kind: &'static str, index: usize, count: usize },
+    UnknownId {
+        /// What was named: "instance", "wave", "metaball group" or "ball of the metaball group".
+        kind: &'static str,
+        /// The index given.
+        index: usize,
+        /// How many of that kind the scene has.
+        count: usize,
+    },
     /// An id of a wave or metaball group that was despawned (or never spawned here).
     #[error("id {0} names nothing in the world (despawned?)")]
     StaleId(u64),
     /// An update with values hadou cannot use; `expected` says what is.
     #[error("{what}: {expected}")]
-    InvalidUpdate { what: String, expected: String },
+    InvalidUpdate {
+        /// The update refused, with its values.
+        what: String,
+        /// What would be accepted.
+        expected: String,
+    },
     /// `hadou report`: a measurement could not be made (the reason).
     #[error("report: {0}")]
     Report(String),

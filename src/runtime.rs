@@ -24,6 +24,7 @@ pub struct RuntimeOptions {
 }
 
 impl RuntimeOptions {
+    /// Options from the environment: `HADOU_VALIDATION=1` (or `true`), `HADOU_DEVICE=<substring>`.
     pub fn from_env() -> Self {
         let c = ContextOptions::from_env();
         RuntimeOptions { validation: c.validation, device: c.device_filter }
@@ -33,7 +34,9 @@ impl RuntimeOptions {
 /// One frame to render.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameRequest {
+    /// Image width in pixels, 1..=the device's maxImageDimension2D.
     pub width: u32,
+    /// Image height in pixels, 1..=the device's maxImageDimension2D.
     pub height: u32,
     /// Scene time in seconds (animation).
     pub time: f64,
@@ -44,6 +47,7 @@ pub struct FrameRequest {
 }
 
 impl FrameRequest {
+    /// A width × height frame at time 0 with colour and no AOVs.
     pub fn new(width: u32, height: u32) -> Self {
         FrameRequest { width, height, time: 0.0, color: true, aovs: Vec::new() }
     }
@@ -52,15 +56,20 @@ impl FrameRequest {
 /// What a frame produced.
 #[derive(Clone, Debug)]
 pub struct FrameOutput {
+    /// The request's width in pixels.
     pub width: u32,
+    /// The request's height in pixels.
     pub height: u32,
     /// RGBA8, sRGB-encoded, row 0 at the top; present when requested.
     pub color: Option<Vec<u8>>,
+    /// The requested AOVs, in request order.
     pub aovs: Vec<(Aov, AovImage)>,
+    /// GPU pass times, device counters and CPU times of this frame.
     pub stats: FrameStats,
 }
 
 impl FrameOutput {
+    /// The image of `aov`; None when it was not requested.
     pub fn aov(&self, aov: Aov) -> Option<&AovImage> {
         self.aovs.iter().find(|(a, _)| *a == aov).map(|(_, img)| img)
     }
@@ -87,6 +96,7 @@ pub struct Runtime {
 }
 
 impl Runtime {
+    /// A runtime on its own device, chosen as `GpuContext::new` does.
     pub fn new(options: &RuntimeOptions) -> Result<Self, Error> {
         let ctx = GpuContext::new(&ContextOptions {
             validation: options.validation,
@@ -106,6 +116,7 @@ impl Runtime {
         Ok(Runtime { commands, renderer })
     }
 
+    /// The device in use.
     pub fn device_info(&self) -> &DeviceInfo {
         &self.renderer.context().info
     }
@@ -135,6 +146,7 @@ impl Runtime {
         self.renderer.context().validation_messages()
     }
 
+    /// The loaded scene; None before `load_scene`.
     pub fn scene(&self) -> Option<&Scene> {
         self.renderer.scene()
     }

@@ -45,31 +45,51 @@ pub struct PresentRequest<'a> {
 /// What was chosen, for reports.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct DeviceInfo {
+    /// The device's name as the driver reports it.
     pub name: String,
+    /// "discrete GPU", "integrated GPU", "virtual GPU", "CPU" or "other".
     pub kind: String,
+    /// The device's Vulkan version, "major.minor.patch".
     pub api_version: String,
+    /// The driver's name and info string (`VkPhysicalDeviceDriverProperties`), space-separated.
     pub driver: String,
+    /// PCI vendor id.
     pub vendor_id: u32,
+    /// Vendor-specific device id.
     pub device_id: u32,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period_ns: f32,
 }
 
+/// The Vulkan instance, device and queue hadou records with: its own (`new`) or a game's
+/// (`from_raw`). Dropping it waits for the device, frees what hadou retired, and destroys the
+/// device and instance only if it created them.
 pub struct GpuContext {
+    /// The loaded Vulkan entry points.
     pub entry: ash::Entry,
+    /// The instance (Vulkan 1.3).
     pub instance: ash::Instance,
+    /// The chosen (or the game's) physical device.
     pub physical_device: vk::PhysicalDevice,
+    /// The logical device.
     pub device: ash::Device,
+    /// The queue hadou submits to (the headless runtime's frames, `load_scene`'s uploads).
     pub queue: vk::Queue,
+    /// `queue`'s family: graphics, compute and timestamps.
     pub queue_family: u32,
+    /// What was chosen, for reports.
     pub info: DeviceInfo,
+    /// The physical device's limits.
     pub limits: vk::PhysicalDeviceLimits,
+    /// Valid bits of `queue_family`'s timestamps.
     pub timestamp_valid_bits: u32,
     /// Debug-utils entry points (naming, labels, messenger); present when the extension is.
     pub debug_instance: Option<ash::ext::debug_utils::Instance>,
+    /// Debug-utils device entry points (object names, labels); present with `debug_instance`.
     pub debug_device: Option<ash::ext::debug_utils::Device>,
     messenger: vk::DebugUtilsMessengerEXT,
     log: Arc<ValidationLog>,
+    /// Whether the Khronos validation layer is on (always false for `from_raw`).
     pub validation: bool,
     /// False for a context made by `from_raw`: the game owns the instance and device, and Drop
     /// leaves them alone.
@@ -87,6 +107,8 @@ struct Candidate {
 }
 
 impl GpuContext {
+    /// A context on its own instance and device: the best device by kind (discrete first) that
+    /// passes `options.device_filter` and has what hadou needs.
     pub fn new(options: &ContextOptions) -> GpuResult<Self> {
         Self::create(options, None).map(|(ctx, _)| ctx)
     }
@@ -189,10 +211,12 @@ impl GpuContext {
         Ok((ctx, surface))
     }
 
+    /// Validation errors and warnings counted since creation (zero unless validation is on).
     pub fn validation_counts(&self) -> ValidationCounts {
         self.log.counts()
     }
 
+    /// The first validation messages received (errors and warnings), oldest first.
     pub fn validation_messages(&self) -> Vec<String> {
         self.log.messages()
     }
@@ -214,6 +238,7 @@ impl GpuContext {
         }
     }
 
+    /// Opens a debug label `name` in `cmd` for capture tools; a no-op without debug utils.
     pub fn begin_label(&self, cmd: vk::CommandBuffer, name: &str) {
         let Some(debug) = &self.debug_device else { return };
         let Ok(name) = CString::new(name) else { return };
@@ -222,6 +247,7 @@ impl GpuContext {
         unsafe { debug.cmd_begin_debug_utils_label(cmd, &label) };
     }
 
+    /// Closes the label `begin_label` opened last in `cmd`.
     pub fn end_label(&self, cmd: vk::CommandBuffer) {
         if let Some(debug) = &self.debug_device {
             // SAFETY: paired with begin_label on the same recording command buffer.

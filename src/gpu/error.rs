@@ -2,42 +2,90 @@
 
 use ash::vk;
 
+/// Why a GPU operation failed; each message says what to install or change where it can.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
+    /// The Vulkan loader library could not be loaded (the loader's error text).
     #[error(
         "the Vulkan loader (libvulkan.so.1) could not be loaded: {0}. \
          Install it with `apt-get install libvulkan1` (plus a driver, e.g. mesa-vulkan-drivers for software rendering)"
     )]
     NoLoader(String),
+    /// The loader found no Vulkan driver (`VK_ERROR_INCOMPATIBLE_DRIVER`).
     #[error(
         "no Vulkan driver is installed (vkCreateInstance returned VK_ERROR_INCOMPATIBLE_DRIVER). \
          For software rendering on the CPU install Mesa's lavapipe: `apt-get install mesa-vulkan-drivers`; \
          check VK_DRIVER_FILES / VK_ICD_FILENAMES if they are set"
     )]
     NoDriver,
+    /// Validation was asked for (`HADOU_VALIDATION`) but the Khronos layer is not installed.
     #[error(
         "validation was requested but the Khronos validation layer is not installed: \
          `apt-get install vulkan-validationlayers` (or unset HADOU_VALIDATION)"
     )]
     ValidationLayerMissing,
+    /// No device (or loader) meets hadou's needs: Vulkan 1.3, its features, a graphics + compute
+    /// queue with timestamps (and presenting, when asked), the name filter.
     #[error("no suitable Vulkan device{filter}:\n{}", list_devices(devices))]
-    NoSuitableDevice { filter: String, devices: Vec<(String, String)> },
+    NoSuitableDevice {
+        /// `" matching HADOU_DEVICE=…"` when a filter was given, else empty.
+        filter: String,
+        /// Each device considered and why it was refused: (label, reason).
+        devices: Vec<(String, String)>,
+    },
+    /// A device lacks a feature hadou needs (or the game did not enable it, for `from_raw`).
     #[error("device {device} lacks required feature {feature}")]
-    MissingFeature { device: String, feature: &'static str },
+    MissingFeature {
+        /// The device's name.
+        device: String,
+        /// The feature missing.
+        feature: &'static str,
+    },
+    /// `VK_ERROR_DEVICE_LOST`: the driver reset or crashed.
     #[error(
         "the GPU device was lost (the last pass recorded was `{last_pass}`); the driver reset or crashed"
     )]
-    DeviceLost { last_pass: String },
+    DeviceLost {
+        /// The last pass recorded before the loss, or the call that reported it.
+        last_pass: String,
+    },
+    /// `VK_ERROR_OUT_OF_DEVICE_MEMORY`.
     #[error("out of device memory while allocating {what}")]
-    OutOfDeviceMemory { what: String },
+    OutOfDeviceMemory {
+        /// The allocation or call that failed.
+        what: String,
+    },
+    /// `VK_ERROR_OUT_OF_HOST_MEMORY`.
     #[error("out of host memory while allocating {what}")]
-    OutOfHostMemory { what: String },
+    OutOfHostMemory {
+        /// The allocation or call that failed.
+        what: String,
+    },
+    /// Any other failed Vulkan call.
     #[error("{call} failed: {result:?}")]
-    Vk { call: &'static str, result: vk::Result },
+    Vk {
+        /// The Vulkan function, e.g. `"vkCreateDevice"`.
+        call: &'static str,
+        /// What it returned.
+        result: vk::Result,
+    },
+    /// A shader that could not be found, compiled, or matched to its pipeline layout.
     #[error("shader {name}: {message}")]
-    Shader { name: String, message: String },
+    Shader {
+        /// The shader's name.
+        name: String,
+        /// The compiler's or the check's message.
+        message: String,
+    },
+    /// Something the device or hadou cannot do with the values given (a size, a queue, an
+    /// allocation, a bake).
     #[error("{what}: {message}")]
-    Limit { what: String, message: String },
+    Limit {
+        /// What was asked for.
+        what: String,
+        /// Why it cannot be done.
+        message: String,
+    },
 }
 
 fn list_devices(devices: &[(String, String)]) -> String {
@@ -47,10 +95,12 @@ fn list_devices(devices: &[(String, String)]) -> String {
     devices.iter().map(|(name, why)| format!("  - {name}: {why}")).collect::<Vec<_>>().join("\n")
 }
 
+/// `Result` with a `GpuError`.
 pub type GpuResult<T> = Result<T, GpuError>;
 
 /// Attaches the call name to a raw Vulkan result, mapping the results that have their own variant.
 pub trait VkResultExt<T> {
+    /// Maps the error to a `GpuError` naming `call`.
     fn vk(self, call: &'static str) -> GpuResult<T>;
 }
 

@@ -10,6 +10,8 @@ use ash::vk;
 /// How many messages the log keeps; the counts go on past it.
 const KEPT_MESSAGES: usize = 64;
 
+/// What the validation layer reported to a context: counts of errors and warnings, and the text
+/// of the first 64 messages.
 #[derive(Default, Debug)]
 pub struct ValidationLog {
     errors: AtomicU64,
@@ -20,11 +22,14 @@ pub struct ValidationLog {
 /// Counts since the context was created.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ValidationCounts {
+    /// Messages of severity error.
     pub errors: u64,
+    /// Messages of severity warning.
     pub warnings: u64,
 }
 
 impl ValidationLog {
+    /// The counts so far.
     pub fn counts(&self) -> ValidationCounts {
         ValidationCounts {
             errors: self.errors.load(Ordering::Relaxed),

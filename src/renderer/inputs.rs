@@ -8,9 +8,19 @@ use crate::gpu::vk;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum DepthConvention {
     /// near → 0, far → 1: d = far·(z − near) / (z·(far − near)) (Vulkan's default).
-    Standard { near: f64, far: f64 },
+    Standard {
+        /// Near plane view depth, > 0.
+        near: f64,
+        /// Far plane view depth, finite and > `near`.
+        far: f64,
+    },
     /// near → 1, far → 0: d = near·(far − z) / (z·(far − near)) (hadou's own convention).
-    ReverseZ { near: f64, far: f64 },
+    ReverseZ {
+        /// Near plane view depth, > 0.
+        near: f64,
+        /// Far plane view depth, finite and > `near`.
+        far: f64,
+    },
     /// The game's view → clip perspective matrix (column-major, clip.w = −z_view, depth in
     /// [0, 1]: `glam::DMat4::perspective_rh`, `perspective_infinite_reverse_rh`, ...).
     Projection(glam::DMat4),
@@ -65,7 +75,9 @@ impl DepthConvention {
 /// needs no barrier of its own around hadou's commands.
 #[derive(Clone, Copy, Debug)]
 pub struct ExternalDepth {
+    /// The depth image, frame-sized.
     pub image: vk::Image,
+    /// A view of `image`'s depth aspect.
     pub view: vk::ImageView,
     /// D32_SFLOAT, D16_UNORM or D24_UNORM_S8_UINT.
     pub format: vk::Format,
@@ -73,6 +85,7 @@ pub struct ExternalDepth {
     pub layout: vk::ImageLayout,
     /// The layout hadou leaves it in.
     pub final_layout: vk::ImageLayout,
+    /// How the stored depth maps to view depth.
     pub convention: DepthConvention,
 }
 
@@ -86,10 +99,15 @@ pub struct ExternalDepth {
 /// Synchronization as for `ExternalDepth` (`layout` → `COLOR_ATTACHMENT_OPTIMAL` → `final_layout`).
 #[derive(Clone, Copy, Debug)]
 pub struct ExternalColor {
+    /// The colour image, frame-sized, with `VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT`.
     pub image: vk::Image,
+    /// A colour view of `image`.
     pub view: vk::ImageView,
+    /// `image`'s format: it decides what hadou writes (see above).
     pub format: vk::Format,
+    /// Its layout when hadou's commands start.
     pub layout: vk::ImageLayout,
+    /// The layout hadou leaves it in.
     pub final_layout: vk::ImageLayout,
 }
 

@@ -129,6 +129,8 @@ impl Renderer {
         Self::with_options(ctx, &RendererOptions::default())
     }
 
+    /// A renderer with no scene on `ctx`; `Error::FramesInFlight` when `options.frames_in_flight`
+    /// is outside 1..=`MAX_FRAMES_IN_FLIGHT`.
     pub fn with_options(ctx: GpuContext, options: &RendererOptions) -> Result<Self, Error> {
         let n = options.frames_in_flight;
         if !(1..=MAX_FRAMES_IN_FLIGHT).contains(&n) {
@@ -157,6 +159,7 @@ impl Renderer {
         })
     }
 
+    /// The Vulkan context it records with.
     pub fn context(&self) -> &GpuContext {
         &self.ctx
     }
@@ -166,10 +169,12 @@ impl Renderer {
         self.next_frame
     }
 
+    /// Its number of frame slots (`RendererOptions::frames_in_flight`).
     pub fn frames_in_flight(&self) -> usize {
         self.slots.len()
     }
 
+    /// The loaded scene; None before `load_scene`.
     pub fn scene(&self) -> Option<&Scene> {
         self.loaded.as_ref().map(|l| &l.scene)
     }

@@ -16,6 +16,7 @@ use crate::Error;
 /// Host-visible copies of some of hadou's images. Read them after the frame's fence; dropping the
 /// set frees its buffers (with the frames that may still write them).
 pub struct AovReadback {
+    /// The frame's size in pixels (every image read back has it).
     pub extent: vk::Extent2D,
     buffers: Vec<(Target, Buffer)>,
 }

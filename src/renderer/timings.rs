@@ -7,6 +7,7 @@ use crate::frame::{FrameStats, PassTiming};
 pub struct FrameTimings {
     /// `RecordedFrame::frame` of the frame these belong to.
     pub frame: u64,
+    /// Each timed scope (the passes, depth import, composite, read-back) in recording order.
     pub passes: Vec<PassTiming>,
     /// From the first scope's start to the last one's end.
     pub gpu_frame_ms: f64,

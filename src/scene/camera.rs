@@ -4,30 +4,43 @@
 
 use glam::{DMat4, DVec2, DVec3, DVec4};
 
+/// The scene's `[camera]`: a symmetric perspective camera (the contract in the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Eye position in world space.
     pub position: DVec3,
+    /// The world point at the centre of the image; differs from `position`.
     pub look_at: DVec3,
+    /// Any non-zero vector not parallel to the view: the image's up is its part perpendicular to
+    /// the view direction.
     pub up: DVec3,
     /// Vertical field of view in degrees, in (0, 180).
     pub fov_y_deg: f64,
+    /// Near plane: view depth (along `forward`) > 0, stored as depth 1.
     pub near: f64,
+    /// Far plane: view depth > `near`, stored as depth 0.
     pub far: f64,
 }
 
 /// Right-handed orthonormal camera frame: `forward` looks at the target, `up` is the image's up.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraBasis {
+    /// Unit vector toward the image's right edge: forward × up.
     pub right: DVec3,
+    /// Unit vector toward the image's top edge.
     pub up: DVec3,
+    /// Unit view direction, from `position` toward `look_at`.
     pub forward: DVec3,
 }
 
 /// Camera vectors scaled for pixel rays: `right` by tan(fov/2)·aspect, `up` by tan(fov/2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayFrame {
+    /// `CameraBasis::right` × tan(fov_y/2) × aspect: ndc_x = 1 is the right edge.
     pub right: DVec3,
+    /// `CameraBasis::up` × tan(fov_y/2): ndc_y = 1 is the top edge.
     pub up: DVec3,
+    /// `CameraBasis::forward`, unit length.
     pub forward: DVec3,
 }
 
@@ -39,8 +52,10 @@ impl RayFrame {
 }
 
 impl Camera {
+    /// `far` when the scene file gives none.
     pub const DEFAULT_FAR: f64 = 1000.0;
 
+    /// The camera's orthonormal frame.
     pub fn basis(&self) -> CameraBasis {
         let forward = (self.look_at - self.position).normalize();
         let right = forward.cross(self.up).normalize();
@@ -91,6 +106,7 @@ impl Camera {
         )
     }
 
+    /// World → clip for a width × height image: `projection_matrix` × `view_matrix`.
     pub fn view_projection(&self, width: u32, height: u32) -> DMat4 {
         self.projection_matrix(width as f64 / height as f64) * self.view_matrix()
     }
@@ -99,21 +115,28 @@ impl Camera {
 /// Pixels [x0, x1) × [y0, y1) of an image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PixelRect {
+    /// First column.
     pub x0: u32,
+    /// First row (row 0 is the top).
     pub y0: u32,
+    /// One past the last column.
     pub x1: u32,
+    /// One past the last row.
     pub y1: u32,
 }
 
 impl PixelRect {
+    /// Every pixel of a width × height image.
     pub fn full(width: u32, height: u32) -> Self {
         PixelRect { x0: 0, y0: 0, x1: width, y1: height }
     }
 
+    /// Columns covered: x1 − x0.
     pub fn width(&self) -> u32 {
         self.x1 - self.x0
     }
 
+    /// Rows covered: y1 − y0.
     pub fn height(&self) -> u32 {
         self.y1 - self.y0
     }

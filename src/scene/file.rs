@@ -26,6 +26,7 @@ pub const MAX_LIGHTS: usize = 8;
 pub const MAX_IMAGE_SIZE: u32 = 16384;
 /// Name and albedo of the material instances get when they name none.
 pub const DEFAULT_MATERIAL: &str = "default";
+/// Albedo (each channel) of the built-in default material and of a `[[material]]` that gives none.
 pub const DEFAULT_ALBEDO: f64 = 0.7;
 
 /// Reads and validates the scene file at `path`.

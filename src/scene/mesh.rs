@@ -11,6 +11,7 @@ use super::{obj, procedural};
 /// An indexed triangle mesh in object space.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
+    /// Vertex positions in object space.
     pub positions: Vec<[f32; 3]>,
     /// Unit vertex normals, one per position.
     pub normals: Vec<[f32; 3]>,
@@ -22,30 +23,96 @@ pub struct Mesh {
 #[derive(Clone, Debug, PartialEq)]
 pub enum MeshSpec {
     /// Square in the xz-plane centred at the origin, normal +y.
-    Plane { size: f64 },
+    Plane {
+        /// Edge length.
+        size: f64,
+    },
     /// Axis-aligned cube centred at the origin with edge `size`.
-    Cube { size: f64 },
+    Cube {
+        /// Edge length.
+        size: f64,
+    },
     /// UV sphere centred at the origin.
-    Sphere { radius: f64, segments: u32, rings: u32 },
+    Sphere {
+        /// Sphere radius.
+        radius: f64,
+        /// Vertices per latitude ring (around y), ≥ 3.
+        segments: u32,
+        /// Latitude bands from pole to pole, ≥ 2.
+        rings: u32,
+    },
     /// Torus around the y axis.
-    Torus { major_radius: f64, minor_radius: f64, segments: u32, sides: u32 },
+    Torus {
+        /// Radius of the tube's centre circle in the xz-plane.
+        major_radius: f64,
+        /// Tube radius, in [major_radius/1000, major_radius).
+        minor_radius: f64,
+        /// Divisions around the y axis, ≥ 3.
+        segments: u32,
+        /// Divisions around the tube, ≥ 3.
+        sides: u32,
+    },
     /// Regular tetrahedron centred at the origin with circumradius `size`.
-    Tetrahedron { size: f64 },
+    Tetrahedron {
+        /// Circumradius.
+        size: f64,
+    },
     /// Cube of edge `size` with an inner spherical cavity (inner shell faces inward).
-    CavityCube { size: f64, cavity_radius: f64, segments: u32, rings: u32 },
+    CavityCube {
+        /// Edge length of the cube.
+        size: f64,
+        /// Radius of the cavity, in [size/1000, size/2).
+        cavity_radius: f64,
+        /// The cavity's vertices per latitude ring, ≥ 3.
+        segments: u32,
+        /// The cavity's latitude bands, ≥ 2.
+        rings: u32,
+    },
     /// Hollow bottle (closed outer and inner walls) whose lower part holds a closed liquid volume.
-    Bottle { radius: f64, height: f64, wall: f64, fill: f64, segments: u32 },
+    Bottle {
+        /// Outer radius of the body.
+        radius: f64,
+        /// Total height; the bottle stands on y = −height/2.
+        height: f64,
+        /// Glass thickness: < radius/2, < height/4, ≥ max(radius, height)/1000.
+        wall: f64,
+        /// Fraction of the inside's height the liquid fills, in [0, 1]; 0: no liquid.
+        fill: f64,
+        /// Divisions around the y axis, ≥ 3.
+        segments: u32,
+    },
     /// Wavefront OBJ file.
-    Obj { path: PathBuf },
+    Obj {
+        /// The file, opened as given.
+        path: PathBuf,
+    },
 }
 
 /// Why a mesh could not be built or loaded. Each variant's message names where the problem is.
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
+    /// An OBJ file could not be read.
     #[error("cannot read {}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        /// The OBJ file.
+        path: PathBuf,
+        /// What the OS reported.
+        source: std::io::Error,
+    },
+    /// An OBJ file's content is malformed at `line`:`column`.
     #[error("{}:{line}:{column}: {message}", path.display())]
-    Obj { path: PathBuf, line: usize, column: usize, message: String },
+    Obj {
+        /// The OBJ file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column, in characters.
+        column: usize,
+        /// What was expected and what was found.
+        message: String,
+    },
+    /// Parameters a generator refuses ("<kind> <field> must be …, got …"), or a mesh a consumer
+    /// cannot use (e.g. ray casting); the message says which and why.
     #[error("{0}")]
     Invalid(String),
 }
@@ -84,6 +151,7 @@ pub const DEGENERATE_RELATIVE_AREA: f64 = 1e-12;
 pub const NORMAL_LENGTH_TOLERANCE: f64 = 1e-4;
 
 impl Mesh {
+    /// Number of triangles: `indices.len() / 3`.
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
     }

@@ -9,15 +9,22 @@ use super::camera::Camera;
 use super::mesh::{Mesh, MeshSpec};
 use super::transform::{Transform, TransformOp};
 
+/// A validated scene: what `load_scene` and `parse_scene` return and `Runtime::load_scene` takes.
 #[derive(Clone, Debug)]
 pub struct Scene {
     /// The file this scene was read from (or a label for in-memory scenes).
     pub source: PathBuf,
+    /// `[render]`: default image size, exposure, background and ambient.
     pub render: RenderSettings,
+    /// `[camera]`.
     pub camera: Camera,
+    /// `[[light]]`s in file order, at most `MAX_LIGHTS`; translucent materials use the first.
     pub lights: Vec<DirectionalLight>,
+    /// `[[mesh]]`es in file order, each built once.
     pub meshes: Vec<SceneMesh>,
+    /// `[[material]]`s in file order, then the built-in `"default"` if something needed it.
     pub materials: Vec<Material>,
+    /// `[[instance]]`s in file order: the drawn copies of the meshes.
     pub instances: Vec<Instance>,
     /// Energy waves; the energy-wave pass runs only when there is at least one.
     pub waves: Vec<Wave>,
@@ -25,10 +32,12 @@ pub struct Scene {
     pub metaballs: Vec<MetaballGroup>,
 }
 
+/// `[render]`: defaults for rendering the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
-    /// Default image size; the CLI's --size overrides it.
+    /// Default image width in pixels (1..=16384); the CLI's --size overrides it.
     pub width: u32,
+    /// Default image height in pixels (1..=16384); the CLI's --size overrides it.
     pub height: u32,
     /// Linear multiplier applied before tonemapping.
     pub exposure: f64,
@@ -38,30 +47,43 @@ pub struct RenderSettings {
     pub ambient: DVec3,
 }
 
+/// A `[[light]]`: a directional light, at infinite distance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DirectionalLight {
     /// Unit direction the light travels (from the light toward the scene).
     pub direction: DVec3,
+    /// Linear RGB, each ≥ 0.
     pub color: DVec3,
+    /// ≥ 0. A surface with unit normal n receives color · intensity · max(0, −n·direction).
     pub intensity: f64,
 }
 
+/// A `[[mesh]]`: what the file asked for and the mesh built from it.
 #[derive(Clone, Debug)]
 pub struct SceneMesh {
+    /// Unique among the scene's meshes; instances refer to it.
     pub name: String,
+    /// The shape and parameters given (an OBJ path already resolved against the scene's folder).
     pub spec: MeshSpec,
+    /// `spec` built.
     pub mesh: Mesh,
 }
 
+/// A `[[material]]` (or the built-in `"default"`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// Unique among the scene's materials; instances and metaball groups refer to it.
     pub name: String,
+    /// Lambert or translucent.
     pub kind: MaterialKind,
+    /// Linear RGB diffuse reflectance, each in [0, 1].
     pub albedo: DVec3,
 }
 
+/// How a material shades.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MaterialKind {
+    /// Diffuse only: albedo × (ambient + the lights' Lambert terms).
     Lambert,
     /// Seed 003: light crossing the object is attenuated by exp(−σ·d) per RGB channel, d the
     /// material thickness along the light's path (cavities excluded with `ThicknessMode::Lut`).
@@ -70,6 +92,7 @@ pub enum MaterialKind {
         sigma: DVec3,
         /// Voxel resolution of the mesh's thickness LUT bake (4..=128).
         voxel_res: u32,
+        /// Where the thickness d comes from.
         thickness: ThicknessMode,
     },
 }
@@ -80,6 +103,7 @@ pub const DEFAULT_VOXEL_RES: u32 = 48;
 /// `voxel_res` range: below 4 little but a box survives voxelization; above 128 the table of even a
 /// simple shape outgrows a 16384² texture.
 pub const MIN_VOXEL_RES: u32 = 4;
+/// Largest `voxel_res` (see `MIN_VOXEL_RES`).
 pub const MAX_VOXEL_RES: u32 = 128;
 
 /// Where a translucent material's thickness comes from.
@@ -91,14 +115,18 @@ pub enum ThicknessMode {
     Tsm,
 }
 
+/// An `[[instance]]`: one drawn copy of a mesh.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Instance {
+    /// A label for logs and tools; None when the file gives none.
     pub name: Option<String>,
     /// Index into `Scene::meshes`.
     pub mesh: usize,
     /// Index into `Scene::materials`.
     pub material: usize,
+    /// The `transform` steps as given, in the order they apply to the object.
     pub ops: Vec<TransformOp>,
+    /// `ops` composed: object → world, with its inverse.
     pub transform: Transform,
 }
 
@@ -121,13 +149,20 @@ pub enum WaveMethod {
     Analytic,
     /// The baseline: `steps` samples of the density along [0, L] (midpoint rule; with `jitter`,
     /// one per-pixel random offset shared by all samples of the ray).
-    Raymarch { steps: u32, jitter: bool },
+    Raymarch {
+        /// Samples per ray, 1..=65536.
+        steps: u32,
+        /// Place a pixel's samples at one random offset within their steps (the same for all of
+        /// them) instead of at the midpoints: noise instead of banding.
+        jitter: bool,
+    },
 }
 
 /// An energy wave (seed 004): E(P) = a·k(|P − M|) + b·k(dist(P, segment M → M + ℓD)),
 /// k(r) = 1/√(r² + ε²). Values here are those at time 0, before keyframes and velocity.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Wave {
+    /// A label for logs and tools; None when the file gives none.
     pub name: Option<String>,
     /// M at time 0.
     pub origin: DVec3,
@@ -147,6 +182,7 @@ pub struct Wave {
     pub color: DVec3,
     /// Emission added to HDR = color × intensity × H.
     pub intensity: f64,
+    /// How the pass integrates the wave along each view ray.
     pub method: WaveMethod,
     /// Sorted by time, strictly increasing.
     pub keyframes: Vec<WaveKeyframe>,
@@ -156,14 +192,21 @@ pub struct Wave {
 /// keyframes that set it (held constant before the first and after the last of them).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct WaveKeyframe {
+    /// Scene time in seconds.
     pub time: f64,
+    /// M (before velocity × time is added).
     pub origin: Option<DVec3>,
     /// Interpolated by normalized lerp (consecutive directions are never opposite).
     pub direction: Option<DVec3>,
+    /// Sphere strength a ≥ 0.
     pub a: Option<f64>,
+    /// Line strength b ≥ 0.
     pub b: Option<f64>,
+    /// Soft core radius ε ≥ 0.
     pub core: Option<f64>,
+    /// Beam length ℓ > 0, finite.
     pub length: Option<f64>,
+    /// Emission multiplier ≥ 0.
     pub intensity: Option<f64>,
 }
 
@@ -172,13 +215,17 @@ pub struct WaveKeyframe {
 /// are those at time 0; `MetaballGroup::at(T)` (metaball_track.rs) gives the group at time T.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MetaballGroup {
+    /// A label for logs and tools; None when the file gives none.
     pub name: Option<String>,
     /// T > 0.
     pub threshold: f64,
+    /// The falloff f of each ball's density.
     pub kernel: crate::effects::metaballs::Kernel,
     /// Index into `Scene::materials` (shading of the surface).
     pub material: usize,
+    /// The `transform` steps as given, in the order they apply to the group.
     pub ops: Vec<TransformOp>,
+    /// `ops` composed: object → world, with its inverse.
     pub transform: Transform,
     /// The `balls` listed in the file, then the generated ones; never empty.
     pub balls: Vec<AnimatedBall>,
@@ -207,7 +254,10 @@ pub struct AnimatedBall {
 /// the order of `MetaballGroup::balls`).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct MetaballKeyframe {
+    /// Scene time in seconds.
     pub time: f64,
+    /// Object-space centre of every ball (before velocity × time is added).
     pub centres: Option<Vec<DVec3>>,
+    /// Density coefficient of every ball (before q_rate × time is added).
     pub q: Option<Vec<f64>>,
 }

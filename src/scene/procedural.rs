@@ -18,6 +18,7 @@ use super::mesh::{Mesh, MeshError};
 /// Smallest and largest accepted length (any size, radius, height, wall): f32 keeps ~7 digits
 /// either way and the GPU's products of such lengths stay far from f32 under- and overflow.
 pub const MIN_LENGTH: f64 = 1e-6;
+/// Largest accepted length (see `MIN_LENGTH`).
 pub const MAX_LENGTH: f64 = 1e6;
 /// Upper bound for segment, ring and side counts (2048² quads is already 8M triangles).
 pub const MAX_SEGMENTS: u32 = 2048;
@@ -27,6 +28,7 @@ pub const MIN_FEATURE_FRACTION: f64 = 1e-3;
 
 /// Bottle proportions (see `bottle`): body, shoulder and neck heights as fractions of `height`.
 pub const BOTTLE_BODY_FRACTION: f64 = 0.6;
+/// Shoulder (the cone from body to neck) height as a fraction of `height`; the neck takes the rest.
 pub const BOTTLE_SHOULDER_FRACTION: f64 = 0.2;
 /// Outer neck radius as a fraction of `radius`.
 pub const BOTTLE_NECK_RADIUS_FRACTION: f64 = 0.6;

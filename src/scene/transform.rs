@@ -6,12 +6,16 @@ use glam::{DMat3, DMat4, DQuat, DVec3, DVec4};
 /// One step of a transform list, applied to the object in the order listed.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TransformOp {
+    /// Translation by the vector.
     Translate(DVec3),
     /// Rotation by `angle_deg` about `axis` (any non-zero length; normalized here).
     Rotate {
+        /// Degrees, right-handed (counter-clockwise looking down the axis toward the origin).
         angle_deg: f64,
+        /// Axis through the origin, any non-zero length.
         axis: DVec3,
     },
+    /// Per-axis scale factors, none zero (negative mirrors).
     Scale(DVec3),
     /// An affine matrix given column-major (bottom row must be 0 0 0 1).
     Matrix(DMat4),
@@ -20,14 +24,30 @@ pub enum TransformOp {
 /// Why a transform was refused.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum TransformError {
+    /// A rotation axis of zero length.
     #[error("rotation axis has zero length (expected a non-zero vector)")]
     ZeroAxis,
+    /// A scale with a zero factor.
     #[error("scale component {axis} is zero (expected non-zero scale factors)")]
-    ZeroScale { axis: char },
+    ZeroScale {
+        /// `'x'`, `'y'` or `'z'`.
+        axis: char,
+    },
+    /// A matrix whose bottom row is not 0 0 0 1.
     #[error("matrix bottom row is {row:?} (expected an affine matrix with bottom row [0, 0, 0, 1])")]
-    NotAffine { row: [f64; 4] },
+    NotAffine {
+        /// The bottom row found.
+        row: [f64; 4],
+    },
+    /// A linear part (of a step or the whole) with a condition number above `MAX_CONDITION`.
     #[error("matrix is singular or nearly so (condition number {condition:.3e} > {limit:.0e}; f32 cannot invert it)")]
-    Singular { condition: f64, limit: f64 },
+    Singular {
+        /// The Frobenius condition number found (∞ when singular).
+        condition: f64,
+        /// `MAX_CONDITION`.
+        limit: f64,
+    },
+    /// A NaN or infinite number in a step.
     #[error("value is not finite (expected finite numbers)")]
     NotFinite,
 }
@@ -40,13 +60,16 @@ pub const MAX_CONDITION: f64 = 1.0e6;
 /// A composed affine transform with its inverse kept alongside (M⁻¹ = X₁⁻¹⋯Xₙ⁻¹).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
+    /// M: object → world (column vectors, p_world = M · p_object).
     pub matrix: DMat4,
+    /// M⁻¹: world → object.
     pub inverse: DMat4,
 }
 
 /// A world ray taken to object space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObjectRay {
+    /// The ray's origin in object space.
     pub origin: DVec3,
     /// Unit direction in object space.
     pub dir: DVec3,
@@ -102,6 +125,7 @@ impl TransformOp {
 }
 
 impl Transform {
+    /// The identity, with itself as inverse.
     pub const IDENTITY: Transform = Transform { matrix: DMat4::IDENTITY, inverse: DMat4::IDENTITY };
 
     /// Composes M = Xₙ⋯X₁ and M⁻¹ = X₁⁻¹⋯Xₙ⁻¹ from operations listed in application order.
@@ -117,6 +141,7 @@ impl Transform {
         Ok(Transform { matrix, inverse })
     }
 
+    /// An object-space point in world space: M · p.
     pub fn transform_point(&self, p: DVec3) -> DVec3 {
         self.matrix.transform_point3(p)
     }

@@ -16,8 +16,11 @@ use crate::gpu::validation::ValidationLog;
 pub struct EnabledFeatures {
     /// `VkApplicationInfo::apiVersion` the instance was created with.
     pub api_version: u32,
+    /// Vulkan 1.3 `dynamicRendering`.
     pub dynamic_rendering: bool,
+    /// Vulkan 1.3 `synchronization2`.
     pub synchronization2: bool,
+    /// Vulkan 1.3 `maintenance4`.
     pub maintenance4: bool,
     /// Vulkan 1.2 `hostQueryReset`: hadou resets its timestamp pools from the host.
     pub host_query_reset: bool,
@@ -36,15 +39,20 @@ impl EnabledFeatures {
 
 /// The game's Vulkan objects hadou records with. The game keeps owning all of them.
 pub struct RawVulkan {
+    /// The entry points the instance was created with.
     pub entry: ash::Entry,
+    /// The game's instance (Vulkan 1.3).
     pub instance: ash::Instance,
+    /// The physical device `device` was created on.
     pub physical_device: vk::PhysicalDevice,
+    /// The game's device.
     pub device: ash::Device,
     /// The queue family of the command buffers the game will hand to hadou.
     pub queue_family: u32,
     /// A queue of that family. hadou submits to it only inside `load_scene` (one-off uploads of
     /// baked tables, each waited on its own fence), never per frame.
     pub queue_index: u32,
+    /// What the game enabled when it created the instance and device.
     pub enabled: EnabledFeatures,
     /// True when the game enabled `VK_EXT_debug_utils` on the instance: hadou then names its
     /// objects and labels its passes (the game's messenger sees hadou's validation messages).
