@@ -158,6 +158,16 @@ impl Renderer {
         loaded.wave_ids.iter().position(|w| *w == id.0).ok_or(Error::StaleId(id.0))
     }
 
+    /// The ids of the world's waves, in scene order (those of the scene file included).
+    pub fn wave_ids(&self) -> Vec<WaveId> {
+        self.loaded.iter().flat_map(|l| l.wave_ids.iter().map(|&id| WaveId(id))).collect()
+    }
+
+    /// The ids of the world's metaball groups, in scene order (those of the scene file included).
+    pub fn metaballs_ids(&self) -> Vec<GroupId> {
+        self.loaded.iter().flat_map(|l| l.group_ids.iter().map(|&id| GroupId(id))).collect()
+    }
+
     pub(super) fn next_id(&mut self) -> u64 {
         self.next_id += 1;
         self.next_id

@@ -1,0 +1,142 @@
+//! What a living world costs: the game prototype's frame headless for N frames with 2 frames in
+//! flight, once with the world changing every frame (the player walks, the wave is charged, fired,
+//! flies and is despawned, the slime buds and merges) and once with the same world held still;
+//! then what spawning costs — the first wave / metaball group (the pass is built: shaders compiled,
+//! pipeline made) and a later one (the pass is parked, built: nothing to compile).
+//!
+//! LP_NUM_THREADS=1 cargo run --release --example world_bench -- [--frames N] [--size WxH]
+
+#[path = "game_prototype/game.rs"]
+mod game;
+#[path = "game_prototype/gpu.rs"]
+mod gpu;
+#[path = "game_prototype/painter.rs"]
+mod painter;
+
+use std::time::Instant;
+
+use ash::vk;
+use game::{Game, Input};
+use glam::{DMat4, DVec3};
+use hadou::{Ball, MetaballsDesc, WaveDesc};
+
+fn percentile(values: &[f64], p: f64) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[((v.len() - 1) as f64 * p).round() as usize]
+}
+
+fn arg<T: std::str::FromStr>(name: &str) -> Option<T> {
+    std::env::args().skip_while(|a| a != name).nth(1).and_then(|v| v.parse().ok())
+}
+
+/// The input of frame `i` of the changing run: walk, charge for a second, release, repeat.
+fn input(i: usize) -> Input {
+    Input { charge: i % 60 < 30, right: i % 40 < 20, left: i % 40 >= 20, reset: false }
+}
+
+fn main() -> Result<(), String> {
+    let frames: usize = arg("--frames").unwrap_or(600);
+    let size: String = arg("--size").unwrap_or_else(|| "640x360".into());
+    let (w, h) = size.split_once('x').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))).ok_or("--size WxH")?;
+    let extent = vk::Extent2D { width: w, height: h };
+    println!("{w}×{h}, {frames} frames each, 2 frames in flight\n");
+    println!("| world | frame p50 | p95 | p99 | frames/s | update p50 (game + hadou's update calls) |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    let mut p50s = Vec::new();
+    for changing in [false, true] {
+        let vk = gpu::GameVk::new(false, &[], &[], &|_, _, _, _| true)?;
+        let mut g = Game::new(vk)?;
+        // The still world: charged and held, time stopped (the same wave, slime and camera).
+        g.update(&Input { charge: true, ..Input::default() }, 0.9)?;
+        let mut times = Vec::with_capacity(frames);
+        let mut updates = Vec::with_capacity(frames);
+        let start = Instant::now();
+        let mut last = Instant::now();
+        for i in 0..frames + 10 {
+            let t = Instant::now();
+            if changing {
+                g.update(&input(i), 1.0 / 30.0)?;
+            } else {
+                g.update(&Input { charge: true, ..Input::default() }, 0.0)?;
+            }
+            if i >= 10 {
+                updates.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+            g.offscreen_submit(extent, &[])?;
+            let now = Instant::now();
+            if i >= 10 {
+                times.push((now - last).as_secs_f64() * 1e3);
+            }
+            last = now;
+        }
+        g.offscreen_finish()?;
+        let fps = (frames + 10) as f64 / start.elapsed().as_secs_f64();
+        let p = |q| percentile(&times, q);
+        let label = if changing { "changing every frame" } else { "still" };
+        let u = percentile(&updates, 0.5);
+        println!("| {label} | {:.2} ms | {:.2} ms | {:.2} ms | {fps:.1} | {u:.3} ms |", p(0.5), p(0.95), p(0.99));
+        p50s.push(p(0.5));
+        let messages = g.destroy();
+        let (errors, warnings) = messages.counts();
+        if errors + warnings > 0 {
+            return Err(format!("validation: {errors} errors, {warnings} warnings"));
+        }
+    }
+    println!("\nchanging / still at p50: {:.3}\n", p50s[1] / p50s[0]);
+
+    // Spawn costs on a world with neither effect (never built in this renderer).
+    let vk = gpu::GameVk::new(false, &[], &[], &|_, _, _, _| true)?;
+    let mut g = Game::new(vk)?;
+    let hadou = &mut g.hadou;
+    let bare = "[camera]\nposition = [0, 2, 9]\nlook_at = [0, 0, 0]\n[[material]]\nname = \"slime\"\n";
+    let bare = hadou::scene::parse_scene(bare, "bare.toml".as_ref()).map_err(|e| e.to_string())?;
+    hadou.load_scene(bare).map_err(|e| e.to_string())?;
+    let wave = WaveDesc {
+        origin: DVec3::new(-3.0, 1.0, 0.0),
+        direction: DVec3::X,
+        a: 1.0,
+        b: 0.5,
+        core: 0.05,
+        length: 3.0,
+        color: DVec3::ONE,
+        intensity: 0.1,
+    };
+    let group = MetaballsDesc {
+        balls: vec![Ball { centre: DVec3::ZERO, radius: 1.0, q: 1.0 }],
+        threshold: 0.5,
+        material: "slime".into(),
+        transform: DMat4::from_translation(DVec3::new(-2.0, 1.0, 1.0)),
+    };
+    println!("| spawn | cold (pass built) ms | warm (pass parked) ms |");
+    println!("|---|---:|---:|");
+    let time = |f: &mut dyn FnMut() -> Result<(), hadou::Error>| -> Result<f64, String> {
+        let t = Instant::now();
+        f().map_err(|e| e.to_string())?;
+        Ok(t.elapsed().as_secs_f64() * 1e3)
+    };
+    let mut ids = None;
+    let cold = time(&mut || {
+        ids = Some(hadou.spawn_wave(&wave)?);
+        Ok(())
+    })?;
+    hadou.despawn_wave(ids.take().unwrap()).map_err(|e| e.to_string())?;
+    let warm = time(&mut || {
+        ids = Some(hadou.spawn_wave(&wave)?);
+        Ok(())
+    })?;
+    println!("| wave | {cold:.2} | {warm:.2} |");
+    let mut gid = None;
+    let cold = time(&mut || {
+        gid = Some(hadou.spawn_metaballs(&group)?);
+        Ok(())
+    })?;
+    hadou.despawn_metaballs(gid.take().unwrap()).map_err(|e| e.to_string())?;
+    let warm = time(&mut || {
+        gid = Some(hadou.spawn_metaballs(&group)?);
+        Ok(())
+    })?;
+    println!("| metaball group | {cold:.2} | {warm:.2} |");
+    g.destroy();
+    Ok(())
+}
