@@ -38,7 +38,10 @@ fn input(i: usize) -> Input {
 fn main() -> Result<(), String> {
     let frames: usize = arg("--frames").unwrap_or(600);
     let size: String = arg("--size").unwrap_or_else(|| "640x360".into());
-    let (w, h) = size.split_once('x').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))).ok_or("--size WxH")?;
+    let (w, h) = size
+        .split_once('x')
+        .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)))
+        .ok_or("--size WxH")?;
     let extent = vk::Extent2D { width: w, height: h };
     println!("{w}×{h}, {frames} frames each, 2 frames in flight\n");
     println!("| world | frame p50 | p95 | p99 | frames/s | update p50 (game + hadou's update calls) |");
@@ -75,7 +78,12 @@ fn main() -> Result<(), String> {
         let p = |q| percentile(&times, q);
         let label = if changing { "changing every frame" } else { "still" };
         let u = percentile(&updates, 0.5);
-        println!("| {label} | {:.2} ms | {:.2} ms | {:.2} ms | {fps:.1} | {u:.3} ms |", p(0.5), p(0.95), p(0.99));
+        println!(
+            "| {label} | {:.2} ms | {:.2} ms | {:.2} ms | {fps:.1} | {u:.3} ms |",
+            p(0.5),
+            p(0.95),
+            p(0.99)
+        );
         p50s.push(p(0.5));
         let messages = g.destroy();
         let (errors, warnings) = messages.counts();

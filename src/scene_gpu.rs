@@ -1,11 +1,10 @@
-//! The scene on the GPU: one vertex and index buffer per mesh (shared by all its instances) and
-//! the material table, built once per loaded scene; the instance table is kept on the host and
-//! uploaded each frame through the frame slot's ring (transforms change per frame).
+//! The scene on the GPU: one vertex and index buffer per mesh (shared by all its instances), built
+//! once per loaded scene; the instance and material tables are kept on the host and uploaded each
+//! frame through the frame slot's ring (transforms and materials change per frame).
 
 use crate::gpu::memory::{Buffer, Memory};
-use crate::gpu::pipeline::BufferRange;
 use crate::gpu::{vk, GpuContext, GpuResult};
-use crate::passes::gpu_structs::{instance_records, material_records, InstanceData};
+use crate::passes::gpu_structs::{instance_records, material_records, InstanceData, MaterialData};
 use crate::scene::Scene;
 use gpu_allocator::MemoryLocation;
 
@@ -26,7 +25,8 @@ pub struct Draw {
 pub struct SceneGpu {
     pub meshes: Vec<GpuMesh>,
     pub draws: Vec<Draw>,
-    pub materials: Buffer,
+    /// The material table as the passes read it.
+    materials: Vec<MaterialData>,
     /// The instance table as the raster reads it (grouped by mesh), rebuilt when transforms change.
     instances: Vec<InstanceData>,
 }
@@ -71,8 +71,6 @@ impl SceneGpu {
             meshes.push(GpuMesh { vertices, indices, index_count: m.mesh.indices.len() as u32 });
         }
         let materials = material_records(scene);
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let materials = upload(ctx, memory, "materials", storage, bytemuck::cast_slice(&materials))?;
         let (instances, ranges) = instance_records(scene);
         let draws = ranges
             .iter()
@@ -83,8 +81,14 @@ impl SceneGpu {
         Ok(SceneGpu { meshes, draws, materials, instances })
     }
 
-    pub fn materials_range(&self) -> BufferRange {
-        BufferRange::whole(self.materials.raw).of::<crate::passes::gpu_structs::MaterialData>()
+    /// The material table to upload this frame (at least one record: an empty table still binds).
+    pub fn material_table(&self) -> &[MaterialData] {
+        &self.materials
+    }
+
+    /// Rebuilds the material table after a material changed.
+    pub fn refresh_materials(&mut self, scene: &Scene) {
+        self.materials = material_records(scene);
     }
 
     /// The instance table to upload this frame.

@@ -393,7 +393,7 @@ impl Pass for MetaballsPass {
             Binding::Image(Target::Normal),
             Binding::Image(Target::Ids),
             Binding::Bound(Bound::Uniform(frame.uniforms)),
-            Binding::Bound(Bound::Storage(frame.scene_gpu.materials_range())),
+            Binding::Bound(Bound::Storage(frame.materials)),
             Binding::Bound(frame.texels("metaballs groups", &gpu_groups, quad)?),
             Binding::Bound(frame.texels("metaballs balls", &balls, quad)?),
             Binding::Bound(frame.texels("metaballs tiles", &lists.tiles, quad)?),

@@ -72,9 +72,10 @@ pub struct FrameContext<'a> {
     pub memory: &'a Memory,
     pub scene: &'a Scene,
     pub scene_gpu: &'a SceneGpu,
-    /// This frame's scene uniforms and instance table (in the slot's ring).
+    /// This frame's scene uniforms, instance and material tables (in the slot's ring).
     pub uniforms: BufferRange,
     pub instances: BufferRange,
+    pub materials: BufferRange,
     /// Scene time in seconds.
     pub time: f64,
     pub extent: vk::Extent2D,

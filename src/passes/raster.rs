@@ -72,7 +72,7 @@ impl Pass for RasterPass {
         Ok(vec![
             Binding::Bound(Bound::Uniform(frame.uniforms)),
             Binding::Bound(Bound::Storage(frame.instances)),
-            Binding::Bound(Bound::Storage(frame.scene_gpu.materials_range())),
+            Binding::Bound(Bound::Storage(frame.materials)),
         ])
     }
 

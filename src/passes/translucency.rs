@@ -550,7 +550,7 @@ impl Pass for TranslucencyPass {
             Binding::Bound(Bound::UniformTexel(data.grid.view)),
             Binding::Bound(Bound::UniformTexel(data.records.view)),
             Binding::Bound(frame.texels("translucency instances", &now.instances, Texels::U32x4)?),
-            Binding::Bound(Bound::Storage(frame.scene_gpu.materials_range())),
+            Binding::Bound(Bound::Storage(frame.materials)),
             Binding::Bound(Bound::UniformTexel(data.centres.view)),
             Binding::Image(Target::Normal),
         ])

@@ -80,8 +80,8 @@ struct Loaded {
     /// The id of each of `scene.waves` and `scene.metaballs` (spawned or from the file).
     wave_ids: Vec<u64>,
     group_ids: Vec<u64>,
-    /// Instance transforms changed since the instance table was built.
-    instances_dirty: bool,
+    /// Instance transforms or materials changed since their tables were built.
+    tables_dirty: bool,
 }
 
 impl Loaded {
@@ -213,7 +213,7 @@ impl Renderer {
         let group_ids = (0..scene.metaballs.len()).map(|_| self.next_id()).collect();
         let parked = Vec::new();
         self.loaded =
-            Some(Loaded { scene, gpu, passes, parked, shared, wave_ids, group_ids, instances_dirty: false });
+            Some(Loaded { scene, gpu, passes, parked, shared, wave_ids, group_ids, tables_dirty: false });
         Ok(())
     }
 

@@ -146,6 +146,7 @@ impl Renderer {
             scene_gpu: gpu,
             uniforms: none,
             instances: none,
+            materials: none,
             time: 0.0,
             embedded: false,
             depth_imported: false,
@@ -171,9 +172,10 @@ impl Renderer {
         let (ctx, memory) = (&self.ctx, &self.memory);
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         let s = &mut self.slots[slot];
-        if loaded.instances_dirty {
+        if loaded.tables_dirty {
             loaded.gpu.refresh_instances(&loaded.scene);
-            loaded.instances_dirty = false;
+            loaded.gpu.refresh_materials(&loaded.scene);
+            loaded.tables_dirty = false;
         }
         let uniforms = FrameUniforms::new(&loaded.scene, extent.width, extent.height);
         let uniforms = s.ring.push(ctx, memory, bytemuck::bytes_of(&uniforms))?.range().of::<FrameUniforms>();
@@ -182,6 +184,11 @@ impl Renderer {
             .push(ctx, memory, bytemuck::cast_slice(loaded.gpu.instance_table()))?
             .range()
             .of::<crate::passes::gpu_structs::InstanceData>();
+        let materials: BufferRange = s
+            .ring
+            .push(ctx, memory, bytemuck::cast_slice(loaded.gpu.material_table()))?
+            .range()
+            .of::<crate::passes::gpu_structs::MaterialData>();
 
         let targets = self.targets.get_or_insert_with(|| Targets::new(extent));
         targets.extent = extent;
@@ -227,6 +234,7 @@ impl Renderer {
             scene_gpu: &loaded.gpu,
             uniforms,
             instances,
+            materials,
             time: inputs.time,
             embedded: inputs.depth.is_some() || inputs.color.is_some(),
             depth_imported: inputs.depth.is_some(),

@@ -6,6 +6,7 @@ use glam::{DMat4, DVec3};
 use super::Renderer;
 use crate::scene::camera::Camera;
 use crate::scene::transform::{Transform, TransformOp};
+use crate::scene::MaterialKind;
 use crate::Error;
 
 /// A wave's state from now on, at every time: keyframes and velocity are dropped.
@@ -68,7 +69,7 @@ impl Renderer {
         let instance = &mut loaded.scene.instances[id];
         instance.ops = ops.to_vec();
         instance.transform = transform;
-        loaded.instances_dirty = true;
+        loaded.tables_dirty = true;
         Ok(())
     }
 
@@ -166,6 +167,63 @@ impl Renderer {
             })
             .collect();
         g.keyframes.clear();
+        Ok(())
+    }
+
+    /// Sets light `index` (scene order): the direction it travels (any non-zero length), its
+    /// colour and intensity. The translucent objects' light view follows it from the next frame.
+    pub fn set_light(
+        &mut self,
+        index: usize,
+        direction: DVec3,
+        color: DVec3,
+        intensity: f64,
+    ) -> Result<(), Error> {
+        let loaded = self.loaded_mut()?;
+        let count = loaded.scene.lights.len();
+        let Some(light) = loaded.scene.lights.get_mut(index) else {
+            return Err(Error::UnknownId { kind: "light", index, count });
+        };
+        let ok = direction.is_finite()
+            && direction.length() > 0.0
+            && color.is_finite()
+            && color.min_element() >= 0.0
+            && intensity.is_finite()
+            && intensity >= 0.0;
+        if !ok {
+            return Err(Error::InvalidUpdate {
+                what: format!("light {index}: direction {direction}, colour {color}, intensity {intensity}"),
+                expected: "a finite non-zero direction, a finite colour ≥ 0 and a finite intensity ≥ 0"
+                    .into(),
+            });
+        }
+        (light.direction, light.color, light.intensity) = (direction.normalize(), color, intensity);
+        Ok(())
+    }
+
+    /// Sets material `index`'s albedo and, for a translucent material, its extinction σ per world
+    /// unit (`None` keeps it). The kind of a material (lambert or translucent, its voxel_res and
+    /// thickness mode) is fixed at load: those decide which passes and tables exist.
+    pub fn set_material(&mut self, index: usize, albedo: DVec3, sigma: Option<DVec3>) -> Result<(), Error> {
+        let loaded = self.loaded_mut()?;
+        let count = loaded.scene.materials.len();
+        let Some(material) = loaded.scene.materials.get_mut(index) else {
+            return Err(Error::UnknownId { kind: "material", index, count });
+        };
+        let albedo_ok = albedo.is_finite() && albedo.min_element() >= 0.0 && albedo.max_element() <= 1.0;
+        let sigma_ok = sigma.is_none_or(|s| s.is_finite() && s.min_element() > 0.0);
+        let translucent = matches!(material.kind, MaterialKind::Translucent { .. });
+        if !albedo_ok || !sigma_ok || (sigma.is_some() && !translucent) {
+            return Err(Error::InvalidUpdate {
+                what: format!("material {index}: albedo {albedo}, sigma {sigma:?}"),
+                expected: "an albedo in [0, 1] and, for a translucent material only, a finite σ > 0".into(),
+            });
+        }
+        material.albedo = albedo;
+        if let (Some(new), MaterialKind::Translucent { sigma, .. }) = (sigma, &mut material.kind) {
+            *sigma = new;
+        }
+        loaded.tables_dirty = true;
         Ok(())
     }
 }
