@@ -122,6 +122,8 @@ impl Target {
 /// handles are in `external`).
 struct Tracked {
     image: Option<Image>,
+    /// The last write (or layout transition) to it, which later readers wait for.
+    writer: ImageAccess,
     /// Sized by a pass (the light maps) rather than to the frame.
     fixed: bool,
     external: Option<External>,
@@ -174,7 +176,13 @@ impl Targets {
         }
         let image = memory.create_image(ctx, target.name(), size, target.format(), target.usage())?;
         let fixed = fixed.is_some();
-        let tracked = Tracked { image: Some(image), fixed, external: None, last: ImageAccess::UNDEFINED };
+        let tracked = Tracked {
+            image: Some(image),
+            writer: ImageAccess::UNDEFINED,
+            fixed,
+            external: None,
+            last: ImageAccess::UNDEFINED,
+        };
         self.images.push((target, tracked));
         Ok(())
     }
@@ -190,7 +198,7 @@ impl Targets {
     ) {
         self.images.retain(|(t, _)| *t != target);
         let external = Some(External { raw, view, format });
-        self.images.push((target, Tracked { image: None, fixed: false, external, last }));
+        self.images.push((target, Tracked { image: None, writer: last, fixed: false, external, last }));
     }
 
     /// Drops the images no pass of the frame uses any more (retired with the frame).
@@ -225,16 +233,39 @@ impl Targets {
             .unwrap_or_else(|| panic!("target {} was not created: a pass did not declare it", target.name()))
     }
 
-    /// The barrier taking `target` to `next`, recording `next` as its last use.
+    /// The barrier taking `target` to `next`, recording `next` as its last use. Reads in one
+    /// layout accumulate: a reader in a stage the last write was not yet made visible to gets a
+    /// barrier from that write, and the next write or layout change waits for every reader.
     pub fn transition(
         &mut self,
         target: Target,
         next: ImageAccess,
     ) -> Option<vk::ImageMemoryBarrier2<'static>> {
+        use crate::gpu::barriers::image_barrier;
         let handles = self.get(target)?;
         let tracked = &mut self.images.iter_mut().find(|(t, _)| *t == target)?.1;
-        let barrier = crate::gpu::barriers::image_barrier(handles.raw, handles.format, tracked.last, next);
+        let (last, writer) = (tracked.last, tracked.writer);
+        let read_on = |a: ImageAccess| !a.writes() && a.layout == next.layout && !next.writes();
+        if read_on(last) && last.layout != vk::ImageLayout::UNDEFINED {
+            tracked.last.stage |= next.stage;
+            tracked.last.access |= next.access;
+            if last.stage.contains(next.stage) {
+                return None;
+            }
+            // The last write, made visible to this reader's stage too (no layout change).
+            let from = ImageAccess { layout: next.layout, ..writer };
+            return image_barrier(handles.raw, handles.format, from, next).or_else(|| {
+                image_barrier(
+                    handles.raw,
+                    handles.format,
+                    ImageAccess { access: vk::AccessFlags2::MEMORY_WRITE, ..from },
+                    next,
+                )
+            });
+        }
+        let barrier = image_barrier(handles.raw, handles.format, last, next);
         tracked.last = next;
+        tracked.writer = if next.writes() || next.layout != last.layout { next } else { writer };
         barrier
     }
 

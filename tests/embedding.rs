@@ -111,6 +111,8 @@ struct Game {
     extent: vk::Extent2D,
     /// How hadou is told about the game's depth (the same standard-Z projection either way).
     convention: DepthConvention,
+    /// Hand hadou the depth with `write` (depth out).
+    write_depth: bool,
 }
 
 /// What one game frame read back.
@@ -140,7 +142,7 @@ impl Game {
         } else {
             DepthConvention::Standard { near, far }
         };
-        Game { vk, painter, color, depth, extent, convention }
+        Game { vk, painter, color, depth, extent, convention, write_depth: false }
     }
 
     fn images(vk: &GameVk, extent: vk::Extent2D) -> (GameImage, GameImage) {
@@ -194,6 +196,7 @@ impl Game {
                     layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
                     final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                     convention: self.convention,
+                    write: self.write_depth,
                 }),
                 color: Some(ExternalColor {
                     image: self.color.image,
@@ -582,4 +585,58 @@ fn from_raw_names_a_missing_feature() {
     assert!(err.contains("queue family"), "{err}");
     let hadou = embed(&game, scene(false));
     game.finish(hadou);
+}
+
+/// Depth out: with `ExternalDepth::write` hadou's nearest surfaces land in the game's depth in the
+/// game's convention (standard and reverse-Z), so the game's later passes are hidden behind them;
+/// elsewhere the game's depth is left as it was. Against the f64 twin `store_depth` of the view
+/// depth hadou read back: the shader's d = −A + B/z is a handful of f32 operations on values of
+/// magnitude ≤ |A| + |B/z|, and z = distance / |ray| carries two more roundings into B/z, so
+/// |Δd| ≤ 16·u·(|A| + |B/z|) with u = 2⁻²⁴ (D32 stores the f32 exactly).
+#[test]
+fn depth_out_writes_hadous_surfaces_in_the_games_convention() {
+    use hadou::passes::depth_import::store_depth;
+    let e = extent(80, 60);
+    for reverse in [false, true] {
+        let mut game = Game::new(e, reverse);
+        let mut hadou = embed(&game, scene(false));
+        let kept = game.frame(Some(&mut hadou), &[Aov::Depth, Aov::Normal], 0.0);
+        game.write_depth = true;
+        let frame = game.frame(Some(&mut hadou), &[Aov::Depth, Aov::Normal], 0.0);
+        let surface = cube_mask(frame.aov(Aov::Normal), None);
+        let cam = camera().for_hadou();
+        let ray = cam.ray_frame(e.width, e.height);
+        let (a, b) = game.convention.coefficients();
+        let u = f32::EPSILON as f64 / 2.0;
+        let (mut written, mut worst) = (0, 0f64);
+        for y in 0..e.height {
+            for x in 0..e.width {
+                let i = (y * e.width + x) as usize;
+                if !surface[i] {
+                    assert_eq!(
+                        frame.depth[i].to_bits(),
+                        kept.depth[i].to_bits(),
+                        "({x}, {y}): the game's depth changed"
+                    );
+                    continue;
+                }
+                let ndc_x = 2.0 * (x as f64 + 0.5) / e.width as f64 - 1.0;
+                let ndc_y = 1.0 - 2.0 * (y as f64 + 0.5) / e.height as f64;
+                let scale = (ray.forward + ray.right * ndc_x + ray.up * ndc_y).length();
+                let z = frame.aov(Aov::Depth)[i] as f64 / scale;
+                let want = store_depth(z, game.convention);
+                let got = frame.depth[i] as f64;
+                let bound = 16.0 * u * (a.abs() + (b / z).abs());
+                worst = worst.max((got - want).abs() / bound);
+                assert!((got - want).abs() <= bound, "({x}, {y}) reverse {reverse}: {got} vs f64 {want}");
+                // Nearer than what the game drew there (or the game's sky).
+                let nearer = if reverse { got >= kept.depth[i] as f64 } else { got <= kept.depth[i] as f64 };
+                assert!(nearer, "({x}, {y}): hadou's surface {got} behind the game's {}", kept.depth[i]);
+                written += 1;
+            }
+        }
+        println!("reverse {reverse}: {written} pixels written, worst at {worst:.2} of the bound");
+        assert!(written > 50, "the cube shows: {written}");
+        game.finish(hadou);
+    }
 }

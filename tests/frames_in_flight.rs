@@ -360,6 +360,7 @@ fn a_new_depth_view_every_frame() {
                 layout,
                 final_layout: layout,
                 convention,
+                write: false,
             }),
             color: None,
         };

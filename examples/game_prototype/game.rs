@@ -397,6 +397,7 @@ impl Game {
                 layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
                 final_layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
                 convention: DepthConvention::Standard { near: cam.near, far: cam.far },
+                write: false,
             }),
             color: Some(ExternalColor {
                 image: target.image,

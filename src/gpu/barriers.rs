@@ -85,7 +85,8 @@ impl ImageAccess {
         layout: vk::ImageLayout::TRANSFER_DST_OPTIMAL,
     };
 
-    fn writes(&self) -> bool {
+    /// Whether this use writes the image.
+    pub fn writes(&self) -> bool {
         self.access.intersects(WRITES)
     }
 }

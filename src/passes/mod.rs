@@ -7,6 +7,7 @@
 
 pub mod composite;
 pub mod depth_import;
+pub mod depth_out;
 pub mod energy_probe;
 pub mod energy_wave;
 pub mod gpu_structs;

@@ -87,6 +87,10 @@ pub struct ExternalDepth {
     pub final_layout: vk::ImageLayout,
     /// How the stored depth maps to view depth.
     pub convention: DepthConvention,
+    /// Write hadou's nearest surfaces (instances, metaballs) into this image in `convention`, so
+    /// the game's later passes are hidden behind them ("depth out"); the image then also needs
+    /// `DEPTH_STENCIL_ATTACHMENT` usage. Where hadou drew nothing the game's depth is kept.
+    pub write: bool,
 }
 
 /// The game's colour target: hadou draws its result over it (as a colour attachment, so any

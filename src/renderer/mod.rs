@@ -38,6 +38,7 @@ use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::GpuContext;
 use crate::passes::composite::CompositePass;
 use crate::passes::depth_import::DepthImportPass;
+use crate::passes::depth_out::DepthOutPass;
 use crate::passes::registry::{Active, Shared};
 use crate::passes::tonemap::TonemapPass;
 use crate::passes::Pass;
@@ -94,6 +95,7 @@ impl Loaded {
 #[derive(Default)]
 struct Edges {
     depth_import: Option<DepthImportPass>,
+    depth_out: Option<DepthOutPass>,
     tonemap: Option<TonemapPass>,
     composite: Option<CompositePass>,
 }

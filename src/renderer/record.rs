@@ -10,6 +10,7 @@ use crate::gpu::pipeline::BufferRange;
 use crate::gpu::vk;
 use crate::passes::composite::CompositePass;
 use crate::passes::depth_import::DepthImportPass;
+use crate::passes::depth_out::DepthOutPass;
 use crate::passes::gpu_structs::FrameUniforms;
 use crate::passes::tonemap::TonemapPass;
 use crate::passes::Pass;
@@ -50,6 +51,10 @@ impl Renderer {
         let (ctx, compiler) = (&self.ctx, &mut self.compiler);
         if inputs.depth.is_some() && self.edges.depth_import.is_none() {
             self.edges.depth_import = Some(DepthImportPass::new(ctx, compiler)?);
+        }
+        if let Some(depth) = inputs.depth.filter(|d| d.write) {
+            let out = self.edges.depth_out.get_or_insert_with(DepthOutPass::new);
+            out.use_depth(ctx, compiler, depth.format, depth.convention)?;
         }
         match &inputs.color {
             Some(color) => self.edges.composite.get_or_insert_with(CompositePass::new).use_format(
@@ -219,6 +224,9 @@ impl Renderer {
             (Some(_), Some(c), _) => passes.push(c),
             (None, _, Some(t)) => passes.push(t),
             _ => {}
+        }
+        if let (Some(_), Some(out)) = (inputs.depth.filter(|d| d.write), &mut self.edges.depth_out) {
+            passes.push(out);
         }
         let used: Vec<Target> = passes.iter().flat_map(|p| p.images()).map(|u| u.target).collect();
         targets.retain_only(&used);
