@@ -116,14 +116,14 @@ const BAD: &[(&str, usize, usize, &str)] = &[
         "metaballs_radius_zero.toml",
         10,
         34,
-        "metaballs \"slime\" ball 2 `radius`: expected a number > 0, found 0",
+        "metaballs \"slime\" ball 2 `radius`: expected a number in [1.0842e-19, 9.2234e18] (2^-63 to 2^63: its square must be a normal f32), found 0",
     ),
     ("metaballs_nan_centre.toml", 9, 18, "expected a finite number, found nan"),
     (
         "metaballs_threshold_zero.toml",
         8,
         13,
-        "metaballs \"slime\" `threshold`: expected a number > 0, found 0",
+        "metaballs \"slime\" `threshold`: expected a number >= 1.1754944e-38 (f32's smallest normal number), found 0",
     ),
     (
         "metaballs_unknown_kernel.toml",
@@ -149,7 +149,7 @@ const BAD: &[(&str, usize, usize, &str)] = &[
         "metaballs_tolerance_negative.toml",
         8,
         13,
-        "metaballs \"slime\" `tolerance`: expected a number > 0, found -0.001",
+        "metaballs \"slime\" `tolerance`: expected a number >= 1.1754944e-38 (f32's smallest normal number), found -0.001",
     ),
     ("metaballs_steps_with_bezier.toml", 7, 1, "`steps` is a field of method = \"sphere_trace\" only"),
     (
@@ -179,7 +179,7 @@ const BAD: &[(&str, usize, usize, &str)] = &[
     (
         "metaballs_radius_squares_to_subnormal.toml",
         7,
-        34,
+        41,
         "metaballs \"dust\" ball 1 `radius`: expected a number in [1.0842e-19, 9.2234e18]",
     ),
     ("wave_emission_f32_overflow.toml", 10, 13, "`intensity`: expected colour × intensity <= 3.4028235e38"),

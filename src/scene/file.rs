@@ -169,9 +169,8 @@ fn check_near_far_ratio(o: &Owner, c: &CameraDef, near: f64, far: f64) -> Result
     }
     let span = c.near.as_ref().or(c.far.as_ref()).map_or(o.span.clone(), Spanned::span);
     let expected = format!(
-        "a number >= {} (far / 2^126 and f32's smallest normal: the reverse-Z depth near/distance must \
-         stay a normal f32)",
-        show(least)
+        "a number >= {least:.4e} (far / 2^126 and f32's smallest normal: the reverse-Z depth \
+         near/distance must stay a normal f32)"
     );
     Err(o.fail(span, "near", &expected, show(near)))
 }
