@@ -52,7 +52,7 @@ const BAD: &[(&str, usize, usize, &str)] = &[
     ("negative_size.toml", 8, 8, "mesh \"box\" `size`: expected a number in [1e-6, 1e6], found -1"),
     ("negative_near.toml", 4, 8, "`near`: expected a number > 0, found -0.1"),
     ("far_le_near.toml", 5, 7, "`far`: expected a number > near (10), found 10"),
-    ("fov_out_of_range.toml", 4, 13, "`fov_y_deg`: expected a number in (0, 180), found 180"),
+    ("fov_out_of_range.toml", 4, 13, "`fov_y_deg`: expected a number in [0.1, 180), found 180"),
     ("torus_minor_too_large.toml", 9, 16, "mesh \"ring\": torus minor_radius must be < major_radius"),
     ("bad_obj_path.toml", 8, 8, "no_such_file.obj: No such file or directory"),
     ("malformed_obj.toml", 8, 8, "mesh \"wedge\": "),

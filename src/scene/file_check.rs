@@ -74,7 +74,9 @@ pub(super) struct Rule {
 pub(super) const ANY: Rule = Rule { ok: |_| true, bound: "" };
 pub(super) const POSITIVE: Rule = Rule { ok: |v| v > 0.0, bound: "> 0" };
 pub(super) const NON_NEGATIVE: Rule = Rule { ok: |v| v >= 0.0, bound: ">= 0" };
-pub(super) const FOV: Rule = Rule { ok: |v| v > 0.0 && v < 180.0, bound: "in (0, 180)" };
+/// At least 0.1°: neighbouring pixel rays (16384 rows at most) differ by 2·tan(fov/2)/16384 of the
+/// view direction, which f32 (2⁻²⁴ relative) must resolve: tan(fov/2) ≥ 2⁻¹¹, fov ≥ 0.056°.
+pub(super) const FOV: Rule = Rule { ok: |v| (0.1..180.0).contains(&v), bound: "in [0.1, 180)" };
 pub(super) const UNIT: Rule = Rule { ok: |v| (0.0..=1.0).contains(&v), bound: "in [0, 1]" };
 /// A factor the GPU multiplies by (exposure): a normal f32, so it neither flushes to 0 (GPUs may
 /// treat subnormals as 0) nor overflows.

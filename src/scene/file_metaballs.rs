@@ -213,7 +213,11 @@ fn generate(o: &Owner, d: &GenerateDef) -> Result<Vec<AnimatedBall>, SceneError>
     let [r0, r1] = radius_def.get_ref().values();
     if !(r0 <= r1 && (SQUARED_LENGTH.ok)(r0) && (SQUARED_LENGTH.ok)(r1)) {
         let found = format!("[{}, {}]", show(r0), show(r1));
-        let expected = format!("[min, max] with 0 < min <= max, each {}", SQUARED_LENGTH.bound);
+        let expected = if r0 > 0.0 && r0 <= r1 {
+            format!("[min, max] with each {}", SQUARED_LENGTH.bound)
+        } else {
+            "[min, max] with 0 < min <= max".to_owned()
+        };
         return Err(o.fail(radius_def.span(), "radius", &expected, found));
     }
     let (q0, q1) = match &d.q {
