@@ -12,6 +12,9 @@ layout(push_constant) uniform Params {
     uint mode;
 } params;
 
+// src/effects/tonemap.rs ACES_WHITE: aces(64) = 1, and 64² cannot overflow.
+const float ACES_WHITE = 64.0;
+
 vec3 aces(vec3 x) {
     return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
 }
@@ -24,9 +27,12 @@ vec3 srgb_encode(vec3 c) {
 
 void main() {
     vec4 c = imageLoad(hdr, ivec2(gl_FragCoord.xy));
-    vec3 rgb = max(c.rgb * params.exposure, vec3(0.0));
+    // As tonemap.comp: NaN guard first (clamp(NaN) is undefined), then clamp at ACES_WHITE
+    // before the curve, whose x² overflows for x ≥ 1.8e19 or +inf. Mode 2 stays linear.
+    vec3 rgb = c.rgb * params.exposure;
     if (any(isnan(rgb))) rgb = vec3(0.0);
-    if (params.mode != 2u) rgb = aces(rgb);
+    rgb = max(rgb, vec3(0.0));
+    if (params.mode != 2u) rgb = aces(min(rgb, vec3(ACES_WHITE)));
     if (params.mode == 1u) rgb = srgb_encode(rgb);
     float alpha = isnan(c.a) ? 0.0 : clamp(c.a, 0.0, 1.0);
     out_color = vec4(rgb, alpha);

@@ -11,6 +11,9 @@ layout(push_constant) uniform Params {
     uint height;
 } params;
 
+// src/effects/tonemap.rs ACES_WHITE: aces(64) = 1, and 64² cannot overflow.
+const float ACES_WHITE = 64.0;
+
 vec3 aces(vec3 x) {
     return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
 }
@@ -25,8 +28,10 @@ void main() {
     uvec2 p = gl_GlobalInvocationID.xy;
     if (p.x >= params.width || p.y >= params.height) return;
     vec3 c = imageLoad(hdr, ivec2(p)).rgb * params.exposure;
-    // Never let a NaN or negative value reach the output.
-    c = max(c, vec3(0.0));
+    // Never let a NaN or negative value reach the output (NaN first: clamp(NaN) is undefined).
+    // Clamp at ACES_WHITE before the curve: aces is 1.0 from x ≈ 7.24 on, and its x² would
+    // overflow (inf/inf = NaN, black) for x ≥ 1.8e19 or +inf (RGBA16F past 65504).
     if (any(isnan(c))) c = vec3(0.0);
+    c = clamp(c, vec3(0.0), vec3(ACES_WHITE));
     imageStore(ldr, ivec2(p), vec4(srgb_encode(aces(c)), 1.0));
 }

@@ -97,20 +97,28 @@ impl FrameUniforms {
 }
 
 /// Per-instance records, grouped by mesh so each mesh is one instanced draw. Returns the records
-/// and, per mesh, the (first, count) range of its instances.
+/// and, per mesh, the (first, count) range of its instances. A counting sort by mesh: O(meshes +
+/// instances), instances in scene order within each mesh.
 pub fn instance_records(scene: &Scene) -> (Vec<InstanceData>, Vec<(u32, u32)>) {
-    let mut records = Vec::with_capacity(scene.instances.len());
-    let mut ranges = Vec::with_capacity(scene.meshes.len());
-    for mesh in 0..scene.meshes.len() {
-        let first = records.len() as u32;
-        for (id, inst) in scene.instances.iter().enumerate().filter(|(_, i)| i.mesh == mesh) {
-            records.push(InstanceData {
-                model: mat4_f32(inst.transform.matrix),
-                normal_matrix: mat3_as_mat4(inst.transform.normal_matrix()),
-                ids: [id as u32, inst.material as u32, 0, 0],
-            });
-        }
-        ranges.push((first, records.len() as u32 - first));
+    let mut counts = vec![0u32; scene.meshes.len()];
+    for inst in &scene.instances {
+        counts[inst.mesh] += 1;
+    }
+    let mut ranges = Vec::with_capacity(counts.len());
+    let mut first = 0u32;
+    for &count in &counts {
+        ranges.push((first, count));
+        first += count;
+    }
+    let mut next: Vec<u32> = ranges.iter().map(|&(first, _)| first).collect();
+    let mut records = vec![InstanceData::zeroed(); scene.instances.len()];
+    for (id, inst) in scene.instances.iter().enumerate() {
+        records[next[inst.mesh] as usize] = InstanceData {
+            model: mat4_f32(inst.transform.matrix),
+            normal_matrix: mat3_as_mat4(inst.transform.normal_matrix()),
+            ids: [id as u32, inst.material as u32, 0, 0],
+        };
+        next[inst.mesh] += 1;
     }
     (records, ranges)
 }

@@ -1,6 +1,7 @@
 //! Reading a scene file: TOML (schema in file_schema.rs, documented in docs/scene-format.md) →
 //! validated `Scene`. Every refusal is a `SceneError` at the line:col of the offending value.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use glam::{DMat4, DVec3};
@@ -9,7 +10,8 @@ use toml::Spanned;
 use super::camera::Camera;
 use super::error::SceneError;
 use super::file_check::{
-    show, show_vec, show_vec_approx, Ctx, Owner, UniqueNames, ANY, FOV, NON_NEGATIVE, POSITIVE, UNIT,
+    show, show_vec, show_vec_approx, Ctx, Owner, Rule, UniqueNames, ANY, F32_NORMAL, FOV, HDR, NON_NEGATIVE,
+    POSITIVE, UNIT,
 };
 use super::file_mesh::meshes;
 use super::file_metaballs::metaballs;
@@ -26,6 +28,20 @@ pub const MAX_LIGHTS: usize = 8;
 pub const MAX_IMAGE_SIZE: u32 = 16384;
 /// Name and albedo of the material instances get when they name none.
 pub const DEFAULT_MATERIAL: &str = "default";
+/// The largest colour the HDR target (RGBA16F) holds; more would be stored as +inf. The
+/// background, and a lit surface's ambient + Σ colour × intensity of the lights (albedo ≤ 1), are
+/// kept at or below it.
+pub const MAX_HDR: f64 = 65504.0;
+/// The largest far / near ratio. A surface at view depth z gets the reverse-Z depth
+/// near·(far − z)/(z·(far − near)), about near/far for z = far/2: it must stay a normal f32
+/// (≥ 2⁻¹²⁶) in the D32 buffer, since a GPU may flush a subnormal to 0, the cleared depth that
+/// no surface passes. f32's relative precision is the same at every normal magnitude, so a larger
+/// ratio costs no depth precision below this.
+pub const MAX_FAR_NEAR_RATIO: f64 = 8.507059173023462e37; // 2^126
+/// The largest camera coordinate and `far` (2⁴⁸ ≈ 2.8e14): every visible point's clip-space w
+/// (its view depth) stays below it. Measured on lavapipe, triangles at w ≳ 2⁵³ (a scene scaled by
+/// 2e15) are dropped and the image is empty; 2⁴⁸ leaves a factor 32.
+pub const MAX_EXTENT: f64 = 281474976710656.0;
 /// Albedo (each channel) of the built-in default material and of a `[[material]]` that gives none.
 pub const DEFAULT_ALBEDO: f64 = 0.7;
 
@@ -49,12 +65,13 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
     let def: SceneDef = toml::from_str(text).map_err(|e| ctx.toml(&e))?;
     let render = render(ctx, def.render.as_ref())?;
     let camera = camera(ctx, def.camera.as_ref())?;
-    let lights = lights(ctx, &def.light)?;
+    let lights = lights(ctx, &def.light, render.ambient)?;
     let meshes = meshes(ctx, &def.mesh)?;
-    let mut materials = materials(ctx, &def.material)?;
+    let mut materials = Materials::new(materials(ctx, &def.material)?);
     let instances = instances(ctx, &def.instance, &meshes, &mut materials)?;
     let waves = waves(ctx, &def.wave)?;
     let metaballs = metaballs(ctx, &def.metaballs, &mut materials)?;
+    let materials = materials.list;
     warn_unused(path, &meshes, &materials, &instances, &metaballs);
     Ok(Scene {
         source: path.to_path_buf(),
@@ -93,9 +110,9 @@ fn render(ctx: Ctx, def: Option<&Spanned<RenderDef>>) -> Result<RenderSettings, 
             };
         }
     }
-    r.exposure = o.num("exposure", d.exposure.as_ref(), r.exposure, POSITIVE)?;
-    r.background = o.vec3("background", d.background.as_ref(), r.background, NON_NEGATIVE)?;
-    r.ambient = o.vec3("ambient", d.ambient.as_ref(), r.ambient, NON_NEGATIVE)?;
+    r.exposure = o.num("exposure", d.exposure.as_ref(), r.exposure, F32_NORMAL)?;
+    r.background = o.vec3("background", d.background.as_ref(), r.background, HDR)?;
+    r.ambient = o.vec3("ambient", d.ambient.as_ref(), r.ambient, HDR)?;
     Ok(r)
 }
 
@@ -106,13 +123,17 @@ fn camera(ctx: Ctx, def: Option<&Spanned<CameraDef>>) -> Result<Camera, SceneErr
     let o = Owner::new(ctx, "[camera]", def.span());
     let c = def.get_ref();
     let vec3 = "an array of 3 numbers";
-    let position = o.check_vec3("position", o.required("position", c.position.as_ref(), vec3)?, ANY)?;
+    let position_def = o.required("position", c.position.as_ref(), vec3)?;
+    let position = o.check_vec3("position", position_def, ANY)?;
     let look_at_def = o.required("look_at", c.look_at.as_ref(), vec3)?;
     let look_at = o.check_vec3("look_at", look_at_def, ANY)?;
     let up = o.vec3("up", c.up.as_ref(), DVec3::Y, ANY)?;
     let fov_y_deg = o.num("fov_y_deg", c.fov_y_deg.as_ref(), 45.0, FOV)?;
     let near = o.num("near", c.near.as_ref(), 0.1, POSITIVE)?;
-    let far = o.num("far", c.far.as_ref(), Camera::DEFAULT_FAR, ANY)?;
+    let far = o.num("far", c.far.as_ref(), Camera::DEFAULT_FAR, EXTENT)?;
+    for (field, v) in [("position", position_def), ("look_at", look_at_def)] {
+        o.check_vec3(field, v, EXTENT)?;
+    }
     if far <= near {
         let span = c.far.as_ref().or(c.near.as_ref()).map_or(o.span.clone(), Spanned::span);
         let default = if c.far.is_none() { " (the default)" } else { "" };
@@ -123,6 +144,7 @@ fn camera(ctx: Ctx, def: Option<&Spanned<CameraDef>>) -> Result<Camera, SceneErr
             format!("{}{default}", show(far)),
         ));
     }
+    check_near_far_ratio(&o, c, near, far)?;
     // try_normalize also refuses a difference that overflows to infinity.
     let Some(forward) = (look_at - position).try_normalize() else {
         let expected = "a point different from `position`";
@@ -130,6 +152,28 @@ fn camera(ctx: Ctx, def: Option<&Spanned<CameraDef>>) -> Result<Camera, SceneErr
     };
     check_up(&o, c, up, forward)?;
     Ok(Camera { position, look_at, up, fov_y_deg, near, far })
+}
+
+/// Camera coordinates and `far` within ±`MAX_EXTENT`.
+const EXTENT: Rule = Rule {
+    ok: |v| v.abs() <= MAX_EXTENT,
+    bound:
+        "in [-2.8147e14, 2.8147e14] (2^48: the scene's extent seen from the camera, see docs/scene-format.md)",
+};
+
+/// near ≥ far / `MAX_FAR_NEAR_RATIO` and near a normal f32, so every depth before far/2 is a
+/// normal f32 (near = 1e-46 is 0 in f32: every depth 0, nothing drawn).
+fn check_near_far_ratio(o: &Owner, c: &CameraDef, near: f64, far: f64) -> Result<(), SceneError> {
+    let least = (far / MAX_FAR_NEAR_RATIO).max(f32::MIN_POSITIVE as f64);
+    if near >= least {
+        return Ok(());
+    }
+    let span = c.near.as_ref().or(c.far.as_ref()).map_or(o.span.clone(), Spanned::span);
+    let expected = format!(
+        "a number >= {least:.4e} (far / 2^126 and f32's smallest normal: the reverse-Z depth \
+         near/distance must stay a normal f32)"
+    );
+    Err(o.fail(span, "near", &expected, show(near)))
 }
 
 /// `up` must leave a well-defined right vector: non-zero and not (nearly) along the view.
@@ -146,7 +190,7 @@ fn check_up(o: &Owner, c: &CameraDef, up: DVec3, forward: DVec3) -> Result<(), S
     Err(o.fail(span, "up", &expected, format!("{}{default}", show_vec(up))))
 }
 
-fn lights(ctx: Ctx, defs: &Tables<LightDef>) -> Result<Vec<DirectionalLight>, SceneError> {
+fn lights(ctx: Ctx, defs: &Tables<LightDef>, ambient: DVec3) -> Result<Vec<DirectionalLight>, SceneError> {
     if let Some(extra) = defs.0.get(MAX_LIGHTS) {
         let message =
             format!("too many [[light]] tables (expected at most {MAX_LIGHTS}, found {})", defs.0.len());
@@ -155,7 +199,39 @@ fn lights(ctx: Ctx, defs: &Tables<LightDef>) -> Result<Vec<DirectionalLight>, Sc
     let light_at = |(i, def): (usize, &Spanned<LightDef>)| {
         light(Owner::new(ctx, format!("light {}", i + 1), def.span()), def.get_ref())
     };
-    defs.0.iter().enumerate().map(light_at).collect()
+    let lights: Vec<DirectionalLight> = defs.0.iter().enumerate().map(light_at).collect::<Result<_, _>>()?;
+    check_light_sum(ctx, defs, ambient, &lights)?;
+    Ok(lights)
+}
+
+/// A lit surface's colour is at most ambient + Σ colour × intensity (albedo ≤ 1, n·l ≤ 1): kept
+/// within `MAX_HDR` so the HDR target holds it. Refused at the light that passes it.
+fn check_light_sum(
+    ctx: Ctx,
+    defs: &Tables<LightDef>,
+    ambient: DVec3,
+    lights: &[DirectionalLight],
+) -> Result<(), SceneError> {
+    let mut sum = ambient;
+    for (i, (light, def)) in lights.iter().zip(&defs.0).enumerate() {
+        let radiance = light.color * light.intensity;
+        sum += radiance;
+        if sum.max_element() <= MAX_HDR {
+            continue;
+        }
+        let d = def.get_ref();
+        let (field, span) = match (&d.intensity, &d.color) {
+            (Some(v), _) => ("intensity", v.span()),
+            (None, Some(v)) => ("color", v.span()),
+            (None, None) => ("intensity", def.span()),
+        };
+        let o = Owner::new(ctx, format!("light {}", i + 1), def.span());
+        let expected = "colour × intensity with ambient + the sum over lights <= 65504 per channel (the HDR \
+                        target is 16-bit float)";
+        let found = format!("{} × {} (sum {})", show_vec(light.color), show(light.intensity), show_vec(sum));
+        return Err(o.fail(span, field, expected, found));
+    }
+    Ok(())
 }
 
 fn light(o: Owner, def: &LightDef) -> Result<DirectionalLight, SceneError> {
@@ -188,15 +264,44 @@ fn material(o: &Owner, name: &str, def: &MaterialDef) -> Result<Material, SceneE
     Ok(Material { name: name.to_owned(), kind, albedo })
 }
 
+/// The scene's materials and a name → index map, so resolving n instances costs O(n).
+pub(super) struct Materials {
+    pub list: Vec<Material>,
+    index: HashMap<String, usize>,
+}
+
+impl Materials {
+    fn new(list: Vec<Material>) -> Self {
+        // Names are unique (checked by `materials`), so no entry is overwritten.
+        let index = list.iter().enumerate().map(|(i, m)| (m.name.clone(), i)).collect();
+        Materials { list, index }
+    }
+
+    /// The scene's "default" material, added (grey, albedo 0.7) the first time it is needed when
+    /// the file declares none.
+    pub(super) fn default_index(&mut self) -> usize {
+        if let Some(&i) = self.index.get(DEFAULT_MATERIAL) {
+            return i;
+        }
+        let albedo = DVec3::splat(DEFAULT_ALBEDO);
+        self.list.push(Material { name: DEFAULT_MATERIAL.into(), kind: MaterialKind::Lambert, albedo });
+        self.index.insert(DEFAULT_MATERIAL.into(), self.list.len() - 1);
+        self.list.len() - 1
+    }
+}
+
 /// Resolves names to indices. An instance without `material` gets the scene's "default" material,
 /// added (grey, albedo 0.7) only when the file does not declare one.
 fn instances(
     ctx: Ctx,
     defs: &Tables<InstanceDef>,
     meshes: &[SceneMesh],
-    materials: &mut Vec<Material>,
+    materials: &mut Materials,
 ) -> Result<Vec<Instance>, SceneError> {
-    let mesh_names: Vec<&str> = meshes.iter().map(|m| m.name.as_str()).collect();
+    let mesh_index: HashMap<&str, usize> =
+        meshes.iter().enumerate().map(|(i, m)| (m.name.as_str(), i)).collect();
+    // Meshes already found closed: the check walks the whole mesh, once per mesh, not per instance.
+    let mut closed = vec![false; meshes.len()];
     let mut out = Vec::with_capacity(defs.0.len());
     for (i, def) in defs.0.iter().enumerate() {
         let d = def.get_ref();
@@ -206,13 +311,20 @@ fn instances(
         };
         let o = Owner::new(ctx, label, def.span());
         let mesh = o.required("mesh", d.mesh.as_ref(), "the name of a [[mesh]]")?;
-        let mesh = lookup(&o, "mesh", mesh, &mesh_names)?;
+        let mesh = mesh_index.get(mesh.get_ref().as_str()).copied().ok_or_else(|| {
+            let names: Vec<&str> = meshes.iter().map(|m| m.name.as_str()).collect();
+            not_found(&o, "mesh", mesh, &names)
+        })?;
         let material = match &d.material {
             Some(m) => material_index(&o, m, materials)?,
-            None => default_material(materials),
+            None => materials.default_index(),
         };
-        let material_span = d.material.as_ref().map_or(o.span.clone(), Spanned::span);
-        super::file_material::check_instance_mesh(&o, material_span, &materials[material], &meshes[mesh])?;
+        let m = &materials.list[material];
+        if !closed[mesh] && matches!(m.kind, MaterialKind::Translucent { .. }) {
+            let material_span = d.material.as_ref().map_or(o.span.clone(), Spanned::span);
+            super::file_material::check_instance_mesh(&o, material_span, m, &meshes[mesh])?;
+            closed[mesh] = true;
+        }
         let (ops, transform) = transform(&o, d.transform.as_ref())?;
         out.push(Instance {
             name: d.name.as_ref().map(|n| n.get_ref().clone()),
@@ -228,29 +340,19 @@ fn instances(
 pub(super) fn material_index(
     o: &Owner,
     name: &Spanned<String>,
-    materials: &mut Vec<Material>,
+    materials: &mut Materials,
 ) -> Result<usize, SceneError> {
     if name.get_ref() == DEFAULT_MATERIAL {
-        return Ok(default_material(materials));
+        return Ok(materials.default_index());
     }
-    let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
-    lookup(o, "material", name, &names)
+    materials.index.get(name.get_ref().as_str()).copied().ok_or_else(|| {
+        let names: Vec<&str> = materials.list.iter().map(|m| m.name.as_str()).collect();
+        not_found(o, "material", name, &names)
+    })
 }
 
-pub(super) fn default_material(materials: &mut Vec<Material>) -> usize {
-    if let Some(i) = materials.iter().position(|m| m.name == DEFAULT_MATERIAL) {
-        return i;
-    }
-    let albedo = DVec3::splat(DEFAULT_ALBEDO);
-    materials.push(Material { name: DEFAULT_MATERIAL.into(), kind: MaterialKind::Lambert, albedo });
-    materials.len() - 1
-}
-
-/// The index of `name` in `names`, or an error listing the declared names.
-fn lookup(o: &Owner, what: &str, name: &Spanned<String>, names: &[&str]) -> Result<usize, SceneError> {
-    if let Some(i) = names.iter().position(|n| n == name.get_ref()) {
-        return Ok(i);
-    }
+/// "no `what` named …", listing the declared names (built only when a look-up fails).
+fn not_found(o: &Owner, what: &str, name: &Spanned<String>, names: &[&str]) -> SceneError {
     let declared = if names.is_empty() {
         format!("no [[{what}]] is declared")
     } else {
@@ -258,7 +360,7 @@ fn lookup(o: &Owner, what: &str, name: &Spanned<String>, names: &[&str]) -> Resu
         format!("declared: {}", quoted.join(", "))
     };
     let message = format!("{} `{what}`: no {what} named \"{}\" ({declared})", o.label, name.get_ref());
-    Err(o.ctx.err(name.span(), message))
+    o.ctx.err(name.span(), message)
 }
 
 type OpList = Spanned<Tables<OpDef>>;
@@ -322,14 +424,20 @@ fn warn_unused(
     instances: &[Instance],
     metaballs: &[MetaballGroup],
 ) {
-    for (i, m) in meshes.iter().enumerate() {
-        if !instances.iter().any(|inst| inst.mesh == i) {
-            log::warn!("{}: mesh \"{}\" is declared but no instance uses it", path.display(), m.name);
-        }
+    // One pass marks what is used; scanning every instance per mesh would be O(n²).
+    let mut mesh_used = vec![false; meshes.len()];
+    let mut material_used = vec![false; materials.len()];
+    for inst in instances {
+        mesh_used[inst.mesh] = true;
+        material_used[inst.material] = true;
     }
-    for (i, m) in materials.iter().enumerate() {
-        if !instances.iter().any(|inst| inst.material == i) && !metaballs.iter().any(|g| g.material == i) {
-            log::warn!("{}: material \"{}\" is declared but no instance uses it", path.display(), m.name);
-        }
+    for g in metaballs {
+        material_used[g.material] = true;
+    }
+    for (m, _) in meshes.iter().zip(&mesh_used).filter(|(_, used)| !**used) {
+        log::warn!("{}: mesh \"{}\" is declared but no instance uses it", path.display(), m.name);
+    }
+    for (m, _) in materials.iter().zip(&material_used).filter(|(_, used)| !**used) {
+        log::warn!("{}: material \"{}\" is declared but no instance uses it", path.display(), m.name);
     }
 }

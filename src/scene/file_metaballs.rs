@@ -8,10 +8,10 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::error::SceneError;
-use super::file::{default_material, material_index, transform};
-use super::file_check::{one_of, show, show_vec, Ctx, Owner, ANY, POSITIVE};
+use super::file::{material_index, transform, Materials};
+use super::file_check::{one_of, show, show_vec, Ctx, Owner, ANY, F32_NORMAL, SQUARED_LENGTH};
 use super::file_schema::{Array, Int, Num, OpDef, TableList, Tables};
-use super::model::{AnimatedBall, Material, MetaballGroup, MetaballKeyframe};
+use super::model::{AnimatedBall, MetaballGroup, MetaballKeyframe};
 use crate::effects::metaballs::{CastMethod, Kernel};
 
 /// Threshold when `threshold` is not given (the seed's T).
@@ -85,7 +85,7 @@ impl TableList for MetaballKeyframeDef {
 pub(super) fn metaballs(
     ctx: Ctx,
     defs: &Tables<MetaballsDef>,
-    materials: &mut Vec<Material>,
+    materials: &mut Materials,
 ) -> Result<Vec<MetaballGroup>, SceneError> {
     let mut out = Vec::with_capacity(defs.0.len());
     for (i, def) in defs.0.iter().enumerate() {
@@ -99,8 +99,8 @@ pub(super) fn metaballs(
     Ok(out)
 }
 
-fn group(o: &Owner, d: &MetaballsDef, materials: &mut Vec<Material>) -> Result<MetaballGroup, SceneError> {
-    let threshold = o.num("threshold", d.threshold.as_ref(), DEFAULT_THRESHOLD, POSITIVE)?;
+fn group(o: &Owner, d: &MetaballsDef, materials: &mut Materials) -> Result<MetaballGroup, SceneError> {
+    let threshold = o.num("threshold", d.threshold.as_ref(), DEFAULT_THRESHOLD, F32_NORMAL)?;
     let kernel = match &d.kernel {
         None => Kernel::default(),
         Some(k) => Kernel::from_name(k.get_ref()).ok_or_else(|| {
@@ -109,7 +109,7 @@ fn group(o: &Owner, d: &MetaballsDef, materials: &mut Vec<Material>) -> Result<M
     };
     let material = match &d.material {
         Some(m) => material_index(o, m, materials)?,
-        None => default_material(materials),
+        None => materials.default_index(),
     };
     let (ops, transform) = transform(o, d.transform.as_ref())?;
     let mut balls = Vec::new();
@@ -164,7 +164,7 @@ fn method(o: &Owner, d: &MetaballsDef) -> Result<CastMethod, SceneError> {
     } else {
         let tolerance = match &d.tolerance {
             None => 0.0,
-            Some(t) => o.check_num("tolerance", t, POSITIVE)?,
+            Some(t) => o.check_num("tolerance", t, F32_NORMAL)?,
         };
         (CastMethod::Bezier { tolerance }, ("steps", d.steps.as_ref().map(Spanned::span), "sphere_trace"))
     };
@@ -182,7 +182,8 @@ fn method(o: &Owner, d: &MetaballsDef) -> Result<CastMethod, SceneError> {
 fn ball(b: &Owner, d: &BallDef) -> Result<AnimatedBall, SceneError> {
     let centre =
         b.check_vec3("centre", b.required("centre", d.centre.as_ref(), "an array of 3 numbers")?, ANY)?;
-    let radius = b.check_num("radius", b.required("radius", d.radius.as_ref(), "a number > 0")?, POSITIVE)?;
+    let radius_def = b.required("radius", d.radius.as_ref(), "a number > 0")?;
+    let radius = b.check_num("radius", radius_def, SQUARED_LENGTH)?;
     Ok(AnimatedBall {
         centre,
         radius,
@@ -210,9 +211,14 @@ fn generate(o: &Owner, d: &GenerateDef) -> Result<Vec<AnimatedBall>, SceneError>
     }
     let radius_def = o.required("radius", d.radius.as_ref(), "[min, max] with 0 < min <= max")?;
     let [r0, r1] = radius_def.get_ref().values();
-    if !(r0 > 0.0 && r0 <= r1) {
+    if !(r0 <= r1 && (SQUARED_LENGTH.ok)(r0) && (SQUARED_LENGTH.ok)(r1)) {
         let found = format!("[{}, {}]", show(r0), show(r1));
-        return Err(o.fail(radius_def.span(), "radius", "[min, max] with 0 < min <= max", found));
+        let expected = if r0 > 0.0 && r0 <= r1 {
+            format!("[min, max] with each {}", SQUARED_LENGTH.bound)
+        } else {
+            "[min, max] with 0 < min <= max".to_owned()
+        };
+        return Err(o.fail(radius_def.span(), "radius", &expected, found));
     }
     let (q0, q1) = match &d.q {
         None => (1.0, 1.0),

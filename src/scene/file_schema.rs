@@ -159,8 +159,8 @@ pub(super) struct RotateDef {
     pub axis: Array<Num, 3>,
 }
 
-/// A finite number; TOML integers are accepted too. nan and ±inf are refused here so every
-/// number hadou reads is finite.
+/// A finite number that f32 holds; TOML integers are accepted too. nan, ±inf and |x| > f32::MAX
+/// are refused here so every number hadou reads is finite, in f64 and on the GPU.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Num(pub f64);
 
@@ -273,11 +273,17 @@ impl Visitor<'_> for NumVisitor {
         Ok(Num(v as f64))
     }
     fn visit_f64<E: de::Error>(self, v: f64) -> Result<Num, E> {
-        if v.is_finite() {
-            Ok(Num(v))
-        } else {
-            Err(E::custom(format!("expected a finite number, found {}", toml_spelling(v))))
+        if !v.is_finite() {
+            return Err(E::custom(format!("expected a finite number, found {}", toml_spelling(v))));
         }
+        // Every number reaches the GPU as f32 (directly or through a product of such numbers):
+        // past f32::MAX it would become inf there.
+        if v.abs() > f32::MAX as f64 {
+            return Err(E::custom(format!(
+                "expected a number that f32 holds (|x| <= 3.4028235e38, the GPU's float), found {v:e}"
+            )));
+        }
+        Ok(Num(v))
     }
 }
 

@@ -48,6 +48,7 @@ fn wave(o: &Owner, d: &WaveDef) -> Result<Wave, SceneError> {
     let method = method(o, d)?;
     let keyframes = keyframes(o, &d.keyframe)?;
     check_strength(o, d, a, b, &keyframes)?;
+    check_emission(o, d, color, intensity, &keyframes)?;
     Ok(Wave {
         name: d.name.as_ref().map(|n| n.get_ref().clone()),
         origin,
@@ -161,6 +162,34 @@ fn keyframe_direction(
         }
     }
     Ok(u)
+}
+
+/// The pass adds emission × H with emission = colour × intensity uploaded as f32: every
+/// intensity in effect (the table's, each keyframe's) times the colour must stay finite in f32.
+fn check_emission(
+    o: &Owner,
+    d: &WaveDef,
+    color: DVec3,
+    intensity: f64,
+    keyframes: &[WaveKeyframe],
+) -> Result<(), SceneError> {
+    let keyed = keyframes.iter().zip(&d.keyframe.0).filter_map(|(k, def)| {
+        let span = def.get_ref().intensity.as_ref().map(Spanned::span)?;
+        Some((k.intensity?, span))
+    });
+    let table = d.intensity.as_ref().map(|v| (intensity, v.span()));
+    for (value, span) in table.into_iter().chain(keyed) {
+        if color.max_element() * value > f32::MAX as f64 {
+            let expected = "colour × intensity <= 3.4028235e38 per channel (the emission is an f32)";
+            return Err(o.fail(
+                span,
+                "intensity",
+                expected,
+                format!("{} × {}", show_vec(color), show(value)),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn show_approx(x: f64) -> String {
