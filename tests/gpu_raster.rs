@@ -235,3 +235,45 @@ fn instances_share_one_mesh_copy() {
     rt.render(&FrameRequest::new(16, 16)).unwrap();
     common::assert_clean(&rt);
 }
+
+/// Hard inputs on the GPU (issue 14, finding 4): `exposure = 1e20` saturates lit surfaces to
+/// white instead of overflowing the tonemap curve into black, and lights at the HDR limit
+/// (Σ colour × intensity = 65504 per channel, what the scene checker allows) leave no NaN or Inf in
+/// the HDR image.
+#[test]
+fn huge_exposure_and_lights_at_the_limit_stay_finite_and_white() {
+    let text = |exposure: &str, intensity: &str| {
+        format!(
+            "[render]\nexposure = {exposure}\nambient = [0, 0, 0]\n[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n\
+             [[light]]\ndirection = [0, -1, -0.5]\nintensity = {intensity}\n[[mesh]]\nname = \"box\"\nkind = \"cube\"\n\
+             [[instance]]\nmesh = \"box\"\n"
+        )
+    };
+    let mut rt = common::runtime();
+    for (exposure, intensity) in [("1e20", "1"), ("1", "65504"), ("3e38", "65504")] {
+        rt.load_scene(common::parse(&text(exposure, intensity))).unwrap();
+        let mut request = FrameRequest::new(48, 36);
+        request.aovs = vec![Aov::Hdr, Aov::Normal];
+        let frame = rt.render(&request).unwrap();
+        let hdr = frame.aov(Aov::Hdr).unwrap();
+        assert!(
+            hdr.data.iter().all(|v| v.is_finite()),
+            "exposure {exposure}, intensity {intensity}: HDR not finite"
+        );
+        let normal = frame.aov(Aov::Normal).unwrap();
+        let color = frame.color.as_ref().unwrap();
+        let lit: Vec<usize> = (0..48 * 36)
+            .filter(|&i| normal.data[4 * i + 3] > 0.0 && hdr.data[4 * i..4 * i + 3].iter().any(|&c| c > 0.0))
+            .collect();
+        assert!(lit.len() > 50, "the box shows lit: {}", lit.len());
+        if exposure != "1" {
+            // Saturated: every lit pixel is white (255 in each lit channel).
+            for &i in &lit {
+                let px = &color[4 * i..4 * i + 3];
+                assert!(px.iter().all(|&c| c == 255 || c == 0), "exposure {exposure}: pixel {i} = {px:?}");
+                assert!(px.contains(&255), "exposure {exposure}: lit pixel {i} is black");
+            }
+        }
+    }
+    common::assert_clean(&rt);
+}

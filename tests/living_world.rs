@@ -328,6 +328,10 @@ fn lights_and_materials_change_as_the_file_would() {
     let r = live.renderer();
     assert!(matches!(r.set_light(0, DVec3::ZERO, color, 1.0), Err(Error::InvalidUpdate { .. })));
     assert!(matches!(r.set_light(3, dir, color, 1.0), Err(Error::UnknownId { .. })));
+    assert!(
+        matches!(r.set_light(0, dir, color, 1e5), Err(Error::InvalidUpdate { .. })),
+        "past the HDR limit"
+    );
     assert!(matches!(r.set_material(0, DVec3::splat(2.0), None), Err(Error::InvalidUpdate { .. })));
     assert!(matches!(r.set_material(0, albedo, Some(DVec3::ZERO)), Err(Error::InvalidUpdate { .. })));
     r.set_light(0, dir, color, intensity).unwrap();

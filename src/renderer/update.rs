@@ -197,7 +197,21 @@ impl Renderer {
                     .into(),
             });
         }
+        let before = *light;
         (light.direction, light.color, light.intensity) = (direction.normalize(), color, intensity);
+        // As in a file: a lit surface's ambient + Σ colour × intensity must fit the HDR image.
+        let scene = &loaded.scene;
+        let lit = scene.lights.iter().fold(scene.render.ambient, |sum, l| sum + l.color * l.intensity);
+        if lit.max_element() > crate::scene::file::MAX_HDR {
+            loaded.scene.lights[index] = before;
+            return Err(Error::InvalidUpdate {
+                what: format!("light {index}: colour {color} × intensity {intensity}"),
+                expected: format!(
+                    "ambient + Σ colour × intensity of the lights ≤ {} per channel (the HDR image's largest value)",
+                    crate::scene::file::MAX_HDR
+                ),
+            });
+        }
         Ok(())
     }
 
