@@ -44,8 +44,8 @@ fn main() -> Result<(), String> {
         .ok_or("--size WxH")?;
     let extent = vk::Extent2D { width: w, height: h };
     println!("{w}×{h}, {frames} frames each, 2 frames in flight\n");
-    println!("| world | frame p50 | p95 | p99 | frames/s | update p50 (game + hadou's update calls) |");
-    println!("|---|---:|---:|---:|---:|---:|");
+    println!("| world | frame p50 | p95 | p99 | frames/s | update p50 (game + hadou's update calls) | hadou GPU frame p50 |");
+    println!("|---|---:|---:|---:|---:|---:|---:|");
     let mut p50s = Vec::new();
     for changing in [false, true] {
         let vk = gpu::GameVk::new(false, &[], &[], &|_, _, _, _| true)?;
@@ -54,6 +54,7 @@ fn main() -> Result<(), String> {
         g.update(&Input { charge: true, ..Input::default() }, 0.9)?;
         let mut times = Vec::with_capacity(frames);
         let mut updates = Vec::with_capacity(frames);
+        let (mut gpu, mut seen) = (Vec::new(), None);
         let start = Instant::now();
         let mut last = Instant::now();
         for i in 0..frames + 10 {
@@ -67,6 +68,10 @@ fn main() -> Result<(), String> {
                 updates.push(t.elapsed().as_secs_f64() * 1e3);
             }
             g.offscreen_submit(extent, &[])?;
+            if let Some(t) = g.hadou.latest_timings().filter(|t| i >= 10 && Some(t.frame) != seen) {
+                seen = Some(t.frame);
+                gpu.push(t.gpu_frame_ms);
+            }
             let now = Instant::now();
             if i >= 10 {
                 times.push((now - last).as_secs_f64() * 1e3);
@@ -78,8 +83,9 @@ fn main() -> Result<(), String> {
         let p = |q| percentile(&times, q);
         let label = if changing { "changing every frame" } else { "still" };
         let u = percentile(&updates, 0.5);
+        let gp = percentile(&gpu, 0.5);
         println!(
-            "| {label} | {:.2} ms | {:.2} ms | {:.2} ms | {fps:.1} | {u:.3} ms |",
+            "| {label} | {:.2} ms | {:.2} ms | {:.2} ms | {fps:.1} | {u:.3} ms | {gp:.2} ms |",
             p(0.5),
             p(0.95),
             p(0.99)
