@@ -11,6 +11,7 @@
 
 use hadou::effects::metaballs::CastMethod;
 use hadou::effects::metaballs_compare::{compare_metaballs, MetaballFrame};
+use hadou::passes::metaballs::{CLIP_STEPS, CLIP_STEPS_MAX, DROPPED, HITS};
 use hadou::scene::Scene;
 use hadou::{Aov, FrameRequest, FrameStats, Runtime, RuntimeOptions};
 
@@ -38,7 +39,7 @@ fn measure(
 }
 
 fn steps_per_hit(s: &FrameStats) -> f64 {
-    s.metaball_clip_steps as f64 / s.metaball_hits.max(1) as f64
+    s.counter(CLIP_STEPS) as f64 / s.counter(HITS).max(1) as f64
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -71,10 +72,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let (ms, s) = measure(&mut rt, &scene, size, frames)?;
             println!(
                 "| {count} | {size}² | {ms:.2} | {} | {:.2} | {} | {} |",
-                s.metaball_hits,
+                s.counter(HITS),
                 steps_per_hit(&s),
-                s.metaball_clip_steps_max,
-                s.metaball_overflow
+                s.counter(CLIP_STEPS_MAX),
+                s.counter(DROPPED)
             );
         }
     }
@@ -120,10 +121,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let e = compare_metaballs(&scene, 0.0, aovs)?;
         println!(
             "| {label} | {ms:.2} | {} | {:.2} | {} | {} | {} | {:.3} | {:.1e} | {:.1e} | {:.3} |",
-            s.metaball_hits,
+            s.counter(HITS),
             steps_per_hit(&s),
-            s.metaball_clip_steps_max,
-            s.metaball_overflow,
+            s.counter(CLIP_STEPS_MAX),
+            s.counter(DROPPED),
             e.band,
             e.mismatch_percent,
             e.depth_max_rel,

@@ -37,14 +37,32 @@ pub struct FrameStats {
     pub cpu_submit_wait_ms: f64,
     /// Whole frame on the CPU: uniforms, record, submit, wait, read-back.
     pub cpu_frame_ms: f64,
-    /// metaballs: pixels whose cast could not finish (more than 32 support spheres overlap at a
-    /// point, or the clipping did not converge): a surface may be missing there (logged).
-    pub metaball_overflow: u64,
-    /// metaballs: pixels where a metaball is the nearest surface, and the Bézier-clipping steps
-    /// their casts spent (sum, max).
-    pub metaball_hits: u64,
-    pub metaball_clip_steps: u64,
-    pub metaball_clip_steps_max: u64,
+    /// What passes counted on the device this frame, by name (`"metaballs.dropped"`, ...; see
+    /// each pass's docs), in the order they were first reported.
+    pub counters: Vec<(&'static str, u64)>,
+}
+
+impl FrameStats {
+    /// The counter `name` (0 when no pass reported it this frame).
+    pub fn counter(&self, name: &str) -> u64 {
+        self.counters.iter().find(|(n, _)| *n == name).map_or(0, |(_, v)| *v)
+    }
+
+    /// Adds `value` to the counter `name` (a pass reporting after its frame finished).
+    pub fn add(&mut self, name: &'static str, value: u64) {
+        match self.counters.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, v)) => *v += value,
+            None => self.counters.push((name, value)),
+        }
+    }
+
+    /// Raises the counter `name` to at least `value`.
+    pub fn max(&mut self, name: &'static str, value: u64) {
+        match self.counters.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, v)) => *v = (*v).max(value),
+            None => self.counters.push((name, value)),
+        }
+    }
 }
 
 /// One timestamped stretch of a frame (a pass, the depth import, the composite, the read-back).

@@ -18,6 +18,7 @@ use hadou::effects::metaballs_compare::{
 };
 use hadou::effects::raycast::SceneCaster;
 use hadou::passes::energy_wave::wave_params;
+use hadou::passes::metaballs::{CLIP_STEPS, CLIP_STEPS_MAX, DROPPED, HITS};
 use hadou::passes::plan;
 use hadou::scene::Scene;
 use hadou::{Aov, FrameOutput, FrameRequest};
@@ -99,13 +100,13 @@ fn depth_and_normals_match_the_f64_reference() {
         let (c, frame) = compare(&scene, 96, 96, time);
         assert_bounds(&format!("metaballs.toml t={time}"), &c);
         assert!(c.ref_hits > 1000, "the groups must fill part of the frame");
-        assert_eq!(frame.stats.metaball_overflow, 0);
-        assert_eq!(frame.stats.metaball_hits as usize, c.gpu_hits);
+        assert_eq!(frame.stats.counter(DROPPED), 0);
+        assert_eq!(frame.stats.counter(HITS) as usize, c.gpu_hits);
         println!(
             "  clipping: {} hits, {:.2} steps per hit, at most {}",
-            frame.stats.metaball_hits,
-            frame.stats.metaball_clip_steps as f64 / frame.stats.metaball_hits.max(1) as f64,
-            frame.stats.metaball_clip_steps_max
+            frame.stats.counter(HITS),
+            frame.stats.counter(CLIP_STEPS) as f64 / frame.stats.counter(HITS).max(1) as f64,
+            frame.stats.counter(CLIP_STEPS_MAX)
         );
     }
 }
@@ -275,7 +276,7 @@ fn metaballs_clip_the_energy_wave() {
 
 /// 10,000 balls piled into one 16×16 tile: every point of the pile lies in dozens of supports.
 /// No validation error, nothing NaN, and every surface the f64 reference sees but the GPU does
-/// not show (outside the band) is counted in `metaball_overflow`.
+/// not show (outside the band) is counted in the `metaballs.dropped` counter.
 #[test]
 fn ten_thousand_balls_in_one_tile() {
     let scene = common::parse(
@@ -327,10 +328,10 @@ fn ten_thousand_balls_in_one_tile() {
     println!(
         "10,000 balls: reference hits {ref_hits}, gpu hits {gpu_hits}, band {band}, dropped-surface count \
          {}, reference hits the GPU missed {unexplained}, worst depth {worst:.2e} rel",
-        frame.stats.metaball_overflow
+        frame.stats.counter(DROPPED)
     );
     assert!(ref_hits > 100);
-    assert!(unexplained <= frame.stats.metaball_overflow, "a surface was dropped without being counted");
+    assert!(unexplained <= frame.stats.counter(DROPPED), "a surface was dropped without being counted");
     assert!(worst <= 1e-4, "worst {worst:.3e}");
 }
 
@@ -403,7 +404,7 @@ fn hard_cases_stay_finite_and_agree() {
                 let energy = &frame.aov(Aov::Energy).unwrap().data;
                 assert!(energy.iter().all(|v| v.is_finite() && *v >= 0.0), "{label}: energy NaN/Inf");
             }
-            assert_eq!(frame.stats.metaball_overflow, 0, "{label}");
+            assert_eq!(frame.stats.counter(DROPPED), 0, "{label}");
             if label == "group behind the camera" {
                 assert_eq!(c.gpu_hits, 0);
             } else {
@@ -431,7 +432,7 @@ fn growing_tile_lists_rebind() {
     let (a, b) = (&grown.aov(Aov::Depth).unwrap().data, &fresh.aov(Aov::Depth).unwrap().data);
     assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()), "grown lists differ from fresh ones");
     assert!(a.iter().filter(|v| v.is_finite()).count() > 10_000);
-    assert_eq!(grown.stats.metaball_overflow, 0);
+    assert_eq!(grown.stats.counter(DROPPED), 0);
 }
 
 #[test]
@@ -494,7 +495,7 @@ fn more_than_32_supports_on_a_ray() {
                 }
             }
         }
-        let dropped = frame.stats.metaball_overflow;
+        let dropped = frame.stats.counter(DROPPED);
         println!("{label}: reference hits {ref_hits}, missed {missed}, dropped-surface count {dropped}, band {band}, worst depth {worst:.2e}");
         assert!(ref_hits > 100, "{label}");
         assert!(missed <= dropped, "{label}: a surface was dropped without being counted");
@@ -579,10 +580,10 @@ fn sphere_tracing_matches_its_f64_twin() {
     println!(
         "sphere tracing ({steps} steps): {checked} px checked, {left_out} left out, {mismatched} mismatched, \
          worst depth {worst_t:.2e} rel, worst normal {worst_n:.3}°; {} px ran out of steps",
-        frame.stats.metaball_overflow
+        frame.stats.counter(DROPPED)
     );
     assert!(checked > 8000, "{checked}");
     assert!(mismatched as f64 <= 1e-4 * checked as f64, "{mismatched} mismatched");
     assert!(worst_t <= 1e-4 && worst_n <= 0.5, "depth {worst_t:.2e}, normal {worst_n:.3}°");
-    assert!(frame.stats.metaball_hits > 1000);
+    assert!(frame.stats.counter(HITS) > 1000);
 }

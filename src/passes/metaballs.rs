@@ -16,7 +16,12 @@
 //! first one left out, then goes on from there in the next round. Where that cannot move on (more
 //! than 32 supports overlap at one point), the clipping does not converge, or a sphere-traced
 //! group (`method = "sphere_trace"`) runs out of steps, the pixel is counted in
-//! `FrameStats::metaball_overflow` and a warning is logged.
+//! the frame's counter `metaballs.dropped` and a warning is logged.
+//!
+//! # Counters (`FrameStats::counter`)
+//! `metaballs.dropped`: pixels whose cast could not finish (a surface may be missing there);
+//! `metaballs.hits`: pixels where a metaball is the nearest surface; `metaballs.clip_steps` and
+//! `metaballs.clip_steps_max`: the Bézier-clipping steps of those hits (sum, max).
 //!
 //! # Methods
 //! Each group's [`CastMethod`] picks Bézier clipping (with its `tolerance`) or sphere tracing (its
@@ -282,6 +287,12 @@ pub fn bin_balls(camera: &Camera, extent: vk::Extent2D, groups: &[GroupBins]) ->
     TileLists { tiles_x, tiles_y, active: active as u32, tiles, entries }
 }
 
+/// The pass's counters in `FrameStats` (module docs).
+pub const DROPPED: &str = "metaballs.dropped";
+pub const HITS: &str = "metaballs.hits";
+pub const CLIP_STEPS: &str = "metaballs.clip_steps";
+pub const CLIP_STEPS_MAX: &str = "metaballs.clip_steps_max";
+
 /// What the device counted in the last frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MetaballCounts {
@@ -420,10 +431,10 @@ impl Pass for MetaballsPass {
 
     fn finished(&self, slot: usize, stats: &mut FrameStats) {
         let c = self.counts(slot);
-        stats.metaball_overflow += c.dropped;
-        stats.metaball_hits += c.hits;
-        stats.metaball_clip_steps += c.clip_steps;
-        stats.metaball_clip_steps_max = stats.metaball_clip_steps_max.max(c.clip_steps_max);
+        stats.add(DROPPED, c.dropped);
+        stats.add(HITS, c.hits);
+        stats.add(CLIP_STEPS, c.clip_steps);
+        stats.max(CLIP_STEPS_MAX, c.clip_steps_max);
         let last = self.warned_dropped.swap(c.dropped, std::sync::atomic::Ordering::Relaxed);
         if c.dropped > 0 && c.dropped != last {
             log::warn!(
