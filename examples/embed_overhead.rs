@@ -11,6 +11,8 @@
 //! LP_NUM_THREADS=1 cargo run --release --example embed_overhead -- [--frames N] [--size WxH]
 //! [--cpu-ms MS] [--png FILE (the last frame)]
 
+#[path = "common/bench_util.rs"]
+mod bench_util;
 #[path = "game_prototype/game.rs"]
 mod game;
 #[path = "game_prototype/gpu.rs"]
@@ -22,19 +24,10 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use ash::vk;
+use bench_util::{arg, percentile};
 use game::{Game, Input};
 
 const WARMUP: usize = 5;
-
-fn percentile(values: &[f64], p: f64) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[((v.len() - 1) as f64 * p).round() as usize]
-}
-
-fn arg<T: std::str::FromStr>(name: &str) -> Option<T> {
-    std::env::args().skip_while(|a| a != name).nth(1).and_then(|v| v.parse().ok())
-}
 
 /// Busy CPU work standing in for the game's own simulation and scene recording.
 fn game_cpu_work(ms: f64) {

@@ -6,6 +6,8 @@
 //!
 //! LP_NUM_THREADS=1 cargo run --release --example world_bench -- [--frames N] [--size WxH]
 
+#[path = "common/bench_util.rs"]
+mod bench_util;
 #[path = "game_prototype/game.rs"]
 mod game;
 #[path = "game_prototype/gpu.rs"]
@@ -16,19 +18,10 @@ mod painter;
 use std::time::Instant;
 
 use ash::vk;
+use bench_util::{arg, percentile};
 use game::{Game, Input};
 use glam::{DMat4, DVec3};
 use hadou::{Ball, MetaballsDesc, WaveDesc};
-
-fn percentile(values: &[f64], p: f64) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[((v.len() - 1) as f64 * p).round() as usize]
-}
-
-fn arg<T: std::str::FromStr>(name: &str) -> Option<T> {
-    std::env::args().skip_while(|a| a != name).nth(1).and_then(|v| v.parse().ok())
-}
 
 /// The input of frame `i` of the changing run: walk, charge for a second, release, repeat.
 fn input(i: usize) -> Input {

@@ -10,6 +10,8 @@
 
 mod common;
 
+use common::host::Host;
+
 use ash::vk;
 use glam::{DMat4, DQuat, DVec3};
 use hadou::effects::energy_wave::line_integral;
@@ -47,75 +49,6 @@ length = 6
 [[metaballs]]
 balls = [{ centre = [-1, 0, 0], radius = 1.2 }]
 "#;
-
-/// The host's side: a command buffer and a fence per slot, on hadou's own device.
-struct Host {
-    device: ash::Device,
-    queue: vk::Queue,
-    pool: vk::CommandPool,
-    cmds: Vec<vk::CommandBuffer>,
-    fences: Vec<vk::Fence>,
-    submitted: Vec<bool>,
-}
-
-impl Host {
-    fn new(ctx: &GpuContext, slots: usize) -> Host {
-        let device = ctx.device.clone();
-        let info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(ctx.queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        let pool = unsafe { device.create_command_pool(&info, None) }.unwrap();
-        let alloc =
-            vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(slots as u32);
-        let cmds = unsafe { device.allocate_command_buffers(&alloc) }.unwrap();
-        let fences = (0..slots)
-            .map(|_| unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.unwrap())
-            .collect();
-        Host { device, queue: ctx.queue, pool, cmds, fences, submitted: vec![false; slots] }
-    }
-
-    /// Waits for the slot's previous frame (the host's guarantee), then begins its command buffer.
-    fn begin(&mut self, slot: usize) -> vk::CommandBuffer {
-        self.wait(slot);
-        let cmd = self.cmds[slot];
-        unsafe {
-            self.device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).unwrap();
-            self.device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).unwrap();
-        }
-        cmd
-    }
-
-    fn submit(&mut self, slot: usize) {
-        let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmds[slot])];
-        let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmds)];
-        unsafe {
-            self.device.end_command_buffer(self.cmds[slot]).unwrap();
-            self.device.queue_submit2(self.queue, &submit, self.fences[slot]).unwrap();
-        }
-        self.submitted[slot] = true;
-    }
-
-    fn wait(&mut self, slot: usize) {
-        if std::mem::take(&mut self.submitted[slot]) {
-            unsafe {
-                self.device.wait_for_fences(&[self.fences[slot]], true, u64::MAX).unwrap();
-                self.device.reset_fences(&[self.fences[slot]]).unwrap();
-            }
-        }
-    }
-
-    fn wait_all(&mut self) {
-        (0..self.cmds.len()).for_each(|s| self.wait(s));
-    }
-
-    fn destroy(mut self) {
-        self.wait_all();
-        unsafe {
-            self.fences.iter().for_each(|&f| self.device.destroy_fence(f, None));
-            self.device.destroy_command_pool(self.pool, None);
-        }
-    }
-}
 
 fn context() -> GpuContext {
     let options = ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };

@@ -7,7 +7,8 @@
 
 mod common;
 
-use ash::vk;
+use common::host::Host;
+
 use glam::{DMat4, DVec3};
 use hadou::effects::energy_wave::line_integral;
 use hadou::gpu::{ContextOptions, GpuContext};
@@ -41,75 +42,6 @@ fn context() -> GpuContext {
     let options = ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };
     GpuContext::new(&options)
         .unwrap_or_else(|e| panic!("GPU tests need a Vulkan device (lavapipe in CI): {e}"))
-}
-
-/// The host: a command buffer and a fence per slot; it waits only on the fence of the frame that
-/// last used a slot (the frame contract).
-struct Host {
-    device: ash::Device,
-    queue: vk::Queue,
-    pool: vk::CommandPool,
-    slots: Vec<(vk::CommandBuffer, vk::Fence, bool)>,
-}
-
-impl Host {
-    fn new(ctx: &GpuContext, n: usize) -> Host {
-        let device = ctx.device.clone();
-        let info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(ctx.queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        let pool = unsafe { device.create_command_pool(&info, None) }.unwrap();
-        let alloc =
-            vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(n as u32);
-        let cmds = unsafe { device.allocate_command_buffers(&alloc) }.unwrap();
-        let slots = cmds
-            .into_iter()
-            .map(|c| {
-                (c, unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.unwrap(), false)
-            })
-            .collect();
-        Host { device, queue: ctx.queue, pool, slots }
-    }
-
-    fn begin(&mut self, slot: usize) -> vk::CommandBuffer {
-        self.wait(slot);
-        let cmd = self.slots[slot].0;
-        unsafe {
-            self.device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).unwrap();
-            self.device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).unwrap();
-        }
-        cmd
-    }
-
-    fn submit(&mut self, slot: usize) {
-        let (cmd, fence, _) = self.slots[slot];
-        let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
-        let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmds)];
-        unsafe {
-            self.device.end_command_buffer(cmd).unwrap();
-            self.device.queue_submit2(self.queue, &submit, fence).unwrap();
-        }
-        self.slots[slot].2 = true;
-    }
-
-    fn wait(&mut self, slot: usize) {
-        let (_, fence, pending) = self.slots[slot];
-        if pending {
-            unsafe {
-                self.device.wait_for_fences(&[fence], true, u64::MAX).unwrap();
-                self.device.reset_fences(&[fence]).unwrap();
-            }
-            self.slots[slot].2 = false;
-        }
-    }
-
-    fn destroy(mut self) {
-        (0..self.slots.len()).for_each(|s| self.wait(s));
-        unsafe {
-            self.slots.iter().for_each(|s| self.device.destroy_fence(s.1, None));
-            self.device.destroy_command_pool(self.pool, None);
-        }
-    }
 }
 
 fn wave(k: usize) -> WaveDesc {
@@ -209,7 +141,7 @@ fn spawn_and_despawn_over_three_hundred_frames() {
         "the energy pass came and went: {with_energy}/{without_energy}"
     );
     assert_eq!(hadou.context().host_waits(), waits, "spawning or despawning waited on the device");
-    (0..3).for_each(|s| host.wait(s));
+    host.wait_all();
     assert!(sampled.len() >= 4, "{} frames sampled", sampled.len());
 
     let mut rt = common::runtime();

@@ -142,12 +142,20 @@ impl GpuContext {
             let presents_to = present.map(|_| (&surface_loader, surface));
             let candidate = choose_device(&instance, options.device_filter.as_deref(), presents_to)?;
             let device = create_device(&instance, &candidate, present.is_some())?;
-            Ok((candidate, device))
+            match Resources::new(&instance, &device, candidate.physical) {
+                Ok(resources) => Ok((candidate, device, resources)),
+                Err(e) => {
+                    // SAFETY: nothing was created on the device yet.
+                    unsafe { device.destroy_device(None) };
+                    Err(e)
+                }
+            }
         })();
-        let (candidate, device) = match context {
+        let (candidate, device, resources) = match context {
             Ok(v) => v,
             Err(e) => {
-                // SAFETY: nothing but the surface was created from the instance yet.
+                // SAFETY: nothing but the surface was created from the instance yet (a device made
+                // before a failure was destroyed above).
                 unsafe {
                     if surface != vk::SurfaceKHR::null() {
                         surface_loader.destroy_surface(surface, None);
@@ -166,23 +174,6 @@ impl GpuContext {
         let debug_device =
             debug_instance.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
         let info = device_info(&instance, candidate.physical, &props);
-        let resources = match Resources::new(&instance, &device, candidate.physical) {
-            Ok(r) => r,
-            Err(e) => {
-                // SAFETY: nothing was created on the device yet.
-                unsafe {
-                    device.destroy_device(None);
-                    if surface != vk::SurfaceKHR::null() {
-                        surface_loader.destroy_surface(surface, None);
-                    }
-                    if let Some(d) = &debug_instance {
-                        d.destroy_debug_utils_messenger(messenger, None);
-                    }
-                    instance.destroy_instance(None);
-                }
-                return Err(e);
-            }
-        };
         log::info!(
             "device: {} ({}), Vulkan {}, driver {}",
             info.name,
