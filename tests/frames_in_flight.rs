@@ -172,6 +172,9 @@ fn sixty_frames_three_in_flight_each_sees_its_own_world() {
     hadou.frame_finished(59).unwrap();
     let timings = hadou.latest_timings().expect("frame 59 finished");
     assert_eq!(timings.frame, 59);
+    // Everything the 60 frames retired (grown rings, per-frame texel views) is freed once their
+    // frames are known finished: nothing piles up.
+    assert_eq!(hadou.context().retired_count(), 0, "objects still waiting after every frame finished");
 
     let mut rt = common::runtime();
     for (i, w, readback) in &sampled {

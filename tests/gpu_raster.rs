@@ -277,3 +277,20 @@ fn huge_exposure_and_lights_at_the_limit_stay_finite_and_white() {
     }
     common::assert_clean(&rt);
 }
+
+/// `Runtime::submit` records and submits without waiting (frames overlap up to its 2 slots);
+/// `wait_all` then reports them finished, and the last frame's statistics are there.
+#[test]
+fn submitted_frames_report_when_finished() {
+    let mut rt = common::runtime();
+    rt.load_scene(common::load("assets/scenes/showcase.toml")).unwrap();
+    let request = FrameRequest::new(32, 24);
+    let frames: Vec<u64> = (0..5).map(|_| rt.submit(&request).unwrap()).collect();
+    assert_eq!(frames, [0, 1, 2, 3, 4]);
+    assert!(rt.finished_stats(4).is_none(), "not yet known finished");
+    rt.wait_all().unwrap();
+    let stats = rt.finished_stats(4).expect("frame 4 finished");
+    let names: Vec<&str> = stats.passes.iter().map(|p| p.name.as_str()).collect();
+    assert!(names.starts_with(&["raster", "metaballs"]) && names.contains(&"tonemap"), "{names:?}");
+    common::assert_clean(&rt);
+}
