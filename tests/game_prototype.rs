@@ -99,3 +99,38 @@ fn headless_game_loop_charges_fires_and_hits() {
     let (errors, warnings) = messages.counts();
     assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
 }
+
+/// 600 frames of play, two frames in flight, validation and synchronization validation on: the
+/// player walks, charges, fires, the shot flies and is despawned, again and again, while the slime
+/// buds and merges. Every 50th finished frame's energy is checked against the f64 integral of the
+/// wave its state set (or its absence when no wave was alive).
+#[test]
+fn six_hundred_frames_of_play() {
+    let vk =
+        gpu::GameVk::new(true, &[], &[], &|_, _, _, _| true).unwrap_or_else(|e| panic!("game device: {e}"));
+    let mut g = Game::new(vk).unwrap();
+    let e = vk::Extent2D { width: 48, height: 30 };
+    let (mut checked, mut with_wave, mut index) = (0, 0, 0usize);
+    let mut check = |frame: game::OffscreenFrame| {
+        if index % 50 == 0 {
+            check_energy(&frame, e);
+            checked += 1;
+            with_wave += usize::from(frame.state.wave_desc().is_some());
+        }
+        index += 1;
+    };
+    for i in 0..600 {
+        let input = Input { charge: i % 45 < 20, left: i % 90 >= 60, right: i % 90 < 20, reset: false };
+        g.update(&input, 1.0 / 30.0).unwrap();
+        if let Some(frame) = g.offscreen_submit(e, &[Aov::Energy, Aov::Depth]).unwrap() {
+            check(frame);
+        }
+    }
+    g.offscreen_finish().unwrap().into_iter().for_each(&mut check);
+    assert_eq!(index, 600);
+    assert!(checked == 12 && with_wave >= 3, "{checked} frames checked, {with_wave} with a wave");
+    assert!(g.state.hits >= 5, "shots reached the target: {}", g.state.hits);
+    let messages = g.destroy();
+    let (errors, warnings) = messages.counts();
+    assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
+}
