@@ -78,14 +78,35 @@ pub struct AovImage {
 impl AovImage {
     /// Converts the target's texels (R32F or RGBA16F) to f32.
     pub fn decode(aov: Aov, width: u32, height: u32, bytes: &[u8]) -> AovImage {
-        let data = match aov.target().format() {
-            crate::gpu::vk::Format::R16G16B16A16_SFLOAT => bytes
-                .chunks_exact(2)
-                .map(|b| half::f16::from_bits(u16::from_le_bytes([b[0], b[1]])).to_f32())
-                .collect(),
-            _ => bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect(),
-        };
+        let mut data = Vec::new();
+        Self::decode_into(aov, bytes, &mut data);
         AovImage { width, height, channels: aov.channels(), data }
+    }
+
+    /// As `decode`, but a host allocation that cannot be had (a 16384² HDR AOV is 4 GiB of f32)
+    /// is an error naming the AOV, not an abort.
+    pub fn try_decode(aov: Aov, width: u32, height: u32, bytes: &[u8]) -> Result<AovImage, crate::GpuError> {
+        let values = match aov.target().format() {
+            crate::gpu::vk::Format::R16G16B16A16_SFLOAT => bytes.len() / 2,
+            _ => bytes.len() / 4,
+        };
+        let mut data = Vec::new();
+        data.try_reserve_exact(values).map_err(|_| crate::GpuError::OutOfHostMemory {
+            what: format!("the {} AOV ({values} values)", aov.name()),
+        })?;
+        Self::decode_into(aov, bytes, &mut data);
+        Ok(AovImage { width, height, channels: aov.channels(), data })
+    }
+
+    fn decode_into(aov: Aov, bytes: &[u8], data: &mut Vec<f32>) {
+        match aov.target().format() {
+            crate::gpu::vk::Format::R16G16B16A16_SFLOAT => data.extend(
+                bytes
+                    .chunks_exact(2)
+                    .map(|b| half::f16::from_bits(u16::from_le_bytes([b[0], b[1]])).to_f32()),
+            ),
+            _ => data.extend(bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))),
+        }
     }
 
     /// The value of channel `c` at pixel (x, y).

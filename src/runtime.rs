@@ -291,16 +291,18 @@ type Collected = (Option<Vec<u8>>, Vec<(Aov, AovImage)>);
 
 fn collect_output(request: &FrameRequest, readback: &AovReadback) -> Result<Collected, Error> {
     let color = if request.color {
-        Some(
-            readback
-                .bytes(Target::Ldr)
-                .ok_or(Error::NotProduced {
-                    target: "ldr",
-                    passes: String::new(),
-                    needs: Target::Ldr.needs(),
-                })?
-                .to_vec(),
-        )
+        let bytes = readback.bytes(Target::Ldr).ok_or(Error::NotProduced {
+            target: "ldr",
+            passes: String::new(),
+            needs: Target::Ldr.needs(),
+        })?;
+        // A 16384² colour is 1 GiB: a failed allocation is an error, not an abort.
+        let mut color = Vec::new();
+        color.try_reserve_exact(bytes.len()).map_err(|_| crate::GpuError::OutOfHostMemory {
+            what: format!("the colour read-back ({} bytes)", bytes.len()),
+        })?;
+        color.extend_from_slice(bytes);
+        Some(color)
     } else {
         None
     };
@@ -308,7 +310,7 @@ fn collect_output(request: &FrameRequest, readback: &AovReadback) -> Result<Coll
     for &aov in &request.aovs {
         let missing =
             Error::NotProduced { target: aov.name(), passes: String::new(), needs: aov.target().needs() };
-        aovs.push((aov, readback.aov(aov).ok_or(missing)?));
+        aovs.push((aov, readback.try_aov(aov)?.ok_or(missing)?));
     }
     Ok((color, aovs))
 }

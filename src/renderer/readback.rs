@@ -32,6 +32,12 @@ impl AovReadback {
         let bytes = self.bytes(aov.target())?;
         Some(AovImage::decode(aov, self.extent.width, self.extent.height, bytes))
     }
+
+    /// As `aov`, with a host allocation that fails an error rather than an abort.
+    pub fn try_aov(&self, aov: Aov) -> Result<Option<AovImage>, Error> {
+        let Some(bytes) = self.bytes(aov.target()) else { return Ok(None) };
+        Ok(Some(AovImage::try_decode(aov, self.extent.width, self.extent.height, bytes)?))
+    }
 }
 
 impl Renderer {
