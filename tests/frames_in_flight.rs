@@ -16,7 +16,6 @@ use ash::vk;
 use glam::{DMat4, DQuat, DVec3};
 use hadou::effects::energy_wave::line_integral;
 use hadou::effects::metaballs::Ball;
-use hadou::gpu::{ContextOptions, GpuContext};
 use hadou::passes::energy_wave::wave_params;
 use hadou::scene::camera::Camera;
 use hadou::scene::transform::TransformOp;
@@ -49,19 +48,6 @@ length = 6
 [[metaballs]]
 balls = [{ centre = [-1, 0, 0], radius = 1.2 }]
 "#;
-
-fn context() -> GpuContext {
-    let options = ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };
-    GpuContext::new(&options)
-        .unwrap_or_else(|e| panic!("GPU tests need a Vulkan device (lavapipe in CI): {e}"))
-}
-
-/// Fails when validation reported anything so far (leaked objects are reported at device destroy,
-/// into the same log, which outlives the context).
-fn assert_clean(log: &hadou::gpu::validation::ValidationLog, when: &str) {
-    let c = log.counts();
-    assert!(c.errors == 0 && c.warnings == 0, "{when}: validation {c:?}:\n{}", log.messages().join("\n"));
-}
 
 /// The world of frame `i`: what the test hands hadou, and applies to its own copy of the scene.
 struct World {
@@ -143,7 +129,7 @@ const AOVS: [Aov; 3] = [Aov::Depth, Aov::Energy, Aov::Normal];
 /// 3 slots, 60 frames, all submitted without waiting; every 10th frame is read back and checked.
 #[test]
 fn sixty_frames_three_in_flight_each_sees_its_own_world() {
-    let ctx = context();
+    let ctx = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, 3);
     let options = RendererOptions { frames_in_flight: 3, ..RendererOptions::default() };
@@ -186,7 +172,11 @@ fn sixty_frames_three_in_flight_each_sees_its_own_world() {
         for aov in AOVS {
             let got = readback.aov(aov).unwrap();
             let want = alone.aov(aov).unwrap();
-            assert!(same_bits(&got, want), "frame {i}: {} differs from the world rendered alone", aov.name());
+            assert!(
+                common::same_bits(&got, want),
+                "frame {i}: {} differs from the world rendered alone",
+                aov.name()
+            );
         }
         check_energy(*i, &scene, &readback.aov(Aov::Energy).unwrap(), &readback.aov(Aov::Depth).unwrap());
         // The metaballs grew with the frame: more of the image is metaball surface.
@@ -198,11 +188,7 @@ fn sixty_frames_three_in_flight_each_sees_its_own_world() {
     drop(sampled);
     host.destroy();
     drop(hadou);
-    assert_clean(&log, "after shutdown (leaks included)");
-}
-
-fn same_bits(a: &AovImage, b: &AovImage) -> bool {
-    a.data.len() == b.data.len() && a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits())
+    common::assert_log_clean(&log, "after shutdown (leaks included)");
 }
 
 /// Energy vs the f64 closed form of the frame's own wave, up to the GPU's own distance. Bound 1e-4
@@ -228,7 +214,7 @@ fn check_energy(i: usize, scene: &Scene, energy: &AovImage, distance: &AovImage)
 /// frame's descriptor set, so nothing stale is used, nothing crashes, and it never waits.
 #[test]
 fn a_new_depth_view_every_frame() {
-    let ctx = context();
+    let ctx = common::context();
     let log = ctx.validation_log();
     let device = ctx.device.clone();
     let mut host = Host::new(&ctx, 2);
@@ -329,14 +315,14 @@ fn a_new_depth_view_every_frame() {
     drop(depth);
     drop(memory);
     drop(hadou);
-    assert_clean(&log, "after shutdown (leaks included)");
+    common::assert_log_clean(&log, "after shutdown (leaks included)");
 }
 
 /// 20 resizes while 3 frames are in flight: old images are retired with the frames that use them
 /// (no wait), every frame has the size it asked for.
 #[test]
 fn resize_twenty_times_with_three_in_flight() {
-    let ctx = context();
+    let ctx = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, 3);
     let options = RendererOptions { frames_in_flight: 3, ..RendererOptions::default() };
@@ -363,7 +349,7 @@ fn resize_twenty_times_with_three_in_flight() {
     drop(reads);
     host.destroy();
     drop(hadou);
-    assert_clean(&log, "after shutdown (leaks included)");
+    common::assert_log_clean(&log, "after shutdown (leaks included)");
 }
 
 const JADE: &str = r#"
@@ -403,7 +389,7 @@ material = "jade"
 #[test]
 fn a_moving_translucent_instance_renders_as_the_same_world_still() {
     use hadou::report::translucency::{abs_stats, samples, world_voxel};
-    let ctx = context();
+    let ctx = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, 2);
     let mut hadou = Renderer::with_options(ctx, &RendererOptions::default()).unwrap();
@@ -448,7 +434,7 @@ fn a_moving_translucent_instance_renders_as_the_same_world_still() {
         request.aovs = vec![Aov::Thickness];
         let still = rt.render(&request).unwrap();
         assert!(
-            same_bits(&thickness, still.aov(Aov::Thickness).unwrap()),
+            common::same_bits(&thickness, still.aov(Aov::Thickness).unwrap()),
             "frame {i}: differs from the still world"
         );
         let (samples, _) = samples(scene, (w, h), &thickness.data, &depth.data).unwrap();
@@ -465,5 +451,5 @@ fn a_moving_translucent_instance_renders_as_the_same_world_still() {
     drop(sampled);
     host.destroy();
     drop(hadou);
-    assert_clean(&log, "after shutdown (leaks included)");
+    common::assert_log_clean(&log, "after shutdown (leaks included)");
 }

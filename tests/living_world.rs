@@ -11,10 +11,9 @@ use common::host::Host;
 
 use glam::{DMat4, DVec3};
 use hadou::effects::energy_wave::line_integral;
-use hadou::gpu::{ContextOptions, GpuContext};
 use hadou::passes::energy_wave::wave_params;
 use hadou::{
-    Aov, AovImage, Ball, Error, FrameInputs, FrameRequest, MetaballsDesc, Renderer, RendererOptions, WaveDesc,
+    Aov, Ball, Error, FrameInputs, FrameRequest, MetaballsDesc, Renderer, RendererOptions, WaveDesc,
 };
 
 const SCENE: &str = r#"
@@ -37,12 +36,6 @@ albedo = [0.3, 0.8, 0.4]
 mesh = "box"
 transform = [{ translate = [2, 0, -1] }]
 "#;
-
-fn context() -> GpuContext {
-    let options = ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };
-    GpuContext::new(&options)
-        .unwrap_or_else(|e| panic!("GPU tests need a Vulkan device (lavapipe in CI): {e}"))
-}
 
 fn wave(k: usize) -> WaveDesc {
     let a = k as f64 * 0.37;
@@ -74,14 +67,10 @@ const W: u32 = 40;
 const H: u32 = 30;
 const AOVS: [Aov; 3] = [Aov::Depth, Aov::Energy, Aov::Normal];
 
-fn same_bits(a: &AovImage, b: &AovImage) -> bool {
-    a.data.len() == b.data.len() && a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits())
-}
-
 /// 100 waves and 50 metaball groups spawned and despawned over 300 frames, 3 in flight.
 #[test]
 fn spawn_and_despawn_over_three_hundred_frames() {
-    let ctx = context();
+    let ctx = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, 3);
     let options = RendererOptions { frames_in_flight: 3, ..RendererOptions::default() };
@@ -153,7 +142,7 @@ fn spawn_and_despawn_over_three_hundred_frames() {
         for aov in AOVS {
             let got = readback.aov(aov).unwrap();
             assert!(
-                same_bits(&got, alone.aov(aov).unwrap()),
+                common::same_bits(&got, alone.aov(aov).unwrap()),
                 "frame {i}: {} differs from the world alone",
                 aov.name()
             );
@@ -186,7 +175,7 @@ fn spawn_and_despawn_over_three_hundred_frames() {
 /// Bad calls: a despawned id, NaN, an unknown material, no balls — typed errors, world unchanged.
 #[test]
 fn bad_calls_are_typed_errors_and_change_nothing() {
-    let mut hadou = Renderer::with_options(context(), &RendererOptions::default()).unwrap();
+    let mut hadou = Renderer::with_options(common::context(), &RendererOptions::default()).unwrap();
     hadou.load_scene(common::parse(SCENE)).unwrap();
     let id = hadou.spawn_wave(&wave(0)).unwrap();
     let group = hadou.spawn_metaballs(&metaballs(0)).unwrap();
@@ -273,9 +262,12 @@ fn lights_and_materials_change_as_the_file_would() {
     file.load_scene(changed).unwrap();
     let want = file.render(&request).unwrap();
     for aov in [Aov::Hdr, Aov::Thickness] {
-        assert!(same_bits(after.aov(aov).unwrap(), want.aov(aov).unwrap()), "{} differs", aov.name());
+        assert!(common::same_bits(after.aov(aov).unwrap(), want.aov(aov).unwrap()), "{} differs", aov.name());
     }
-    assert!(!same_bits(before.aov(Aov::Hdr).unwrap(), after.aov(Aov::Hdr).unwrap()), "the change shows");
+    assert!(
+        !common::same_bits(before.aov(Aov::Hdr).unwrap(), after.aov(Aov::Hdr).unwrap()),
+        "the change shows"
+    );
     common::assert_clean(&live);
     common::assert_clean(&file);
 }

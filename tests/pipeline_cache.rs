@@ -4,12 +4,10 @@
 
 mod common;
 
-use hadou::gpu::{ContextOptions, GpuContext};
 use hadou::{FrameInputs, Renderer, RendererOptions};
 
 fn renderer(dir: &std::path::Path) -> Renderer {
-    let options = ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };
-    let ctx = GpuContext::new(&options).unwrap_or_else(|e| panic!("GPU tests need a Vulkan device: {e}"));
+    let ctx = common::context();
     let options =
         RendererOptions { pipeline_cache_dir: Some(dir.to_path_buf()), ..RendererOptions::default() };
     let mut r = Renderer::with_options(ctx, &options).unwrap();

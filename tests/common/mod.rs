@@ -43,3 +43,24 @@ pub fn assert_clean(runtime: &Runtime) {
         runtime.validation_messages().join("\n")
     );
 }
+
+/// A context of hadou's own with validation and synchronization validation on (for tests that
+/// drive a `Renderer` themselves); panics when no Vulkan device exists.
+pub fn context() -> hadou::gpu::GpuContext {
+    let options =
+        hadou::gpu::ContextOptions { validation: true, device_filter: std::env::var("HADOU_DEVICE").ok() };
+    hadou::gpu::GpuContext::new(&options)
+        .unwrap_or_else(|e| panic!("GPU tests need a Vulkan device (lavapipe in CI): {e}"))
+}
+
+/// Fails when validation reported anything so far (leaked objects are reported at device destroy,
+/// into the same log, which outlives the context).
+pub fn assert_log_clean(log: &hadou::gpu::validation::ValidationLog, when: &str) {
+    let c = log.counts();
+    assert!(c.errors == 0 && c.warnings == 0, "{when}: validation {c:?}:\n{}", log.messages().join("\n"));
+}
+
+/// Whether two AOVs hold the same bits.
+pub fn same_bits(a: &hadou::AovImage, b: &hadou::AovImage) -> bool {
+    a.data.len() == b.data.len() && a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits())
+}
