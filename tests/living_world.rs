@@ -183,6 +183,8 @@ fn bad_calls_are_typed_errors_and_change_nothing() {
     let nan = WaveDesc { a: f64::NAN, ..wave(1) };
     assert!(matches!(hadou.spawn_wave(&nan), Err(Error::InvalidUpdate { .. })));
     assert!(matches!(hadou.update_wave(id, &nan), Err(Error::InvalidUpdate { .. })));
+    let too_bright = WaveDesc { color: DVec3::splat(1e30), intensity: 1e30, ..wave(1) };
+    assert!(matches!(hadou.spawn_wave(&too_bright), Err(Error::InvalidUpdate { .. })), "beyond f32");
     let zero_dir = WaveDesc { direction: DVec3::ZERO, ..wave(1) };
     assert!(matches!(hadou.spawn_wave(&zero_dir), Err(Error::InvalidUpdate { .. })));
     let unknown = MetaballsDesc { material: "no such".into(), ..metaballs(1) };

@@ -61,7 +61,15 @@ fn invalid(what: String, expected: &str) -> Error {
 }
 
 fn check_wave(d: &WaveDesc) -> Result<(), Error> {
-    let ok = d.origin.is_finite()
+    // What the GPU holds: every value and the emission colour × intensity as f32.
+    let f32_max = f64::from(f32::MAX);
+    let fits = |v: DVec3| v.abs().max_element() <= f32_max;
+    let scalars = [d.a, d.b, d.core, d.intensity];
+    let ok = fits(d.origin)
+        && fits(d.color * d.intensity)
+        && scalars.iter().all(|v| v.abs() <= f32_max)
+        && (d.length.is_infinite() || d.length <= f32_max)
+        && d.origin.is_finite()
         && d.direction.is_finite()
         && d.direction.length() > 0.0
         && [d.a, d.b, d.core, d.intensity].iter().all(|v| v.is_finite() && *v >= 0.0)
@@ -75,7 +83,7 @@ fn check_wave(d: &WaveDesc) -> Result<(), Error> {
         Err(invalid(
             format!("wave {d:?}"),
             "a finite origin, a non-zero finite direction, finite a, b, core, intensity ≥ 0, length > 0 \
-             and a finite colour ≥ 0",
+             and a finite colour ≥ 0, each (and colour × intensity) within f32's range (3.4e38)",
         ))
     }
 }
@@ -113,6 +121,9 @@ impl Renderer {
         (wave.origin, wave.direction) = (desc.origin, desc.direction.normalize());
         (wave.a, wave.b, wave.core, wave.length) = (desc.a, desc.b, desc.core, desc.length);
         (wave.color, wave.intensity) = (desc.color, desc.intensity);
+        // From now on, at every time: a file wave's keyframes and velocity no longer apply.
+        wave.velocity = DVec3::ZERO;
+        wave.keyframes.clear();
         Ok(())
     }
 
