@@ -294,8 +294,18 @@ fn bake_table(scene: &Scene, mesh: usize, res: u32, limit: u32) -> GpuResult<Thi
         }),
         None => bake(&m.mesh, res, &options, &none).map(|(lut, _)| lut),
     };
+    // Name where the resolution was asked for: the voxel_res of a material this mesh is drawn with.
+    let at = scene
+        .instances
+        .iter()
+        .filter(|i| i.mesh == mesh)
+        .map(|i| &scene.materials[i.material])
+        .find(|mat| matches!(mat.kind, MaterialKind::Translucent { voxel_res, .. } if voxel_res == res))
+        .map_or(String::new(), |mat| {
+            format!("{}: voxel_res of material \"{}\": ", mat.voxel_res_at, mat.name)
+        });
     baked.map_err(|e| GpuError::Limit {
-        what: format!("thickness LUT of mesh \"{}\" at {res}³", m.name),
+        what: format!("{at}thickness LUT of mesh \"{}\" at {res}³", m.name),
         message: e.to_string(),
     })
 }

@@ -261,7 +261,10 @@ fn materials(ctx: Ctx, defs: &Tables<MaterialDef>) -> Result<Vec<Material>, Scen
 fn material(o: &Owner, name: &str, def: &MaterialDef) -> Result<Material, SceneError> {
     let kind = super::file_material::material_kind(o, def)?;
     let albedo = o.vec3("albedo", def.albedo.as_ref(), DVec3::splat(DEFAULT_ALBEDO), UNIT)?;
-    Ok(Material { name: name.to_owned(), kind, albedo })
+    let at = def.voxel_res.as_ref().map_or(o.span.start, |v| v.span().start);
+    let (line, column) = super::error::line_column(o.ctx.text, at);
+    let voxel_res_at = format!("{}:{line}:{column}", o.ctx.path.display());
+    Ok(Material { name: name.to_owned(), kind, albedo, voxel_res_at })
 }
 
 /// The scene's materials and a name → index map, so resolving n instances costs O(n).
@@ -284,7 +287,13 @@ impl Materials {
             return i;
         }
         let albedo = DVec3::splat(DEFAULT_ALBEDO);
-        self.list.push(Material { name: DEFAULT_MATERIAL.into(), kind: MaterialKind::Lambert, albedo });
+        let voxel_res_at = String::new();
+        self.list.push(Material {
+            name: DEFAULT_MATERIAL.into(),
+            kind: MaterialKind::Lambert,
+            albedo,
+            voxel_res_at,
+        });
         self.index.insert(DEFAULT_MATERIAL.into(), self.list.len() - 1);
         self.list.len() - 1
     }

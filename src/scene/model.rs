@@ -78,6 +78,9 @@ pub struct Material {
     pub kind: MaterialKind,
     /// Linear RGB diffuse reflectance, each in [0, 1].
     pub albedo: DVec3,
+    /// Where the material's `voxel_res` was given ("file:line:column"; its table when the file
+    /// gives none), for errors found after loading: a thickness table too large for the device.
+    pub voxel_res_at: String,
 }
 
 /// How a material shades.
