@@ -155,6 +155,10 @@ pub const LIGHT_MAP_MAX: u32 = 1024;
 /// the translucent instances, so the entry point a texel gives lies within a quarter voxel of the
 /// light's own ray, well under the LUT's voxel-scale error; a power of two in [`LIGHT_MAP_MIN`,
 /// `LIGHT_MAP_MAX`] (the smallest map for a scene without a translucent instance or a light).
+/// The quarter-voxel bound holds only while it fits in `LIGHT_MAP_MAX`: fine voxels over a wide
+/// light view (res 64, several instances apart) are capped at 1024² with coarser texels (0.26–0.40
+/// voxel measured by a review; issue 13 item 5). Instances that move change the view and so the
+/// size, frame by frame (`TranslucentFrame`).
 /// The map spans the light view's diameter 2R. An instance's finest world voxel edge is its object
 /// edge h = (longest side of the mesh box) / voxel_res shrunk by M's smallest stretch σ_min =
 /// 1/‖M⁻¹‖₂ ≥ 1/‖M⁻¹‖_F (Frobenius, on the linear part): h/‖M⁻¹‖_F is a lower bound of it

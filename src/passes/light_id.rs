@@ -1,8 +1,9 @@
 //! light_id: the translucent instances rendered from the scene's first directional light, with an
 //! orthographic view fitted to their bounding sphere (`effects::translucency::LightView`), into
 //! its own S² maps, S = `effects::translucency::light_map_size` (texels of at most a quarter of the
-//! finest world voxel, 256 to 1024; independent of the frame's size, so the light's sampling does
-//! not change with the output resolution):
+//! finest world voxel where 1024 texels suffice, 256 to 1024; independent of the frame's size, so
+//! the light's sampling does not change with the output resolution; made again each frame as
+//! instances move):
 //! - `light_ids` (RG32UI): (instance id + 1, surface voxel) of the first translucent surface the
 //!   light reaches; the voxel is the nearest-grid lookup at the fragment's object-space position
 //!   (`ThicknessLut::surface_voxel_at`; the translucency pass takes it as the first candidate for
