@@ -165,7 +165,8 @@ impl App {
         self.scene_watch.iter().chain(&self.shader_watch).filter_map(Watch::due).min()
     }
 
-    fn poll_files(&mut self) {
+    /// Reloads the scene or the shaders when their watch hands out a (debounced) change.
+    fn take_file_changes(&mut self) {
         let now = Instant::now();
         let scene_changed = self.scene_watch.as_ref().is_some_and(|w| w.take(now)) || self.scene_pending;
         let shaders_changed = self.shader_watch.as_ref().is_some_and(|w| w.take(now));
@@ -408,7 +409,7 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
-        self.poll_files();
+        self.take_file_changes();
         let Some(window) = &self.window else { return };
         let size = window.inner_size();
         if size.width == 0 || size.height == 0 || self.broken {
