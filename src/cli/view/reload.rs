@@ -133,14 +133,19 @@ pub struct Watch {
 impl Watch {
     /// Watches `files` (their folders, for events).
     pub fn files(files: &[PathBuf], wake: Wake) -> Self {
-        // Event paths are the watched folder joined with the name: compare in that form.
-        let resolved: Vec<PathBuf> = files.iter().map(|f| absolute_in_folder(f)).collect();
+        // Event paths are the watched folder joined with the name: compare in that form. A
+        // symbolic link is watched as a name in its folder and as the file it points to.
+        let polled = files.iter().map(|f| (absolute_in_folder(f), RecursiveMode::NonRecursive)).collect();
+        let mut names: Vec<PathBuf> = files.iter().map(|f| absolute_in_folder(f)).collect();
+        names.extend(files.iter().filter_map(|f| std::fs::canonicalize(f).ok()));
+        names.sort();
+        names.dedup();
         let mut folders: Vec<PathBuf> =
-            resolved.iter().filter_map(|f| f.parent().map(Path::to_path_buf)).collect();
+            names.iter().filter_map(|f| f.parent().map(Path::to_path_buf)).collect();
+        folders.sort();
         folders.dedup();
         let events = folders.into_iter().map(|d| (d, RecursiveMode::NonRecursive)).collect();
-        let polled = resolved.iter().map(|f| (f.clone(), RecursiveMode::NonRecursive)).collect();
-        Watch::start(Filter::Files(resolved), events, polled, wake, false)
+        Watch::start(Filter::Files(names), events, polled, wake, false)
     }
 
     /// Every shader source under `dir` (what `HADOU_SHADER_DIR` compiles from), new files included.
@@ -419,6 +424,14 @@ mod tests {
             assert!(quiet(&watch), "a save {how} was handed out twice");
         }
         assert!(wakes.load(std::sync::atomic::Ordering::Relaxed) > 0, "the viewer is woken");
+        // A link to a file in another folder: an edit of the file it points to counts.
+        std::fs::create_dir_all(dir.join("real")).unwrap();
+        std::fs::write(dir.join("real/target.toml"), "t").unwrap();
+        std::os::unix::fs::symlink(dir.join("real/target.toml"), dir.join("link.toml")).unwrap();
+        let (_, wake) = counted();
+        let linked = Watch::files(&[dir.join("link.toml")], wake);
+        std::fs::write(dir.join("real/target.toml"), "edited").unwrap();
+        assert!(latency(&linked, Instant::now()).is_some(), "an edit through a link was missed");
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "by rename");
         std::fs::write(dir.join("other.toml"), "b").unwrap();
         assert!(quiet(&watch), "reading the file or writing another one is not a change");
