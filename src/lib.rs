@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod aov;
+pub mod builtin;
 #[doc(hidden)]
 pub mod effects;
 #[doc(hidden)]

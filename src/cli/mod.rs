@@ -65,7 +65,7 @@ fn parse_size(text: &str) -> anyhow::Result<(u32, u32)> {
 /// Loads the scene and picks the size: `--size` or the scene's `[render] size`.
 fn load(scene: &Path, size: Option<&str>) -> anyhow::Result<(hadou::scene::Scene, (u32, u32))> {
     let size = size.map(parse_size).transpose().context("--size")?;
-    let scene = hadou::scene::load_scene(scene)?;
+    let scene = hadou::builtin::load(scene)?;
     let size = size.unwrap_or((scene.render.width, scene.render.height));
     Ok((scene, size))
 }

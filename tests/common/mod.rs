@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod host;
+pub mod xvfb;
 
 use std::path::{Path, PathBuf};
 
