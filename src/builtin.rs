@@ -18,6 +18,7 @@ pub const SCENES: [(&str, &str); 9] = [
     ("instances", include_str!("../assets/scenes/instances.toml")),
     ("metaballs", include_str!("../assets/scenes/metaballs.toml")),
     ("metaballs_4096", include_str!("../assets/scenes/metaballs_4096.toml")),
+    ("metaballs_dense", include_str!("../assets/scenes/metaballs_dense.toml")),
     ("showcase", include_str!("../assets/scenes/showcase.toml")),
     ("single_cube", include_str!("../assets/scenes/single_cube.toml")),
     ("translucency", include_str!("../assets/scenes/translucency.toml")),
