@@ -9,7 +9,7 @@ use hadou::{Aov, FrameRequest, Runtime, RuntimeOptions};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (TOML, see docs/scene-format.md).
+    /// Scene file: TOML, or a glTF 2.0 .gltf/.glb (see docs/scene-format.md).
     scene: PathBuf,
     /// Output PNG (sRGB).
     #[arg(short, long, default_value = "out.png")]
