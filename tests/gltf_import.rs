@@ -223,15 +223,16 @@ fn independent_writer_volume_demo() {
     assert_eq!(sigma, DVec3::new(-c[0].ln() / d, -c[1].ln() / d, -c[2].ln() / d), "σ = −ln(c)/d");
     assert_eq!(voxel_res, hadou::scene::DEFAULT_VOXEL_RES);
     assert_eq!(glass.albedo, DVec3::new(0.75f32 as f64, 0.95f32 as f64, 0.8f32 as f64));
-    assert_eq!(s.lights.len(), 1);
+    assert_eq!(s.lights.len(), 2);
     let want = DVec3::new(0.25, -0.45, 1.0).normalize();
     assert!(s.lights[0].direction.abs_diff_eq(want, 1e-6), "{}", s.lights[0].direction);
-    assert_eq!(s.lights[0].intensity, 2.5);
+    assert_eq!(s.lights[0].intensity, 1.6f32 as f64);
+    assert!(s.lights[1].direction.abs_diff_eq(DVec3::new(0.5, -1.0, -0.8).normalize(), 1e-6));
     assert!(s.camera.position.abs_diff_eq(DVec3::new(0.0, 1.6, 6.5), 1e-6));
     let forward = (s.camera.look_at - s.camera.position).normalize();
     assert!(forward.abs_diff_eq((DVec3::new(0.0, 0.1, 0.0) - s.camera.position).normalize(), 1e-6));
     assert!((s.camera.fov_y_deg - 0.7f32.to_degrees() as f64).abs() < 1e-4);
-    assert_eq!((s.camera.near, s.camera.far), (0.1f32 as f64, 100.0));
+    assert_eq!((s.camera.near, s.camera.far), (0.1f32 as f64, 30.0));
     assert_eq!((s.render.width, s.render.height), (768, 512), "aspectRatio 1.5");
 }
 

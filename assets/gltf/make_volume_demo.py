@@ -93,6 +93,7 @@ CUBE_TURN_DEG = 30.0
 ATTENUATION_COLOR = [0.55, 0.85, 0.6]
 ATTENUATION_DISTANCE = 0.6
 LIGHT_DIRECTION = normalize([0.25, -0.45, 1.0])  # travels toward the camera: the cube is back-lit
+KEY_DIRECTION = normalize([0.5, -1.0, -0.8])  # a weaker key light from the camera's side
 CAMERA_POSITION = [0.0, 1.6, 6.5]
 
 
@@ -130,23 +131,26 @@ def build():
         g.Node(name="ground", mesh=2, translation=[0.0, -1.0, 0.0]),
         g.Node(name="sun", rotation=rotation_between([0.0, 0.0, -1.0], LIGHT_DIRECTION),
                extensions={"KHR_lights_punctual": {"light": 0}}),
+        g.Node(name="key", rotation=rotation_between([0.0, 0.0, -1.0], KEY_DIRECTION),
+               extensions={"KHR_lights_punctual": {"light": 1}}),
         g.Node(name="camera", camera=0, translation=CAMERA_POSITION,
                rotation=rotation_between([0.0, 0.0, -1.0], forward)),
     ]
     gltf = g.GLTF2(
         asset=g.Asset(version="2.0", generator="pygltflib (assets/gltf/make_volume_demo.py)"),
         scene=0,
-        scenes=[g.Scene(nodes=[0, 1, 4, 5, 6])],
+        scenes=[g.Scene(nodes=[0, 1, 4, 5, 6, 7])],
         nodes=nodes,
         meshes=meshes,
         materials=materials,
-        cameras=[g.Camera(type="perspective", perspective=g.Perspective(yfov=0.7, znear=0.1, zfar=100.0, aspectRatio=1.5))],
+        cameras=[g.Camera(type="perspective", perspective=g.Perspective(yfov=0.7, znear=0.1, zfar=30.0, aspectRatio=1.5))],
         accessors=blob.accessors,
         bufferViews=blob.views,
         buffers=[g.Buffer(byteLength=len(blob.data))],
         extensionsUsed=["KHR_materials_transmission", "KHR_materials_volume", "KHR_lights_punctual"],
         extensions={"KHR_lights_punctual": {"lights": [
-            {"type": "directional", "name": "back light", "color": [1.0, 0.97, 0.9], "intensity": 2.5}]}},
+            {"type": "directional", "name": "back light", "color": [1.0, 0.97, 0.9], "intensity": 1.6},
+            {"type": "directional", "name": "key light", "color": [0.9, 0.95, 1.0], "intensity": 0.5}]}},
     )
     return gltf, bytes(blob.data)
 

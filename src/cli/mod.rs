@@ -75,10 +75,12 @@ fn load(scene: &Path, size: Option<&str>) -> anyhow::Result<(hadou::scene::Scene
 fn scene_inputs(path: &Path, scene: &hadou::scene::Scene) -> Vec<PathBuf> {
     use hadou::scene::mesh::MeshSpec;
     let mut inputs = vec![path.to_path_buf()];
+    let mut gltf_files: Vec<&Path> = Vec::new();
     for m in &scene.meshes {
         match &m.spec {
             MeshSpec::Obj { path } => inputs.push(path.clone()),
-            MeshSpec::Gltf { path, .. } if !inputs.contains(path) => {
+            MeshSpec::Gltf { path, .. } if !gltf_files.contains(&path.as_path()) => {
+                gltf_files.push(path);
                 inputs.extend(hadou::scene::gltf::referenced_files(path));
             }
             _ => {}
