@@ -403,7 +403,7 @@ fn malformed() -> Vec<(&'static str, Writer, &'static str, &'static str)> {
     out.push(("NaN position", w, "/meshes/0/primitives/0/attributes/POSITION", "position 0 is [0.5, NaN"));
     let mut w = hierarchy(true);
     w.nodes[1]["children"] = json!([0]);
-    out.push(("cyclic nodes", w, "/nodes/", "the node graph has a cycle"));
+    out.push(("cyclic nodes", w, "/nodes/1/children", "the node graph has a cycle: 1 → 0 → 1"));
     let mut w = hierarchy(true);
     w.nodes[3]["children"] = json!([1]);
     out.push(("two parents", w, "/nodes/3/children/0", "already a child of /nodes/0"));

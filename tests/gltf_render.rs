@@ -8,10 +8,10 @@
 //!
 //! As tests/gpu_translucency.rs `colour_matches_the_f64_formula` argues: the pass adds
 //! T = w·L·a·e^(−σd); isolated as HDR(translucent) − HDR(same scene, lambert). Per pixel and
-//! channel |ΔT| ≤ w·L·a·σ·|d − d*|·e^(−σ·min(d, d*)) (the thickness error, mean value theorem)
-//! + 2⁻¹⁰·(|H₁| + |H₀|) (two RGBA16F stores) + 2⁻²³ (f16 subnormals) + 1e-5·L·a (f32 arithmetic),
-//! with d the GPU's thickness and d* the exact f64 one; and the 95th percentile of the error beyond
-//! rounding is at most L·a·σ·h_w (one world voxel of thickness error).
+//! channel the error is at most the thickness term w·L·a·σ·|d − d*|·e^(−σ·min(d, d*)) (mean value
+//! theorem; d the GPU's thickness, d* the exact f64 one), plus 2⁻¹⁰·(|H₁| + |H₀|) (two RGBA16F
+//! stores), plus 2⁻²³ (f16 subnormals), plus 1e-5·L·a (f32 arithmetic). The 95th percentile of
+//! the error beyond rounding is at most L·a·σ·h_w (one world voxel of thickness error).
 
 mod common;
 

@@ -73,8 +73,9 @@ fn check_acyclic(path: &Path, parent: &[Option<usize>]) -> Result<(), GltfError>
                 DONE => break,
                 ON_PATH => {
                     let from = walk.iter().position(|&w| w == i).unwrap_or(0);
+                    // Walked child → parent; listed parent → child, back to the first.
                     let mut cycle: Vec<String> = walk[from..].iter().rev().map(|w| w.to_string()).collect();
-                    cycle.push(i.to_string());
+                    cycle.push(cycle[0].clone());
                     let message = format!(
                         "the node graph has a cycle: {} (each node a child of the one before; glTF nodes form trees)",
                         cycle.join(" → ")
@@ -90,15 +91,14 @@ fn check_acyclic(path: &Path, parent: &[Option<usize>]) -> Result<(), GltfError>
             }
         }
         // Depths from the top of the walk down.
-        let mut d = at.map_or(0, |i| depth[i] + 1);
-        for &i in walk.iter().rev() {
+        let top = at.map_or(0, |i| depth[i] + 1);
+        for (d, &i) in (top..).zip(walk.iter().rev()) {
             depth[i] = d;
             if d >= MAX_DEPTH {
                 let message = format!("node {i} is {d} levels deep (hadou reads at most {MAX_DEPTH})");
                 return Err(GltfError::at(path, format!("/nodes/{i}"), message));
             }
             state[i] = DONE;
-            d += 1;
         }
     }
     Ok(())
@@ -201,7 +201,7 @@ mod tests {
         let p = Path::new("x.gltf");
         check_acyclic(p, &[None, Some(0), Some(1)]).unwrap();
         let e = check_acyclic(p, &[Some(2), Some(0), Some(1)]).unwrap_err();
-        assert!(e.message.contains("cycle") && e.pointer.starts_with("/nodes/"), "{e}");
+        assert!(e.message.contains("cycle: 1 → 2 → 0 → 1") && e.pointer == "/nodes/2/children", "{e}");
         assert!(check_acyclic(p, &[Some(0)]).unwrap_err().message.contains("0 → 0"));
         let chain: Vec<Option<usize>> = (0..MAX_DEPTH + 1).map(|i| i.checked_sub(1)).collect();
         assert!(check_acyclic(p, &chain).unwrap_err().message.contains("levels deep"));

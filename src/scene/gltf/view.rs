@@ -57,7 +57,7 @@ pub(super) fn perspective(
             // Far enough for every corner of the bounds, at least the TOML default.
             let reach =
                 bounds.map_or(0.0, |(lo, hi)| (position - (lo + hi) / 2.0).length() + (hi - lo).length());
-            (2.0 * reach).max(Camera::DEFAULT_FAR).min(MAX_EXTENT)
+            (2.0 * reach).clamp(Camera::DEFAULT_FAR, MAX_EXTENT)
         }
     };
     if !(far > near && far <= MAX_EXTENT) {
