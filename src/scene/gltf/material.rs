@@ -153,6 +153,19 @@ fn note_ignored(m: &gltf::Material, at: &str, ignored: &mut Ignored) {
             ignored.add("textures", format!("{at}/{field}"));
         }
     }
+    // Lambert shading is glTF's metallic 0, roughness 1; anything else shades differently.
+    if pbr.metallic_factor() > 0.0 {
+        ignored.add(
+            "metallic and specular shading (hadou shades Lambert)",
+            format!("{at}/pbrMetallicRoughness/metallicFactor"),
+        );
+    }
+    if pbr.roughness_factor() < 1.0 {
+        ignored.add(
+            "metallic and specular shading (hadou shades Lambert)",
+            format!("{at}/pbrMetallicRoughness/roughnessFactor"),
+        );
+    }
     if m.emissive_factor() != [0.0; 3] {
         ignored.add("emission", format!("{at}/emissiveFactor"));
     }
