@@ -168,6 +168,50 @@ fn triangle_strips_and_fans_become_lists() {
     }
 }
 
+/// Sparse accessors: base values (or zeros without a bufferView) with substitutions.
+#[test]
+fn sparse_positions_are_substituted() {
+    let dir = temp_dir("sparse");
+    let tet = procedural::tetrahedron(1.0).unwrap();
+    for with_base in [true, false] {
+        let mut w = Writer::default();
+        let mut base = tet.positions.clone();
+        base[1] = [9.0, 9.0, 9.0];
+        base[3] = [9.0, 9.0, 9.0];
+        let pos = w.vec3(&base, true);
+        if !with_base {
+            w.accessors[pos].as_object_mut().unwrap().remove("bufferView");
+        }
+        let (sub, values): (Vec<u32>, Vec<[f32; 3]>) = if with_base {
+            (vec![1, 3], vec![tet.positions[1], tet.positions[3]])
+        } else {
+            ((0..tet.positions.len() as u32).collect(), tet.positions.clone())
+        };
+        let idx_view =
+            w.view(&sub.iter().flat_map(|i| (*i as u16).to_le_bytes()).collect::<Vec<u8>>(), 34963);
+        let val_view =
+            w.view(&values.iter().flatten().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>(), 34962);
+        w.accessors[pos]["sparse"] = json!({
+            "count": sub.len(),
+            "indices": { "bufferView": idx_view, "componentType": 5123 },
+            "values": { "bufferView": val_view }
+        });
+        let nrm = w.vec3(&tet.normals, false);
+        let ind = w.indices(&tet.indices, IndexWidth::U8);
+        let m = w.mesh(vec![json!({ "attributes": { "POSITION": pos, "NORMAL": nrm }, "indices": ind })]);
+        w.node(json!({ "mesh": m }));
+        w.scene_roots = vec![0];
+        let s = load(&w.write_glb(&dir, &format!("s{with_base}")));
+        assert_eq!(s.meshes[0].mesh, tet, "with a base view: {with_base}");
+        // Indices must increase strictly.
+        let bad_view = w.view(&[3u8, 0, 1, 0], 34963);
+        w.accessors[pos]["sparse"]["indices"]["bufferView"] = json!(bad_view);
+        w.accessors[pos]["sparse"]["count"] = json!(2);
+        let e = err(&w.write_glb(&dir, &format!("bad{with_base}")));
+        assert!(e.contains("/attributes/POSITION: accessor /accessors/0: sparse index 1 is 1 (expected strictly increasing"), "{e}");
+    }
+}
+
 /// .gltf + .bin, .gltf with a data: URI and .glb give the same scene.
 #[test]
 fn three_containers_give_the_same_scene() {

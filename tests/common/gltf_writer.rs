@@ -34,7 +34,7 @@ pub struct Writer {
 }
 
 impl Writer {
-    fn view(&mut self, bytes: &[u8], target: u32) -> usize {
+    pub fn view(&mut self, bytes: &[u8], target: u32) -> usize {
         while self.bin.len() % 4 != 0 {
             self.bin.push(0);
         }

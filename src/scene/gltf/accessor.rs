@@ -12,8 +12,8 @@ use super::error::GltfError;
 pub(super) enum ReadError {
     /// The file is malformed here.
     Bad(GltfError),
-    /// Valid glTF hadou does not read (sparse or quantized accessors): the primitive is skipped
-    /// and listed as ignored.
+    /// Valid glTF hadou does not read (quantized accessors): the primitive is skipped and listed
+    /// as ignored.
     Unsupported(String),
 }
 
@@ -42,13 +42,8 @@ impl Source<'_> {
             let found = format!("{:?}", a.dimensions()).to_uppercase();
             return Err(self.bad(at, a, format!("expected a VEC3 accessor, found {found}")).into());
         }
-        let (bytes, stride) = self.elements(a, at, 12)?;
-        Ok((0..a.count())
-            .map(|i| {
-                let e = &bytes[i * stride..];
-                [0, 4, 8].map(|o| f32::from_le_bytes([e[o], e[o + 1], e[o + 2], e[o + 3]]))
-            })
-            .collect())
+        let decode = |e: &[u8]| [0, 4, 8].map(|o| f32::from_le_bytes([e[o], e[o + 1], e[o + 2], e[o + 3]]));
+        self.read(a, at, 12, decode, [0.0; 3])
     }
 
     /// Triangle indices: SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT.
@@ -69,57 +64,94 @@ impl Source<'_> {
                 return Err(self.bad(at, a, message).into());
             }
         };
-        let (bytes, stride) = self.elements(a, at, size)?;
-        Ok((0..a.count())
-            .map(|i| {
-                let e = &bytes[i * stride..];
-                match size {
-                    1 => e[0] as u32,
-                    2 => u16::from_le_bytes([e[0], e[1]]) as u32,
-                    _ => u32::from_le_bytes([e[0], e[1], e[2], e[3]]),
-                }
-            })
-            .collect())
+        self.read(a, at, size, move |e| unsigned(e, size), 0)
     }
 
-    /// The bytes from the accessor's first element to the end of its last, and the stride, after
-    /// checking every bound (in u64, so no declared size can overflow the arithmetic).
-    fn elements<'b>(
-        &'b self,
+    /// The accessor's elements decoded: from its buffer view (zeros without one), then the sparse
+    /// substitutions, if any (glTF 2.0 §3.6.2.3).
+    fn read<T: Clone>(
+        &self,
         a: &gltf::Accessor,
         at: &str,
         size: usize,
-    ) -> Result<(&'b [u8], usize), ReadError> {
-        if a.sparse().is_some() {
-            return Err(ReadError::Unsupported(format!("{at}: sparse accessor /accessors/{}", a.index())));
-        }
-        let Some(view) = a.view() else {
-            return Err(self.bad(at, a, "accessor has no bufferView (expected one)").into());
-        };
-        let v = view.index();
-        let stride = view.stride().unwrap_or(size);
-        if stride < size || stride % a.data_type().size() != 0 {
-            let message = format!("buffer view /bufferViews/{v} has byteStride {stride} (expected a multiple of {} and at least the element size {size})", a.data_type().size());
-            return Err(self.bad(at, a, message).into());
-        }
-        if a.offset() % a.data_type().size() != 0 {
-            let message = format!(
-                "byteOffset {} is not a multiple of the component size {}",
-                a.offset(),
-                a.data_type().size()
-            );
-            return Err(self.bad(at, a, message).into());
-        }
-        if a.count() == 0 {
+        decode: impl Fn(&[u8]) -> T,
+        zero: T,
+    ) -> Result<Vec<T>, ReadError> {
+        let count = a.count();
+        if count == 0 {
             return Err(self.bad(at, a, "accessor has count 0 (expected at least one element)").into());
         }
-        let (count, stride64, offset) = (a.count() as u64, stride as u64, a.offset() as u64);
-        let end = offset + stride64 * (count - 1) + size as u64;
+        let component = a.data_type().size();
+        let mut out = match a.view() {
+            Some(view) => {
+                let stride = view.stride().unwrap_or(size);
+                if stride < size || stride % component != 0 {
+                    let message = format!(
+                        "buffer view /bufferViews/{} has byteStride {stride} (expected a multiple of {component} and at least the element size {size})",
+                        view.index()
+                    );
+                    return Err(self.bad(at, a, message).into());
+                }
+                let bytes = self.range(a, at, &view, a.offset(), count, size, stride)?;
+                (0..count).map(|i| decode(&bytes[i * stride..])).collect()
+            }
+            None => vec![zero; count],
+        };
+        if let Some(sparse) = a.sparse() {
+            let n = sparse.count();
+            if n == 0 || n > count {
+                let message = format!("sparse count {n} (expected 1..={count}, the accessor's count)");
+                return Err(self.bad(at, a, message).into());
+            }
+            let isize = match sparse.indices().index_type() {
+                gltf::accessor::sparse::IndexType::U8 => 1,
+                gltf::accessor::sparse::IndexType::U16 => 2,
+                gltf::accessor::sparse::IndexType::U32 => 4,
+            };
+            let ind = sparse.indices();
+            let idx = self.range(a, at, &ind.view(), ind.offset(), n, isize, isize)?;
+            let val = sparse.values();
+            let values = self.range(a, at, &val.view(), val.offset(), n, size, size)?;
+            let mut previous = None;
+            for k in 0..n {
+                let i = unsigned(&idx[k * isize..], isize) as usize;
+                if i >= count || previous.is_some_and(|p| i <= p) {
+                    let message = format!(
+                        "sparse index {k} is {i} (expected strictly increasing indices below the count {count})"
+                    );
+                    return Err(self.bad(at, a, message).into());
+                }
+                previous = Some(i);
+                out[i] = decode(&values[k * size..]);
+            }
+        }
+        Ok(out)
+    }
+
+    /// The bytes of `count` elements of `size` bytes, `stride` apart, from byte `offset` of `view`,
+    /// after checking every bound (in u64, so no declared size can overflow the arithmetic).
+    #[allow(clippy::too_many_arguments)]
+    fn range<'b>(
+        &'b self,
+        a: &gltf::Accessor,
+        at: &str,
+        view: &gltf::buffer::View,
+        offset: usize,
+        count: usize,
+        size: usize,
+        stride: usize,
+    ) -> Result<&'b [u8], ReadError> {
+        let v = view.index();
+        let component = a.data_type().size();
+        if offset % component != 0 {
+            let message = format!("byteOffset {offset} is not a multiple of the component size {component}");
+            return Err(self.bad(at, a, message).into());
+        }
+        let end = offset as u64 + stride as u64 * (count as u64 - 1) + size as u64;
         if end > view.length() as u64 {
             let message = format!(
-                "accessor reads bytes {offset}..{end} of buffer view /bufferViews/{v}, which has {} bytes (count {}, stride {stride})",
-                view.length(),
-                a.count()
+                "accessor reads bytes {offset}..{end} of buffer view /bufferViews/{v}, which has {} bytes (count {count}, stride {stride})",
+                view.length()
             );
             return Err(self.bad(at, a, message).into());
         }
@@ -133,12 +165,20 @@ impl Source<'_> {
             );
             return Err(self.bad(at, a, message).into());
         }
-        let start = view.offset() + a.offset();
-        Ok((&data[start..view.offset() + end as usize], stride))
+        Ok(&data[view.offset() + offset..view.offset() + end as usize])
     }
 
     fn bad(&self, at: &str, a: &gltf::Accessor, message: impl std::fmt::Display) -> GltfError {
         GltfError::at(self.path, at, format!("accessor /accessors/{}: {message}", a.index()))
+    }
+}
+
+/// A little-endian unsigned integer of 1, 2 or 4 bytes.
+fn unsigned(e: &[u8], size: usize) -> u32 {
+    match size {
+        1 => e[0] as u32,
+        2 => u16::from_le_bytes([e[0], e[1]]) as u32,
+        _ => u32::from_le_bytes([e[0], e[1], e[2], e[3]]),
     }
 }
 
