@@ -463,12 +463,39 @@ fn malformed() -> Vec<(&'static str, Writer, &'static str, &'static str)> {
         "accessor 99 does not exist",
     ));
     let mut w = hierarchy(true);
+    w.views[0]["byteOffset"] = json!(u64::MAX - 4);
+    out.push((
+        "overflowing view",
+        w,
+        "/meshes/0/primitives/0/attributes/POSITION",
+        "past the end of buffer /buffers/0",
+    ));
+    let mut w = hierarchy(true);
     w.views[0]["byteLength"] = json!(100000);
     out.push((
         "view past the buffer",
         w,
         "/meshes/0/primitives/0/attributes/POSITION",
         "past the end of buffer /buffers/0",
+    ));
+    let mut w = hierarchy(true);
+    w.accessors[0]["count"] = json!(u64::MAX / 2);
+    w.views[0]["byteStride"] = json!(252);
+    out.push((
+        "overflowing count",
+        w,
+        "/meshes/0/primitives/0/attributes/POSITION",
+        "accessor reads bytes 0..",
+    ));
+    let mut w = hierarchy(true);
+    w.accessors[0].as_object_mut().unwrap().remove("bufferView");
+    w.accessors[0]["count"] = json!(1u64 << 40);
+    w.accessors[0]["sparse"] = json!({ "count": 1, "indices": { "bufferView": 0, "componentType": 5121 }, "values": { "bufferView": 0 } });
+    out.push((
+        "huge sparse count",
+        w,
+        "/meshes/0/primitives/0/attributes/POSITION",
+        "elements without a bufferView",
     ));
     let mut w = hierarchy(true);
     w.nodes[0]["scale"] = json!([1e39, 1.0, 1.0]);

@@ -8,6 +8,10 @@ use gltf::accessor::{DataType, Dimensions};
 
 use super::error::GltfError;
 
+/// The most elements an accessor without a bufferView (zeros, then sparse substitutions) may
+/// have: 2²⁴ vertices (192 MiB of positions) is past any single game asset.
+pub const MAX_ZEROS: usize = 1 << 24;
+
 /// Why an accessor could not be read: a broken file, or a valid encoding hadou does not read.
 pub(super) enum ReadError {
     /// The file is malformed here.
@@ -95,6 +99,12 @@ impl Source<'_> {
                 let bytes = self.range(a, at, &view, a.offset(), count, size, stride)?;
                 (0..count).map(|i| decode(&bytes[i * stride..])).collect()
             }
+            // All zeros but the sparse substitutions: no buffer bounds the count, so a limit does.
+            None if count > MAX_ZEROS => {
+                let message =
+                    format!("{count} elements without a bufferView (hadou reads at most {MAX_ZEROS})");
+                return Err(self.bad(at, a, message).into());
+            }
             None => vec![zero; count],
         };
         if let Some(sparse) = a.sparse() {
@@ -129,7 +139,7 @@ impl Source<'_> {
     }
 
     /// The bytes of `count` elements of `size` bytes, `stride` apart, from byte `offset` of `view`,
-    /// after checking every bound (in u64, so no declared size can overflow the arithmetic).
+    /// after checking every bound (in u128, so no declared size can overflow the arithmetic).
     #[allow(clippy::too_many_arguments)]
     fn range<'b>(
         &'b self,
@@ -147,8 +157,9 @@ impl Source<'_> {
             let message = format!("byteOffset {offset} is not a multiple of the component size {component}");
             return Err(self.bad(at, a, message).into());
         }
-        let end = offset as u64 + stride as u64 * (count as u64 - 1) + size as u64;
-        if end > view.length() as u64 {
+        // u128: offset, stride and count are each at most 2⁶⁴, so their sum of products fits.
+        let end = offset as u128 + stride as u128 * (count as u128 - 1) + size as u128;
+        if end > view.length() as u128 {
             let message = format!(
                 "accessor reads bytes {offset}..{end} of buffer view /bufferViews/{v}, which has {} bytes (count {count}, stride {stride})",
                 view.length()
@@ -157,8 +168,8 @@ impl Source<'_> {
         }
         let b = view.buffer().index();
         let data = &self.buffers[b];
-        let view_end = view.offset() as u64 + view.length() as u64;
-        if view_end > data.len() as u64 || view_end > view.buffer().length() as u64 {
+        let view_end = view.offset() as u128 + view.length() as u128;
+        if view_end > data.len() as u128 || view_end > view.buffer().length() as u128 {
             let message = format!(
                 "buffer view /bufferViews/{v} ends at byte {view_end}, past the end of buffer /buffers/{b} ({} bytes)",
                 view.buffer().length().min(data.len())
