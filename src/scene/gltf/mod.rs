@@ -2,11 +2,12 @@
 //! file becomes the same model types a TOML scene does — meshes, materials, instances, lights, a
 //! camera — so every pass draws it unchanged. One job per file: `document` (parse, validate),
 //! `buffers`, `accessor` (checked reads), `primitive` (a `Mesh`), `nodes` (hierarchy, transforms),
-//! `material`, `lights`, `view` (camera, framing), `ignored` (the one warning), `scene` (a whole
-//! scene from a glTF file).
+//! `material`, `lights`, `view` (camera, framing), `builder` (the parts, shared), `ignored` (the one
+//! warning), `scene` (a whole scene from a glTF file).
 
 mod accessor;
 mod buffers;
+mod builder;
 mod document;
 mod error;
 mod ignored;
@@ -17,7 +18,6 @@ mod primitive;
 mod scene;
 mod view;
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
@@ -30,8 +30,6 @@ pub(crate) use scene::build_primitive;
 pub use scene::{is_gltf, load_gltf, DEFAULT_LIGHT_DIRECTION};
 pub use view::{framing, GltfCamera, FRAMING_DIRECTION, FRAMING_FOV_DEG};
 
-use super::file::{MAX_HDR, MAX_LIGHTS};
-use super::mesh::{Mesh, MeshSpec};
 use super::model::{DirectionalLight, Instance, Material, SceneMesh, DEFAULT_VOXEL_RES};
 use super::transform::{Transform, TransformOp};
 
@@ -93,7 +91,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
         ignored.add("scenes other than the one shown", s);
     }
     let src = accessor::Source { path, buffers: &buffers.data };
-    let mut b = Builder::new(path, options, ignored);
+    let mut b = builder::Builder::new(path, options, ignored);
     let all_nodes: Vec<gltf::Node> = doc.nodes().collect();
     let mut cameras = Vec::new();
     for &n in &order {
@@ -177,146 +175,6 @@ fn note_file_level(doc: &gltf::Document, ignored_required: &[String], ignored: &
     }
     for a in doc.animations() {
         ignored.add("animations", format!("/animations/{}", a.index()));
-    }
-}
-
-/// The scene parts as they are built, with the caches that make meshes and materials shared.
-struct Builder<'a> {
-    path: &'a Path,
-    options: &'a ImportOptions,
-    meshes: Vec<SceneMesh>,
-    materials: Vec<Material>,
-    instances: Vec<Instance>,
-    lights: Vec<DirectionalLight>,
-    ignored: Ignored,
-    /// (glTF mesh, primitive) → (hadou mesh, closed) or None when skipped.
-    built: HashMap<(usize, usize), Option<(usize, bool)>>,
-    /// glTF material index → how it looks.
-    looks: HashMap<Option<usize>, material::Look>,
-    /// (glTF material, closed mesh) → hadou material.
-    used: HashMap<(Option<usize>, bool), usize>,
-    light_sum: DVec3,
-}
-
-impl<'a> Builder<'a> {
-    fn new(path: &'a Path, options: &'a ImportOptions, ignored: Ignored) -> Self {
-        Builder {
-            path,
-            options,
-            meshes: Vec::new(),
-            materials: Vec::new(),
-            instances: Vec::new(),
-            lights: Vec::new(),
-            ignored,
-            built: HashMap::new(),
-            looks: HashMap::new(),
-            used: HashMap::new(),
-            light_sum: DVec3::ZERO,
-        }
-    }
-
-    /// One instance per drawable primitive of `mesh`, placed by `ops`.
-    fn node_mesh(
-        &mut self,
-        src: &accessor::Source,
-        node: &gltf::Node,
-        mesh: &gltf::Mesh,
-        ops: Vec<TransformOp>,
-        world: Transform,
-    ) -> Result<(), GltfError> {
-        let n = node.index();
-        if node.skin().is_some() {
-            self.ignored.add("skins (drawn in the rest pose)", format!("/nodes/{n}/skin"));
-        }
-        for p in mesh.primitives() {
-            let key = (mesh.index(), p.index());
-            if !self.built.contains_key(&key) {
-                let entry = self.build(src, mesh, &p)?;
-                self.built.insert(key, entry);
-            }
-            let Some((mesh_index, closed)) = self.built[&key] else { continue };
-            let material = self.material(&p.material(), closed, key)?;
-            let name = node.name().map_or_else(|| format!("node {n}"), |s| format!("node {n} \"{s}\""));
-            self.instances.push(Instance {
-                name: Some(format!("{}{name}", self.options.label)),
-                mesh: mesh_index,
-                material,
-                ops: ops.clone(),
-                transform: world,
-            });
-        }
-        Ok(())
-    }
-
-    fn build(
-        &mut self,
-        src: &accessor::Source,
-        mesh: &gltf::Mesh,
-        p: &gltf::Primitive,
-    ) -> Result<Option<(usize, bool)>, GltfError> {
-        let at = format!("/meshes/{}/primitives/{}", mesh.index(), p.index());
-        if p.morph_targets().len() > 0 {
-            self.ignored.add("morph targets (drawn in the base shape)", format!("{at}/targets"));
-        }
-        let built: Mesh = match primitive::build(src, mesh.index(), p)? {
-            primitive::Built::Mesh(m) => m,
-            primitive::Built::Skipped(why) => {
-                self.ignored.add("primitives hadou cannot draw", why);
-                return Ok(None);
-            }
-        };
-        let closed = built.check_closed_oriented().is_ok() && built.signed_volume() > 0.0;
-        let mut name = format!("{}mesh {} primitive {}", self.options.label, mesh.index(), p.index());
-        if let Some(s) = mesh.name() {
-            name.push_str(&format!(" \"{s}\""));
-        }
-        let spec = MeshSpec::Gltf { path: self.path.to_path_buf(), mesh: mesh.index(), primitive: p.index() };
-        self.meshes.push(SceneMesh { name, spec, mesh: built });
-        Ok(Some((self.meshes.len() - 1, closed)))
-    }
-
-    fn material(
-        &mut self,
-        m: &gltf::Material,
-        closed: bool,
-        mesh: (usize, usize),
-    ) -> Result<usize, GltfError> {
-        if !self.looks.contains_key(&m.index()) {
-            let look = material::look(self.path, m, &self.options.label, &mut self.ignored)?;
-            self.looks.insert(m.index(), look);
-        }
-        let look = &self.looks[&m.index()];
-        if look.volume.is_some() && !closed {
-            let at = format!("/meshes/{}/primitives/{}", mesh.0, mesh.1);
-            self.ignored.add("KHR_materials_volume on open meshes (opaque, dimmed by thicknessFactor)", at);
-        }
-        if let Some(&i) = self.used.get(&(m.index(), closed)) {
-            return Ok(i);
-        }
-        self.materials.push(look.material(closed, self.options.voxel_res, self.path));
-        let i = self.materials.len() - 1;
-        self.used.insert((m.index(), closed), i);
-        Ok(i)
-    }
-
-    /// Keeps at most `MAX_LIGHTS`, and the lit colour (ambient + Σ colour × intensity) within the
-    /// HDR target, as for TOML lights.
-    fn push_light(&mut self, l: DirectionalLight, index: usize) -> Result<(), GltfError> {
-        let at = format!("/extensions/KHR_lights_punctual/lights/{index}");
-        if self.lights.len() == MAX_LIGHTS {
-            self.ignored.add("directional lights past the 8th", at);
-            return Ok(());
-        }
-        self.light_sum += l.color * l.intensity;
-        let sum = self.options.ambient + self.light_sum;
-        if sum.max_element() > MAX_HDR {
-            let message = format!(
-                "ambient + the sum of the lights' colour × intensity reaches {sum} (expected <= 65504 per channel: the HDR target is 16-bit float)"
-            );
-            return Err(GltfError::at(self.path, format!("{at}/intensity"), message));
-        }
-        self.lights.push(l);
-        Ok(())
     }
 }
 
