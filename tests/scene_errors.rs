@@ -183,6 +183,7 @@ const BAD: &[(&str, usize, usize, &str)] = &[
         "metaballs \"dust\" ball 1 `radius`: expected a number in [1.0842e-19, 9.2234e18]",
     ),
     ("wave_emission_f32_overflow.toml", 10, 13, "`intensity`: expected colour × intensity <= 3.4028235e38"),
+    ("gltf_missing_file.toml", 7, 8, "gltf 1 `path`: "),
 ];
 
 /// The OBJ rows also carry the OBJ file's own position, checked here so the table stays short.

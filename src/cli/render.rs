@@ -9,7 +9,7 @@ use hadou::{Aov, FrameRequest, Runtime, RuntimeOptions};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (TOML, see docs/scene-format.md), or `builtin:NAME` (e.g. builtin:showcase).
+    /// Scene file: TOML or a glTF 2.0 .gltf/.glb (see docs/scene-format.md), or `builtin:NAME`.
     scene: PathBuf,
     /// Output PNG (sRGB).
     #[arg(short, long, default_value = "out.png")]
