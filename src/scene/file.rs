@@ -271,20 +271,26 @@ fn light(o: Owner, def: &LightDef) -> Result<DirectionalLight, SceneError> {
 fn materials(ctx: Ctx, defs: &Tables<MaterialDef>) -> Result<Vec<Material>, SceneError> {
     let mut names = UniqueNames::new("material");
     let mut out = Vec::with_capacity(defs.0.len());
+    let lines = super::error::LineIndex::new(ctx.text);
     for def in &defs.0 {
         let name = Owner::new(ctx, "[[material]]", def.span()).name(def.get_ref().name.as_ref())?;
         names.insert(ctx, name)?;
         let o = Owner::new(ctx, format!("material \"{}\"", name.get_ref()), def.span());
-        out.push(material(&o, name.get_ref(), def.get_ref())?);
+        out.push(material(&o, &lines, name.get_ref(), def.get_ref())?);
     }
     Ok(out)
 }
 
-fn material(o: &Owner, name: &str, def: &MaterialDef) -> Result<Material, SceneError> {
+fn material(
+    o: &Owner,
+    lines: &super::error::LineIndex,
+    name: &str,
+    def: &MaterialDef,
+) -> Result<Material, SceneError> {
     let kind = super::file_material::material_kind(o, def)?;
     let albedo = o.vec3("albedo", def.albedo.as_ref(), DVec3::splat(DEFAULT_ALBEDO), UNIT)?;
     let at = def.voxel_res.as_ref().map_or(o.span.start, |v| v.span().start);
-    let (line, column) = super::error::line_column(o.ctx.text, at);
+    let (line, column) = lines.line_column(at);
     let voxel_res_at = format!("{}:{line}:{column}", o.ctx.path.display());
     Ok(Material { name: name.to_owned(), kind, albedo, voxel_res_at })
 }
