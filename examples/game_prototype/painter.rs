@@ -88,6 +88,7 @@ impl GameCamera {
             fov_y_deg: self.fov_y_deg,
             near: self.near,
             far: self.far,
+            lens: Default::default(),
         }
     }
 }

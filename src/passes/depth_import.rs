@@ -16,7 +16,7 @@ use crate::targets::Target;
 
 /// What one stored depth value becomes: (distance along the pixel's view ray, +inf for the far
 /// plane = sky; hadou's reverse-Z depth for `camera`'s near/far, clamped to [0, 1], 0 for sky).
-/// `ray_scale` = |forward + ndc_x·right + ndc_y·up| of `Camera::ray_frame` (1 / cos of the
+/// `ray_scale` = |forward + (ndc_x + offset.x)·right + (ndc_y + offset.y)·up| of `Camera::ray_frame` (1 / cos of the
 /// pixel ray's angle to the forward axis).
 pub fn import_depth(stored: f64, convention: DepthConvention, ray_scale: f64, camera: &Camera) -> (f64, f64) {
     let (a, b) = convention.coefficients();
@@ -26,7 +26,8 @@ pub fn import_depth(stored: f64, convention: DepthConvention, ray_scale: f64, ca
     }
     let z = b / (stored + a);
     let (hn, hf) = (camera.near, camera.far);
-    (z * ray_scale, (hn * (hf - z) / (z * (hf - hn))).clamp(0.0, 1.0))
+    let own = if hf.is_infinite() { hn / z } else { hn * (hf - z) / (z * (hf - hn)) };
+    (z * ray_scale, own.clamp(0.0, 1.0))
 }
 
 /// The stored depth of view depth z (the projection the game used), in f64.
@@ -155,6 +156,7 @@ mod tests {
             fov_y_deg: 60.0,
             near: 0.1,
             far: 100.0,
+            lens: Default::default(),
         }
     }
 

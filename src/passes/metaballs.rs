@@ -62,9 +62,9 @@ const TILES_PER_ROW: u32 = 8192;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct MetaballParams {
-    /// xyz: right × tan(fov/2) × aspect.
+    /// xyz: right × tan(fov/2) × aspect (the lens's scale); w: its ndc offset x.
     pub right: [f32; 4],
-    /// xyz: image up × tan(fov/2).
+    /// xyz: image up × tan(fov/2) (the lens's scale); w: its ndc offset y.
     pub up: [f32; 4],
     /// xyz: forward; w: the camera's near distance (a view depth).
     pub forward: [f32; 4],
@@ -116,8 +116,6 @@ pub fn sphere_tiles(camera: &Camera, extent: vk::Extent2D, centre: DVec3, radius
     if z - r <= camera.near {
         return full; // crosses the near plane
     }
-    let tan_half = (camera.fov_y_deg.to_radians() * 0.5).tan();
-    let aspect = w as f64 / h as f64;
     // Planes through the camera containing the other image axis and tangent to the sphere:
     // x = k·z with (x − k z)² = r²(1 + k²); valid as the sphere lies in z > r.
     let slopes = |x: f64| {
@@ -129,10 +127,13 @@ pub fn sphere_tiles(camera: &Camera, extent: vk::Extent2D, centre: DVec3, radius
     let (ky0, ky1) = slopes(v.dot(b.up));
     // NDC → pixel coordinates (x right, y down), then the pixels whose centres may fall inside,
     // widened by one pixel.
-    let px = |k: f64| (k / (tan_half * aspect) + 1.0) * 0.5 * w as f64;
-    let py = |k: f64| (1.0 - k / tan_half) * 0.5 * h as f64;
-    let (x0, x1) = (px(kx0) - 1.5, px(kx1) + 0.5);
-    let (y0, y1) = (py(ky1) - 1.5, py(ky0) + 0.5);
+    // (The lens maps slopes to ndc increasingly in each axis, so the extreme slopes bound it.)
+    let lo = camera.ndc_of_slopes(glam::DVec2::new(kx0, ky0), w, h);
+    let hi = camera.ndc_of_slopes(glam::DVec2::new(kx1, ky1), w, h);
+    let px = |ndc: f64| (ndc + 1.0) * 0.5 * w as f64;
+    let py = |ndc: f64| (1.0 - ndc) * 0.5 * h as f64;
+    let (x0, x1) = (px(lo.x) - 1.5, px(hi.x) + 0.5);
+    let (y0, y1) = (py(hi.y) - 1.5, py(lo.y) + 0.5);
     if !(x1 >= 0.0 && y1 >= 0.0 && x0 < w as f64 && y0 < h as f64) {
         return None; // off screen (also rejects NaN)
     }
@@ -206,9 +207,8 @@ impl GroupBins {
         let o = group.transform.inverse.transform_point3(camera.position);
         let keys = group.balls.iter().map(|b| (b.centre - o).length() - b.radius).collect();
         // Every point of the near plane inside the view lies within this distance of the camera.
-        let tan_y = (camera.fov_y_deg.to_radians() * 0.5).tan();
-        let tan_x = tan_y * extent.width as f64 / extent.height as f64;
-        let near_reach = camera.near * (1.0 + tan_x * tan_x + tan_y * tan_y).sqrt() * (1.0 + 1e-3);
+        let tan = camera.max_slopes(extent.width, extent.height);
+        let near_reach = camera.near * (1.0 + tan.x * tan.x + tan.y * tan.y).sqrt() * (1.0 + 1e-3);
         let clear = bounds.iter().all(|(c, r)| (*c - camera.position).length() - r > near_reach);
         let positive = group.balls.iter().all(|b| b.q >= 0.0);
         let trace = if matches!(group.method, CastMethod::SphereTrace { .. }) { RUN_TRACE } else { 0 };
@@ -467,6 +467,7 @@ mod tests {
             fov_y_deg: 60.0,
             near: 0.1,
             far: 100.0,
+            lens: Default::default(),
         }
     }
 

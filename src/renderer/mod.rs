@@ -26,6 +26,7 @@ mod record;
 mod slots;
 mod timings;
 mod update;
+pub mod view_projection;
 pub mod world;
 
 pub use inputs::{DepthConvention, ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};

@@ -24,6 +24,16 @@ pub struct WaveUpdate {
     pub length: f64,
 }
 
+/// A symmetric lens needs a finite far; a matrix lens, finite scales > 0 and finite shifts.
+fn lens_ok(camera: &Camera) -> bool {
+    match camera.lens {
+        crate::scene::camera::Lens::FovY => camera.far.is_finite(),
+        crate::scene::camera::Lens::Matrix { scale, shift } => {
+            scale.is_finite() && scale.min_element() > 0.0 && shift.is_finite()
+        }
+    }
+}
+
 impl Renderer {
     fn loaded_mut(&mut self) -> Result<&mut super::Loaded, Error> {
         self.loaded.as_mut().ok_or(Error::NoScene)
@@ -37,12 +47,14 @@ impl Renderer {
             || forward.length() == 0.0
             || forward.cross(camera.up).length() == 0.0
             || !(camera.fov_y_deg > 0.0 && camera.fov_y_deg < 180.0)
-            || !(camera.near > 0.0 && camera.far > camera.near && camera.far.is_finite())
+            || !(camera.near > 0.0 && camera.near.is_finite() && camera.far > camera.near)
+            || !lens_ok(&camera)
         {
             return Err(Error::InvalidUpdate {
                 what: format!("camera {camera:?}"),
-                expected: "finite vectors, look_at ≠ position, up not along the view, 0 < fov_y_deg < 180 \
-                           and 0 < near < far < inf"
+                expected: "finite vectors, look_at ≠ position, up not along the view, 0 < fov_y_deg < 180, \
+                           0 < near < far, far finite unless the lens is a matrix, a matrix lens's scales \
+                           finite > 0 and shifts finite"
                     .into(),
             });
         }

@@ -1,6 +1,8 @@
-//! The camera contract: a symmetric perspective frustum, vertical field of view in degrees,
-//! aspect = width / height, image row 0 at the top, and the ray of pixel (x, y) through the
-//! pixel centre (x + 0.5, y + 0.5). Depth is reverse-Z (near → 1, far → 0).
+//! The camera contract: a perspective frustum — symmetric with a vertical field of view in
+//! degrees and aspect = width / height, or a game's projection matrix ([`Lens::Matrix`]: any
+//! scales, off-centre shift and sub-pixel jitter, near and far from the matrix, far possibly
+//! infinite) — image row 0 at the top, and the ray of pixel (x, y) through the pixel centre
+//! (x + 0.5, y + 0.5). Depth is reverse-Z (near → 1, far → 0).
 
 use glam::{DMat4, DVec2, DVec3, DVec4};
 
@@ -18,8 +20,27 @@ pub struct Camera {
     pub fov_y_deg: f64,
     /// Near plane: view depth (along `forward`) > 0, stored as depth 1.
     pub near: f64,
-    /// Far plane: view depth > `near`, stored as depth 0.
+    /// Far plane: view depth > `near`, stored as depth 0; +inf only with [`Lens::Matrix`].
     pub far: f64,
+    /// How the view maps onto the image.
+    pub lens: Lens,
+}
+
+/// How the camera's view maps onto the image.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Lens {
+    /// Symmetric: `fov_y_deg` vertically, the image's aspect horizontally.
+    #[default]
+    FovY,
+    /// A game's projection (`Renderer::set_view_projection`): a point at view slopes (x/d, y/d)
+    /// — d its view depth, y up — lands at ndc = scale·slope + shift (ndc y up, ±1 the image's
+    /// edges), whatever the image's size. An off-centre frustum or a sub-pixel jitter is `shift`.
+    Matrix {
+        /// > 0 each.
+        scale: DVec2,
+        /// Finite.
+        shift: DVec2,
+    },
 }
 
 /// Right-handed orthonormal camera frame: `forward` looks at the target, `up` is the image's up.
@@ -33,21 +54,25 @@ pub struct CameraBasis {
     pub forward: DVec3,
 }
 
-/// Camera vectors scaled for pixel rays: `right` by tan(fov/2)·aspect, `up` by tan(fov/2).
+/// Camera vectors scaled for pixel rays: the unnormalized direction through image point
+/// (ndc_x, ndc_y) is `forward + (ndc_x + offset.x)·right + (ndc_y + offset.y)·up`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayFrame {
-    /// `CameraBasis::right` × tan(fov_y/2) × aspect: ndc_x = 1 is the right edge.
+    /// `CameraBasis::right` / the lens's horizontal scale (tan(fov_y/2) × aspect when symmetric).
     pub right: DVec3,
-    /// `CameraBasis::up` × tan(fov_y/2): ndc_y = 1 is the top edge.
+    /// `CameraBasis::up` / the lens's vertical scale (tan(fov_y/2) when symmetric).
     pub up: DVec3,
-    /// `CameraBasis::forward`, unit length.
+    /// `CameraBasis::forward`, unit length: the view axis (view depth = distance · u·forward).
     pub forward: DVec3,
+    /// −shift of the lens (0 when symmetric).
+    pub offset: DVec2,
 }
 
 impl RayFrame {
-    /// As f32 vec4s (w = 0) for push constants: right, up, forward.
+    /// As f32 vec4s for push constants: right (w: offset.x), up (w: offset.y), forward (w = 0).
     pub fn to_f32(&self) -> [[f32; 4]; 3] {
-        [self.right, self.up, self.forward].map(|v| [v.x as f32, v.y as f32, v.z as f32, 0.0])
+        let v = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
+        [v(self.right, self.offset.x), v(self.up, self.offset.y), v(self.forward, 0.0)]
     }
 }
 
@@ -64,12 +89,40 @@ impl Camera {
     }
 
     /// The vectors compute passes build pixel rays from: the unnormalized direction through image
-    /// point (ndc_x, ndc_y) is `forward + ndc_x·right + ndc_y·up` (shaders/common/camera.glsl).
+    /// point (ndc_x, ndc_y) is `forward + (ndc_x + offset.x)·right + (ndc_y + offset.y)·up`
+    /// (shaders/common/camera.glsl).
     pub fn ray_frame(&self, width: u32, height: u32) -> RayFrame {
         let b = self.basis();
-        let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
-        let aspect = width as f64 / height as f64;
-        RayFrame { right: b.right * (tan_half * aspect), up: b.up * tan_half, forward: b.forward }
+        match self.lens {
+            Lens::FovY => {
+                let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
+                let aspect = width as f64 / height as f64;
+                let (right, up) = (b.right * (tan_half * aspect), b.up * tan_half);
+                RayFrame { right, up, forward: b.forward, offset: DVec2::ZERO }
+            }
+            Lens::Matrix { scale, shift } => {
+                RayFrame { right: b.right / scale.x, up: b.up / scale.y, forward: b.forward, offset: -shift }
+            }
+        }
+    }
+
+    /// The image point (ndc, y up) of view slopes (x/d, y/d): the inverse of the ray frame.
+    pub fn ndc_of_slopes(&self, slopes: DVec2, width: u32, height: u32) -> DVec2 {
+        match self.lens {
+            Lens::FovY => {
+                let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
+                let aspect = width as f64 / height as f64;
+                DVec2::new(slopes.x / (tan_half * aspect), slopes.y / tan_half)
+            }
+            Lens::Matrix { scale, shift } => slopes * scale + shift,
+        }
+    }
+
+    /// The largest |slope| (x/d, y/d) any pixel ray of the image has: at the frustum's corners.
+    pub fn max_slopes(&self, width: u32, height: u32) -> DVec2 {
+        let f = self.ray_frame(width, height);
+        let (sx, sy) = (f.right.length(), f.up.length());
+        DVec2::new(sx * (1.0 + f.offset.x.abs()), sy * (1.0 + f.offset.y.abs()))
     }
 
     /// World-space unit ray through the centre of pixel (x, y) of a width × height image.
@@ -79,12 +132,20 @@ impl Camera {
 
     /// World-space unit ray through the image point (px, py), in pixels from the top-left corner.
     pub fn ray_through(&self, px: f64, py: f64, width: u32, height: u32) -> (DVec3, DVec3) {
-        let b = self.basis();
-        let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
-        let aspect = width as f64 / height as f64;
         let ndc_x = 2.0 * px / width as f64 - 1.0;
         let ndc_y = 1.0 - 2.0 * py / height as f64;
-        let dir = b.forward + b.right * (ndc_x * tan_half * aspect) + b.up * (ndc_y * tan_half);
+        let dir = match self.lens {
+            Lens::FovY => {
+                let b = self.basis();
+                let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
+                let aspect = width as f64 / height as f64;
+                b.forward + b.right * (ndc_x * tan_half * aspect) + b.up * (ndc_y * tan_half)
+            }
+            Lens::Matrix { .. } => {
+                let f = self.ray_frame(width, height);
+                f.forward + f.right * (ndc_x + f.offset.x) + f.up * (ndc_y + f.offset.y)
+            }
+        };
         (self.position, dir.normalize())
     }
 
@@ -94,16 +155,29 @@ impl Camera {
         DMat4::look_at_rh(self.position, self.position + b.forward, b.up)
     }
 
-    /// View → clip for Vulkan: reverse-Z (near → 1, far → 0) and y flipped so row 0 is the top.
+    /// View → clip for Vulkan: reverse-Z (near → 1, far → 0; an infinite far → 0 at infinity)
+    /// and y flipped so row 0 is the top.
     pub fn projection_matrix(&self, aspect: f64) -> DMat4 {
-        let f = 1.0 / (self.fov_y_deg.to_radians() * 0.5).tan();
         let (n, fa) = (self.near, self.far);
-        DMat4::from_cols(
-            DVec4::new(f / aspect, 0.0, 0.0, 0.0),
-            DVec4::new(0.0, -f, 0.0, 0.0),
-            DVec4::new(0.0, 0.0, n / (fa - n), -1.0),
-            DVec4::new(0.0, 0.0, n * fa / (fa - n), 0.0),
-        )
+        let (z_scale, z_offset) = if fa.is_infinite() { (0.0, n) } else { (n / (fa - n), n * fa / (fa - n)) };
+        match self.lens {
+            Lens::FovY => {
+                let f = 1.0 / (self.fov_y_deg.to_radians() * 0.5).tan();
+                DMat4::from_cols(
+                    DVec4::new(f / aspect, 0.0, 0.0, 0.0),
+                    DVec4::new(0.0, -f, 0.0, 0.0),
+                    DVec4::new(0.0, 0.0, z_scale, -1.0),
+                    DVec4::new(0.0, 0.0, z_offset, 0.0),
+                )
+            }
+            // ndc_x = scale.x·x/d + shift.x and ndc_y (down) = −(scale.y·y/d + shift.y), d = −z.
+            Lens::Matrix { scale, shift } => DMat4::from_cols(
+                DVec4::new(scale.x, 0.0, 0.0, 0.0),
+                DVec4::new(0.0, -scale.y, 0.0, 0.0),
+                DVec4::new(-shift.x, shift.y, z_scale, -1.0),
+                DVec4::new(0.0, 0.0, z_offset, 0.0),
+            ),
+        }
     }
 
     /// World → clip for a width × height image: `projection_matrix` × `view_matrix`.
@@ -150,8 +224,6 @@ impl Camera {
     /// bounded) or is not finite; `None` when the rectangle misses the image or `points` is empty.
     pub fn pixel_bounds(&self, points: &[DVec3], width: u32, height: u32) -> Option<PixelRect> {
         let b = self.basis();
-        let tan_half = (self.fov_y_deg.to_radians() * 0.5).tan();
-        let aspect = width as f64 / height as f64;
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
         for &p in points {
             let d = p - self.position;
@@ -161,8 +233,8 @@ impl Camera {
             if !d.is_finite() || !z.is_finite() || z < self.near {
                 return Some(PixelRect::full(width, height));
             }
-            // Inverse of `ray_through`: ndc = (d·right, d·up) / (z·tan), pixels from the top left.
-            let ndc = DVec2::new(d.dot(b.right) / (z * tan_half * aspect), d.dot(b.up) / (z * tan_half));
+            // Inverse of `ray_through`, pixels from the top left.
+            let ndc = self.ndc_of_slopes(DVec2::new(d.dot(b.right), d.dot(b.up)) / z, width, height);
             let px = DVec2::new((ndc.x + 1.0) * 0.5 * width as f64, (1.0 - ndc.y) * 0.5 * height as f64);
             lo = lo.min(px);
             hi = hi.max(px);
@@ -244,6 +316,7 @@ mod tests {
             fov_y_deg: 50.0,
             near: 0.1,
             far: 100.0,
+            lens: Lens::FovY,
         }
     }
 

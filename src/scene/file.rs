@@ -173,7 +173,7 @@ fn camera(ctx: Ctx, def: Option<&Spanned<CameraDef>>) -> Result<Camera, SceneErr
         return Err(o.fail(look_at_def.span(), "look_at", expected, show_vec(look_at)));
     };
     check_up(&o, c, up, forward)?;
-    Ok(Camera { position, look_at, up, fov_y_deg, near, far })
+    Ok(Camera { position, look_at, up, fov_y_deg, near, far, lens: Default::default() })
 }
 
 /// Camera coordinates and `far` within ±`MAX_EXTENT`.

@@ -163,6 +163,7 @@ mod tests {
             fov_y_deg: 45.0,
             near: 0.1,
             far: 40.0,
+            lens: Default::default(),
         }
     }
 

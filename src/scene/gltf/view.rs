@@ -74,7 +74,8 @@ pub(super) fn perspective(
         Some(a) => return fail("aspectRatio", format!("{a} (expected a number > 0)")),
         None => None,
     };
-    let camera = Camera { position, look_at: position + forward, up, fov_y_deg, near, far };
+    let camera =
+        Camera { position, look_at: position + forward, up, fov_y_deg, near, far, lens: Default::default() };
     Ok(Some(GltfCamera { camera, aspect }))
 }
 
@@ -94,6 +95,7 @@ pub fn framing(bounds: Option<(DVec3, DVec3)>) -> Camera {
         fov_y_deg: FRAMING_FOV_DEG,
         near: ((distance - radius) * 0.5).max(distance * 1e-4),
         far: (distance + radius) * 2.0,
+        lens: Default::default(),
     }
 }
 
