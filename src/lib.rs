@@ -32,6 +32,7 @@ pub use aov::{Aov, AovImage};
 pub use effects::metaballs::Ball;
 pub use frame::{FrameStats, PassTiming};
 pub use gpu::{DeviceInfo, GpuError, HostWaits, ValidationCounts};
+pub use renderer::bakes::BakeProgress;
 pub use renderer::instances::{InstanceId, LightId};
 pub use renderer::world::{GroupId, MetaballsDesc, WaveDesc, WaveId};
 pub use renderer::{

@@ -261,7 +261,7 @@ impl TranslucentFrame {
 }
 
 /// Host-side contents of `TranslucentData`'s buffers and image.
-struct Packed {
+pub(crate) struct Packed {
     tables: Vec<LutSummary>,
     keys: Vec<(usize, u32)>,
     atlas: Vec<u8>,
@@ -278,12 +278,18 @@ fn translucent_mode(scene: &Scene, instance: usize) -> Option<(u32, ThicknessMod
     }
 }
 
-fn bake_table(scene: &Scene, mesh: usize, res: u32, limit: u32) -> GpuResult<ThicknessLut> {
+fn bake_table(
+    scene: &Scene,
+    mesh: usize,
+    res: u32,
+    limit: u32,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> GpuResult<ThicknessLut> {
     let m = &scene.meshes[mesh];
     let options = BakeOptions { max_texture_dim: limit, ..BakeOptions::default() };
-    let none = |_: usize, _: usize| {};
+    let none = progress;
     let baked = match BakeCache::from_env() {
-        Some(cache) => cache.get_or_bake(&m.mesh, res, &options, &none).map(|c| {
+        Some(cache) => cache.get_or_bake(&m.mesh, res, &options, none).map(|c| {
             log::info!(
                 "thickness LUT of mesh \"{}\" at {res}³: {:?} in {:.2} s",
                 m.name,
@@ -292,7 +298,7 @@ fn bake_table(scene: &Scene, mesh: usize, res: u32, limit: u32) -> GpuResult<Thi
             );
             c.lut
         }),
-        None => bake(&m.mesh, res, &options, &none).map(|(lut, _)| lut),
+        None => bake(&m.mesh, res, &options, none).map(|(lut, _)| lut),
     };
     // Name where the resolution was asked for: the voxel_res of a material this mesh is drawn with.
     let at = scene
@@ -353,11 +359,21 @@ pub fn instance_table(scene: &Scene, keys: &[(usize, u32)]) -> Vec<TranslucentIn
 }
 
 fn pack(scene: &Scene, limit: u32) -> GpuResult<Packed> {
-    let keys = table_keys(scene);
+    pack_keys(scene, table_keys(scene), limit, &|_, _| {})
+}
+
+/// The tables of `keys` (mesh, voxel_res), baked through the cache, packed as the passes read
+/// them; `progress(done, total)` of each bake in turn. Runs on any thread (run-time bakes).
+pub(crate) fn pack_keys(
+    scene: &Scene,
+    keys: Vec<(usize, u32)>,
+    limit: u32,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> GpuResult<Packed> {
     let (mut tables, mut grid, mut records, mut texels) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut centres: Vec<[f32; 4]> = Vec::new();
     for &(mesh, res) in &keys {
-        let lut = bake_table(scene, mesh, res, limit)?;
+        let lut = bake_table(scene, mesh, res, limit, progress)?;
         let n = lut.surface_count() as u64;
         let pairs = n * (n + 1) / 2;
         records.push(LutRecord {
@@ -428,8 +444,11 @@ pub fn draw_runs(scene: &Scene) -> Vec<LightDraw> {
 impl TranslucentData {
     /// Bakes (through the cache) and uploads everything the two passes read.
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
-        let limit = ctx.limits.max_image_dimension2_d;
-        let packed = pack(scene, limit)?;
+        Self::from_packed(ctx, memory, pack(scene, ctx.limits.max_image_dimension2_d)?)
+    }
+
+    /// Uploads tables packed already (`pack_keys`, e.g. by a run-time bake).
+    pub(crate) fn from_packed(ctx: &GpuContext, memory: &Memory, packed: Packed) -> GpuResult<Self> {
         let (word, quad) = (Texels::U32, Texels::U32x4);
         let texels =
             |name: &str, bytes: &[u8], texels| TexelBuffer::from_bytes(ctx, memory, name, bytes, texels);

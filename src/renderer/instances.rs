@@ -4,15 +4,14 @@
 //! draws are rebuilt before the next frame; the passes follow (the first translucent instance
 //! brings the translucency passes in, the last one takes them out).
 //!
-//! A translucent instance whose material reads a thickness table (`thickness = "lut"`) needs the
-//! table of its (mesh, voxel_res), baked when the scene was loaded: spawning one that was not is
-//! refused (`Error::InvalidUpdate`), never baked on the frame's thread. `thickness = "tsm"`
-//! materials need no table.
+//! A translucent instance whose material reads a thickness table (`thickness = "lut"`) and whose
+//! (mesh, voxel_res) has no table yet is drawn with the shadow-map thickness until the table,
+//! baked in the background, is in (src/renderer/bakes.rs); `thickness = "tsm"` materials need no
+//! table.
 
 use glam::DMat4;
 
 use super::Renderer;
-use crate::passes::translucency::TranslucentData;
 use crate::scene::model::Instance;
 use crate::scene::transform::{Transform, TransformOp};
 use crate::scene::{MaterialKind, ThicknessMode};
@@ -47,21 +46,17 @@ impl Renderer {
         })?;
         let transform = Transform::from_ops(&[TransformOp::Matrix(transform)])
             .map_err(|e| invalid(format!("instance of \"{mesh}\""), e.to_string()))?;
-        if let MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Lut, .. } =
-            scene.materials[material_index].kind
-        {
-            let baked = loaded
-                .shared
-                .iter()
-                .find_map(|s| s.clone().downcast::<TranslucentData>().ok())
-                .is_some_and(|data| data.keys.contains(&(mesh_index, voxel_res)));
-            if !baked {
-                return Err(invalid(
-                    format!("translucent instance of \"{mesh}\" with \"{material}\" (voxel_res {voxel_res})"),
-                    "a mesh and voxel_res whose thickness table the loaded scene baked (a scene instance \
-                     drawn with them), or a material with thickness = \"tsm\"",
-                ));
+        let table = match scene.materials[material_index].kind {
+            MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Lut, .. } => {
+                Some((mesh_index, voxel_res))
             }
+            _ => None,
+        };
+        if let Some(key) = table.filter(|&k| !self.table_known(k)) {
+            // Tables for the passes to find (not bake) before the instance is in the scene; its
+            // own is baked in the background (src/renderer/bakes.rs).
+            self.ensure_tables()?;
+            self.request_bake(key);
         }
         let id = self.next_id();
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;

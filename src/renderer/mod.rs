@@ -19,6 +19,7 @@
 //! Timestamps are read only from frames known to be finished, never waited for
 //! (`latest_timings`).
 
+pub mod bakes;
 mod inputs;
 pub mod instances;
 pub(crate) mod readback;
@@ -86,6 +87,8 @@ struct Loaded {
     /// The id of each of `scene.instances` and `scene.lights`.
     instance_ids: Vec<u64>,
     light_ids: Vec<u64>,
+    /// Thickness tables being baked at run time.
+    bakes: bakes::Bakes,
     /// Instance transforms or materials changed since their tables were built.
     tables_dirty: bool,
 }
@@ -231,6 +234,7 @@ impl Renderer {
             group_ids,
             instance_ids,
             light_ids,
+            bakes: Default::default(),
             tables_dirty: false,
         });
         Ok(())

@@ -85,6 +85,8 @@ impl Renderer {
         }
         self.check_inputs(inputs)?;
         self.ensure_edges(inputs)?;
+        // A run-time bake that finished goes in before the frame's passes are prepared.
+        self.poll_bakes(false)?;
         let (frame, slot) = self.begin_frame()?;
         let result = self.record_in_slot(cmd, inputs, frame, slot);
         if result.is_err() {

@@ -1,0 +1,180 @@
+//! Thickness tables baked at run time. A translucent instance spawned with a mesh and voxel_res
+//! whose table the loaded scene did not bake is drawn at once, with the shadow-map thickness
+//! (TSM: the translucency pass falls back to it for an instance without a table), while a
+//! background thread bakes the table through the bake cache (keyed on the mesh's content, so the
+//! same mesh under many transforms bakes once) and packs it with the tables already in use. The
+//! first frame recorded after the job ends uploads the new tables (one one-off upload, waited for
+//! by its own fence, never the device) and rebuilds the two translucency passes on them: the
+//! instance switches to its table. One job runs at a time; keys asked for meanwhile make the next.
+//! `bakes_in_progress` shows progress, `wait_for_bakes` blocks until all are in (tests, tools).
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+
+use super::Renderer;
+use crate::gpu::GpuResult;
+use crate::passes::translucency::{pack_keys, Packed, TranslucentData};
+use crate::Error;
+
+/// A run-time bake not yet in use.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakeProgress {
+    /// The mesh's name.
+    pub mesh: String,
+    /// Its table's resolution.
+    pub voxel_res: u32,
+    /// Steps of the bake done (0 while queued or reading the cache).
+    pub done: usize,
+    /// Steps in all (0 until the bake starts).
+    pub total: usize,
+}
+
+struct Job {
+    /// The keys the job adds to those in use.
+    adds: Vec<(usize, u32)>,
+    done: Arc<AtomicUsize>,
+    total: Arc<AtomicUsize>,
+    thread: JoinHandle<GpuResult<Packed>>,
+}
+
+/// The run-time bakes of the loaded scene.
+#[derive(Default)]
+pub(super) struct Bakes {
+    job: Option<Job>,
+    /// (mesh, voxel_res) asked for while a job ran.
+    queued: Vec<(usize, u32)>,
+    /// Keys whose bake failed (logged): their instances stay on TSM.
+    failed: Vec<(usize, u32)>,
+}
+
+/// The scene's current tables, if the translucency passes were ever built.
+fn current_data(shared: &crate::passes::registry::Shared) -> Option<Arc<TranslucentData>> {
+    shared.iter().find_map(|s| s.clone().downcast::<TranslucentData>().ok())
+}
+
+impl Renderer {
+    /// Whether (mesh, voxel_res) has a table in use, or is being or was tried to be baked.
+    pub(super) fn table_known(&self, key: (usize, u32)) -> bool {
+        let Some(loaded) = &self.loaded else { return false };
+        let b = &loaded.bakes;
+        current_data(&loaded.shared).is_some_and(|d| d.keys.contains(&key))
+            || b.job.as_ref().is_some_and(|j| j.adds.contains(&key))
+            || b.queued.contains(&key)
+            || b.failed.contains(&key)
+    }
+
+    /// Makes sure the tables exist (an empty set if the scene had no translucent instance) so
+    /// passes built from now on find them instead of baking on this thread.
+    pub(super) fn ensure_tables(&mut self) -> Result<(), Error> {
+        let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
+        if current_data(&loaded.shared).is_none() {
+            let data = TranslucentData::new(&self.ctx, &self.memory, &loaded.scene)?;
+            loaded.shared.push(Arc::new(data));
+        }
+        Ok(())
+    }
+
+    /// Queues a bake of (mesh, voxel_res) and starts a job if none runs.
+    pub(super) fn request_bake(&mut self, key: (usize, u32)) {
+        if self.table_known(key) {
+            return;
+        }
+        if let Some(loaded) = &mut self.loaded {
+            loaded.bakes.queued.push(key);
+        }
+        self.start_bake_job();
+    }
+
+    fn start_bake_job(&mut self) {
+        let limit = self.ctx.limits.max_image_dimension2_d;
+        let Some(loaded) = &mut self.loaded else { return };
+        if loaded.bakes.job.is_some() || loaded.bakes.queued.is_empty() {
+            return;
+        }
+        let adds = std::mem::take(&mut loaded.bakes.queued);
+        let mut keys = current_data(&loaded.shared).map_or(Vec::new(), |d| d.keys.clone());
+        keys.extend(&adds);
+        let scene = loaded.scene.clone();
+        let (done, total) = (Arc::new(AtomicUsize::new(0)), Arc::new(AtomicUsize::new(0)));
+        let (d, t) = (done.clone(), total.clone());
+        let thread = std::thread::spawn(move || {
+            let progress = move |k: usize, n: usize| {
+                d.store(k, Ordering::Relaxed);
+                t.store(n, Ordering::Relaxed);
+            };
+            pack_keys(&scene, keys, limit, &progress)
+        });
+        loaded.bakes.job = Some(Job { adds, done, total, thread });
+    }
+
+    /// Puts a finished job's tables in use (`block`: waits for a running job first).
+    pub(super) fn poll_bakes(&mut self, block: bool) -> Result<(), Error> {
+        let Some(loaded) = &mut self.loaded else { return Ok(()) };
+        let finished = loaded.bakes.job.as_ref().is_some_and(|j| block || j.thread.is_finished());
+        if !finished {
+            return Ok(());
+        }
+        let Some(job) = loaded.bakes.job.take() else { return Ok(()) };
+        let packed = job.thread.join().unwrap_or_else(|_| {
+            Err(crate::gpu::GpuError::Limit {
+                what: "run-time bake".into(),
+                message: "the bake thread panicked".into(),
+            })
+        });
+        match packed.and_then(|p| TranslucentData::from_packed(&self.ctx, &self.memory, p)) {
+            Ok(data) => {
+                loaded.shared.retain(|s| s.clone().downcast::<TranslucentData>().is_err());
+                loaded.shared.push(Arc::new(data));
+                // The passes holding the old tables go (retired with the frames that use them);
+                // sync_passes builds them again on the new ones.
+                let stale = |a: &super::Active| a.name == "translucency" || a.name == "light_id";
+                loaded.passes.retain(|a| !stale(a));
+                loaded.parked.retain(|a| !stale(a));
+            }
+            Err(e) => {
+                let names: Vec<String> = job
+                    .adds
+                    .iter()
+                    .map(|&(m, r)| format!("\"{}\" at {r}³", loaded.scene.meshes[m].name))
+                    .collect();
+                log::warn!(
+                    "thickness tables of {}: {e}; those instances stay on shadow-map thickness",
+                    names.join(", ")
+                );
+                loaded.bakes.failed.extend(&job.adds);
+            }
+        }
+        self.sync_passes()?;
+        self.start_bake_job();
+        Ok(())
+    }
+
+    /// The run-time bakes not in use yet (the one running first, then those queued).
+    pub fn bakes_in_progress(&self) -> Vec<BakeProgress> {
+        let Some(loaded) = &self.loaded else { return Vec::new() };
+        let name = |m: usize| loaded.scene.meshes[m].name.clone();
+        let mut out = Vec::new();
+        if let Some(job) = &loaded.bakes.job {
+            let (done, total) = (job.done.load(Ordering::Relaxed), job.total.load(Ordering::Relaxed));
+            out.extend(job.adds.iter().map(|&(m, r)| BakeProgress {
+                mesh: name(m),
+                voxel_res: r,
+                done,
+                total,
+            }));
+        }
+        let queued = loaded.bakes.queued.iter();
+        out.extend(queued.map(|&(m, r)| BakeProgress { mesh: name(m), voxel_res: r, done: 0, total: 0 }));
+        out
+    }
+
+    /// Blocks until every run-time bake asked for is in use (or failed), for tools and tests; a
+    /// game keeps rendering instead and the instances switch by themselves.
+    pub fn wait_for_bakes(&mut self) -> Result<(), Error> {
+        while self.loaded.as_ref().is_some_and(|l| l.bakes.job.is_some()) {
+            self.poll_bakes(true)?;
+        }
+        Ok(())
+    }
+}
