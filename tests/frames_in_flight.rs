@@ -67,6 +67,7 @@ fn world(i: usize) -> World {
         fov_y_deg: 50.0,
         near: 0.5,
         far: 60.0,
+        lens: Default::default(),
     };
     let wave = WaveUpdate {
         origin: DVec3::new(-4.0 + 0.1 * t, 0.3 * (0.3 * t).sin(), 0.0),
