@@ -38,10 +38,12 @@ void main() {
     float ndc_x = 2.0 * (float(p.x) + 0.5) / float(params.dims.x) - 1.0;
     float ndc_y = 1.0 - 2.0 * (float(p.y) + 0.5) / float(params.dims.y);
     // The pixel ray's direction has forward component 1, so distance = z · |direction|.
-    float ray_scale = length(params.forward.xyz + ndc_x * params.right.xyz + ndc_y * params.up.xyz);
+    float ray_scale = length(params.forward.xyz + (ndc_x + params.right.w) * params.right.xyz +
+                             (ndc_y + params.up.w) * params.up.xyz);
     float dist = sky ? uintBitsToFloat(0x7f800000u) : z * ray_scale;
     float hn = params.planes.z, hf = params.planes.w;
-    float own = sky ? 0.0 : clamp(hn * (hf - z) / (z * (hf - hn)), 0.0, 1.0);
+    // Reverse-Z of hadou's own frustum; with an infinite far, near / z.
+    float own = sky ? 0.0 : clamp(isinf(hf) ? hn / z : hn * (hf - z) / (z * (hf - hn)), 0.0, 1.0);
     if (inside) imageStore(distance_image, ivec2(p), vec4(dist, 0.0, 0.0, 0.0));
     hadou_depth[p.y * params.dims.w + p.x] = own;
 }

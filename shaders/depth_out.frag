@@ -22,7 +22,8 @@ void main() {
     float dist = imageLoad(distance_image, p).r;
     float ndc_x = 2.0 * (float(p.x) + 0.5) / params.planes.z - 1.0;
     float ndc_y = 1.0 - 2.0 * (float(p.y) + 0.5) / params.planes.w;
-    float ray_scale = length(params.forward.xyz + ndc_x * params.right.xyz + ndc_y * params.up.xyz);
+    float ray_scale = length(params.forward.xyz + (ndc_x + params.right.w) * params.right.xyz +
+                             (ndc_y + params.up.w) * params.up.xyz);
     float z = dist / ray_scale;
     gl_FragDepth = clamp(-params.planes.x + params.planes.y / z, 0.0, 1.0);
 }

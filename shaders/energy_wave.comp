@@ -21,8 +21,8 @@ layout(set = 0, binding = 4, std430) readonly buffer Styles { WaveStyle styles[]
 
 // RayParams in src/passes/energy_wave.rs (size checked at pipeline creation).
 layout(push_constant) uniform RayParams {
-    vec4 right;    // right × tan(fov/2) × aspect
-    vec4 up;       // up × tan(fov/2)
+    vec4 right;    // right × tan(fov/2) × aspect (the lens); w: its ndc offset x
+    vec4 up;       // up × tan(fov/2) (the lens); w: its ndc offset y
     vec4 forward;
     uvec4 dims;    // width, height, wave count
     vec4 far;      // x: far distance
@@ -58,7 +58,7 @@ void main() {
     bool inside = p.x < params.dims.x && p.y < params.dims.y;
     ivec2 pix = ivec2(min(p, params.dims.xy - 1u));
     // The ray through the pixel centre, as Camera::pixel_ray builds it.
-    vec3 u = camera_pixel_ray(pix, params.dims.xy, params.right.xyz, params.up.xyz, params.forward.xyz);
+    vec3 u = camera_pixel_ray(pix, params.dims.xy, params.right, params.up, params.forward.xyz);
     float L = min(imageLoad(distance_image, pix).r, params.far.x);
     L = max(L, 0.0);
 

@@ -98,8 +98,8 @@ float chunk_key(uvec4 run, uint k, vec3 o) { return mb_entry_key(load_ball(entri
 
 // Keep in sync with MetaballParams in src/passes/metaballs.rs.
 layout(push_constant) uniform MetaballParams {
-    vec4 right;    // right × tan(fov/2) × aspect
-    vec4 up;       // up × tan(fov/2)
+    vec4 right;    // right × tan(fov/2) × aspect (the lens); w: its ndc offset x
+    vec4 up;       // up × tan(fov/2) (the lens); w: its ndc offset y
     vec4 forward;  // w: the camera's near distance (view depth)
     uvec4 dims;    // width, height, active tiles, instance id of group 0 (scene instances)
     vec4 range;    // x: the camera's far distance
@@ -149,7 +149,7 @@ void main() {
     MetaHit best;
     uint best_group = 0u;
     // The ray through the pixel centre, as Camera::pixel_ray and energy_wave.comp build it.
-    vec3 u = camera_pixel_ray(p, params.dims.xy, params.right.xyz, params.up.xyz, params.forward.xyz);
+    vec3 u = camera_pixel_ray(p, params.dims.xy, params.right, params.up, params.forward.xyz);
     vec3 origin = frame.camera_pos.xyz;
     // t_max: the raster's distance (+inf where nothing was hit), at most the far distance;
     // t_min: the near plane, measured along this ray.

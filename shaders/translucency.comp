@@ -31,8 +31,8 @@ vec4 centre_at(uint i) { return uintBitsToFloat(texelFetch(centre_texels, int(i)
 
 // Keep in sync with TranslucencyParams in src/passes/translucency.rs.
 struct TranslucencyParams {
-    vec4 right;     // camera right × tan(fov/2) × aspect
-    vec4 up;        // image up × tan(fov/2)
+    vec4 right;     // camera right × tan(fov/2) × aspect (the lens); w: its ndc offset x
+    vec4 up;        // image up × tan(fov/2) (the lens); w: its ndc offset y
     vec4 forward;
     vec4 camera;    // xyz: position
     vec4 radiance;  // rgb: the first light's colour × intensity; w: 1 when the scene has a light
@@ -127,7 +127,7 @@ void main() {
         MaterialData mat = materials[ids.y];
         if (mat.kind.x == MATERIAL_TRANSLUCENT && translucent_instance_at(translucent_texels, instance).info.y != 0u) {
             // The pixel ray as Camera::pixel_ray builds it, to the raster's distance.
-            vec3 u = camera_pixel_ray(p, params.dims.xy, params.right.xyz, params.up.xyz, params.forward.xyz);
+            vec3 u = camera_pixel_ray(p, params.dims.xy, params.right, params.up, params.forward.xyz);
             vec3 P = params.camera.xyz + u * imageLoad(distance_image, ivec2(p)).r;
             d = thickness_at(P, instance, mat.kind.y);
             float w = max(dot(imageLoad(normal_image, ivec2(p)).xyz, params.view.dir.xyz), 0.0);
