@@ -108,6 +108,7 @@ fn main() -> Result<(), String> {
         length: 3.0,
         color: DVec3::ONE,
         intensity: 0.1,
+        cutoff: 0.0,
     };
     let group = MetaballsDesc {
         balls: vec![Ball { centre: DVec3::ZERO, radius: 1.0, q: 1.0 }],

@@ -1,6 +1,7 @@
 #version 460
 // energy_wave: per pixel, H = ∫₀ᴸ E(O + s·u) ds for each wave, L = the view distance to the first
-// surface (or the camera's far distance). Adds colour × intensity × H to HDR, writes Σ H to energy.
+// surface (or the camera's far distance). Adds colour × intensity × max(H − cutoff, 0) to HDR,
+// writes Σ H to energy.
 // CPU twins: src/effects/energy_wave.rs (f64), src/effects/energy_wave_f32.rs (this arithmetic).
 #include "common/camera.glsl"
 #include "common/energy_wave.glsl"
@@ -9,7 +10,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 // WaveStyle in src/passes/energy_wave.rs (size checked when bound: gpu::reflect).
 struct WaveStyle {
-    vec4 emission;  // rgb: colour × intensity
+    vec4 emission;  // rgb: colour × intensity; w: cutoff (H below it emits nothing)
     uvec4 method;   // x: 0 analytic, 1 raymarch; y: steps; z: jitter
 };
 
@@ -77,7 +78,7 @@ void main() {
             : wave_raymarch(wave, u, L, style.method.y, style.method.z != 0u ? pixel_jitter(p, i) : 0.5);
         bool live = i < params.dims.z;
         total += live ? H : 0.0;
-        emitted += live ? style.emission.rgb * H : vec3(0.0);
+        emitted += live ? style.emission.rgb * max(H - style.emission.w, 0.0) : vec3(0.0);
         ++i;
     } while (i < params.dims.z);
     if (inside) {

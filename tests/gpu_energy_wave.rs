@@ -5,7 +5,7 @@
 mod common;
 
 use glam::DVec3;
-use hadou::effects::energy_wave::{line_integral, raymarch, WaveParams};
+use hadou::effects::energy_wave::{emitted, line_integral, raymarch, WaveParams};
 use hadou::passes::energy_wave::wave_params;
 use hadou::scene::Scene;
 use hadou::{Aov, FrameRequest};
@@ -319,4 +319,62 @@ fn hard_rays_on_the_gpu_match_f64_on_the_same_inputs() {
     }
     println!("{} hard rays on the GPU, worst rel {worst:.2e}", cases.len());
     common::assert_clean(&rt);
+}
+
+/// `cutoff`: HDR gains colour × intensity × max(H − cutoff, 0) (`energy_wave::emitted`), the
+/// energy AOV keeps H. Per pixel, the HDR with the wave minus the HDR of the same scene without
+/// it, against the f64 twin with H the f64 integral up to the GPU's depth. Bound: both HDR values
+/// are RGBA16F (2⁻¹¹ relative rounding each, so 2⁻¹⁰ of the larger), plus the emission's error
+/// from H's own f32 error (≤ 1e-4·H, the bound above) × colour × intensity. Pixels below the
+/// cutoff must not change at all, and both sides of the cutoff must occur.
+#[test]
+fn cutoff_emits_only_the_energy_above_it() {
+    let wave = "[[wave]]\norigin = [-3, 0.5, 0]\ndirection = [1, 0.1, 0]\na = 0.5\nb = 0.4\ncore = 0.02\nlength = 6\n\
+                color = [0.3, 0.6, 1.0]\nintensity = 2\ncutoff = 3\n";
+    let with = plane_scene(wave);
+    let without = plane_scene("");
+    let (w, h) = (96u32, 72u32);
+    let render = |scene: &Scene| {
+        let mut rt = common::runtime();
+        rt.load_scene(scene.clone()).unwrap();
+        let mut req = FrameRequest::new(w, h);
+        req.aovs = vec![Aov::Hdr, Aov::Depth];
+        if !scene.waves.is_empty() {
+            req.aovs.push(Aov::Energy);
+        }
+        let frame = rt.render(&req).unwrap();
+        common::assert_clean(&rt);
+        frame
+    };
+    let (lit, base) = (render(&with), render(&without));
+    let (hdr, hdr0) = (&lit.aov(Aov::Hdr).unwrap().data, &base.aov(Aov::Hdr).unwrap().data);
+    let depth = &lit.aov(Aov::Depth).unwrap().data;
+    let energy = &lit.aov(Aov::Energy).unwrap().data;
+    let state = with.waves[0].at(0.0);
+    let p = wave_params(&state);
+    let cam = &with.camera;
+    let (mut above, mut below) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let (o, u) = cam.pixel_ray(x, y, w, h);
+            let hf = line_integral(&p, o, u, (depth[i] as f64).min(cam.far));
+            assert!((energy[i] as f64 - hf).abs() <= 1e-4 * hf, "({x}, {y}): the energy AOV keeps H");
+            let e = emitted(hf, state.cutoff);
+            if hf > state.cutoff * (1.0 + 1e-4) {
+                above += 1;
+            } else if hf < state.cutoff * (1.0 - 1e-4) {
+                below += 1;
+            }
+            for c in 0..3 {
+                let (got, base) = (hdr[4 * i + c] as f64, hdr0[4 * i + c] as f64);
+                let k = state.emission[c];
+                let want = base + k * e;
+                let tol = 2f64.powi(-10) * want.max(got) + k * 1e-4 * hf;
+                assert!((got - want).abs() <= tol, "({x}, {y}) channel {c}: {got} vs {want} (H {hf})");
+            }
+        }
+    }
+    println!("cutoff: {above} pixels above it, {below} below");
+    assert!(above > 100 && below > 100, "{above} above, {below} below: both sides must be seen");
 }

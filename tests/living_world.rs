@@ -48,6 +48,7 @@ fn wave(k: usize) -> WaveDesc {
         length: 2.0 + (k % 6) as f64,
         color: DVec3::new(0.3, 0.6, 1.0),
         intensity: 0.5,
+        cutoff: 0.0,
     }
 }
 

@@ -185,6 +185,7 @@ impl GameState {
             length: w.length,
             color,
             intensity,
+            cutoff: 0.0,
         })
     }
 

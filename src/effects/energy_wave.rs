@@ -707,3 +707,9 @@ mod tests {
         assert!(last < 1e-6, "{last:e}");
     }
 }
+
+/// What a wave adds to HDR per unit of colour × intensity for an integral `h`: the energy above
+/// its `cutoff` (`[[wave]] cutoff`; 0 gives `h` itself). The twin of the energy pass's emission.
+pub fn emitted(h: f64, cutoff: f64) -> f64 {
+    (h - cutoff).max(0.0)
+}

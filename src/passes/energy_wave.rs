@@ -18,7 +18,7 @@ use crate::targets::Target;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct WaveStyle {
-    /// rgb: colour × intensity.
+    /// rgb: colour × intensity; w: the cutoff.
     pub emission: [f32; 4],
     /// x: 0 analytic, 1 raymarch; y: steps; z: jitter (0/1).
     pub method: [u32; 4],
@@ -77,7 +77,7 @@ pub fn wave_style(state: &WaveState, method: WaveMethod) -> WaveStyle {
         WaveMethod::Analytic => [0, 0, 0, 0],
         WaveMethod::Raymarch { steps, jitter } => [1, steps, u32::from(jitter), 0],
     };
-    WaveStyle { emission: [e.x as f32, e.y as f32, e.z as f32, 0.0], method }
+    WaveStyle { emission: [e.x as f32, e.y as f32, e.z as f32, state.cutoff as f32], method }
 }
 
 pub struct EnergyWavePass {

@@ -40,6 +40,8 @@ pub struct WaveDesc {
     pub color: DVec3,
     /// Emission scale ≥ 0.
     pub intensity: f64,
+    /// H below which nothing is emitted, ≥ 0 (0: the seed's integral as it is; `[[wave]] cutoff`).
+    pub cutoff: f64,
 }
 
 /// A metaball group (seed 000): Σ qᵢ f(‖x − cᵢ‖²/Rᵢ²) = threshold in object space, placed by
@@ -64,7 +66,7 @@ fn check_wave(d: &WaveDesc) -> Result<(), Error> {
     // What the GPU holds: every value and the emission colour × intensity as f32.
     let f32_max = f64::from(f32::MAX);
     let fits = |v: DVec3| v.abs().max_element() <= f32_max;
-    let scalars = [d.a, d.b, d.core, d.intensity];
+    let scalars = [d.a, d.b, d.core, d.intensity, d.cutoff];
     let ok = fits(d.origin)
         && fits(d.color * d.intensity)
         && scalars.iter().all(|v| v.abs() <= f32_max)
@@ -72,7 +74,7 @@ fn check_wave(d: &WaveDesc) -> Result<(), Error> {
         && d.origin.is_finite()
         && d.direction.is_finite()
         && d.direction.length() > 0.0
-        && [d.a, d.b, d.core, d.intensity].iter().all(|v| v.is_finite() && *v >= 0.0)
+        && [d.a, d.b, d.core, d.intensity, d.cutoff].iter().all(|v| v.is_finite() && *v >= 0.0)
         && d.length > 0.0
         && !d.length.is_nan()
         && d.color.is_finite()
@@ -82,7 +84,7 @@ fn check_wave(d: &WaveDesc) -> Result<(), Error> {
     } else {
         Err(invalid(
             format!("wave {d:?}"),
-            "a finite origin, a non-zero finite direction, finite a, b, core, intensity ≥ 0, length > 0 \
+            "a finite origin, a non-zero finite direction, finite a, b, core, intensity, cutoff ≥ 0, length > 0 \
              and a finite colour ≥ 0, each (and colour × intensity) within f32's range (3.4e38)",
         ))
     }
@@ -105,6 +107,7 @@ impl Renderer {
             length: desc.length,
             color: desc.color,
             intensity: desc.intensity,
+            cutoff: desc.cutoff,
             method: WaveMethod::Analytic,
             keyframes: Vec::new(),
         });
@@ -120,7 +123,7 @@ impl Renderer {
         let wave = &mut self.loaded.as_mut().ok_or(Error::NoScene)?.scene.waves[index];
         (wave.origin, wave.direction) = (desc.origin, desc.direction.normalize());
         (wave.a, wave.b, wave.core, wave.length) = (desc.a, desc.b, desc.core, desc.length);
-        (wave.color, wave.intensity) = (desc.color, desc.intensity);
+        (wave.color, wave.intensity, wave.cutoff) = (desc.color, desc.intensity, desc.cutoff);
         // From now on, at every time: a file wave's keyframes and velocity no longer apply.
         wave.velocity = DVec3::ZERO;
         wave.keyframes.clear();

@@ -132,6 +132,7 @@ pub(super) struct WaveDef {
     pub length: Option<Spanned<Num>>,
     pub color: Option<Spanned<Array<Num, 3>>>,
     pub intensity: Option<Spanned<Num>>,
+    pub cutoff: Option<Spanned<Num>>,
     pub method: Option<Spanned<String>>,
     pub steps: Option<Spanned<Int>>,
     pub jitter: Option<Spanned<bool>>,

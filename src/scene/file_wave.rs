@@ -45,6 +45,7 @@ fn wave(o: &Owner, d: &WaveDef) -> Result<Wave, SceneError> {
     let length = o.num("length", d.length.as_ref(), f64::INFINITY, POSITIVE)?;
     let color = o.vec3("color", d.color.as_ref(), DVec3::ONE, NON_NEGATIVE)?;
     let intensity = o.num("intensity", d.intensity.as_ref(), 1.0, NON_NEGATIVE)?;
+    let cutoff = o.num("cutoff", d.cutoff.as_ref(), 0.0, NON_NEGATIVE)?;
     let method = method(o, d)?;
     let keyframes = keyframes(o, &d.keyframe)?;
     check_strength(o, d, a, b, &keyframes)?;
@@ -60,6 +61,7 @@ fn wave(o: &Owner, d: &WaveDef) -> Result<Wave, SceneError> {
         length,
         color,
         intensity,
+        cutoff,
         method,
         keyframes,
     })

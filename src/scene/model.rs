@@ -185,6 +185,9 @@ pub struct Wave {
     pub color: DVec3,
     /// Emission added to HDR = color × intensity × H.
     pub intensity: f64,
+    /// Energy below which the wave emits nothing: HDR gets colour × intensity × max(H − cutoff,
+    /// 0) (0: the seed's integral as it is). The energy AOV holds H itself.
+    pub cutoff: f64,
     /// How the pass integrates the wave along each view ray.
     pub method: WaveMethod,
     /// Sorted by time, strictly increasing.

@@ -22,8 +22,10 @@ pub struct WaveState {
     pub core: f64,
     /// Beam length ℓ > 0, `f64::INFINITY` for the seed's half-infinite beam.
     pub length: f64,
-    /// Linear RGB added to HDR per unit of H: color × intensity.
+    /// Linear RGB added to HDR per unit of H above `cutoff`: color × intensity.
     pub emission: DVec3,
+    /// H below which nothing is emitted (`Wave::cutoff`).
+    pub cutoff: f64,
 }
 
 impl Wave {
@@ -44,6 +46,7 @@ impl Wave {
             core: num(self.core, |k| k.core),
             length: num(self.length, |k| k.length),
             emission: self.color * num(self.intensity, |k| k.intensity),
+            cutoff: self.cutoff,
         }
     }
 }
@@ -118,6 +121,7 @@ mod tests {
             length: f64::INFINITY,
             color: DVec3::new(0.5, 1.0, 2.0),
             intensity: 0.25,
+            cutoff: 0.0,
             method: WaveMethod::Analytic,
             keyframes: Vec::new(),
         }
