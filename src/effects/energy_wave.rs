@@ -513,6 +513,12 @@ pub fn raymarch(w: &WaveParams, origin: DVec3, u: DVec3, l: f64, steps: u32, off
     raymarch_frame(&frame(w, origin), u, l, steps, offset)
 }
 
+/// What a wave adds to HDR per unit of colour × intensity for an integral `h`: the energy above
+/// its `cutoff` (`[[wave]] cutoff`; 0 gives `h` itself). The twin of the energy pass's emission.
+pub fn emitted(h: f64, cutoff: f64) -> f64 {
+    (h - cutoff).max(0.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -706,10 +712,4 @@ mod tests {
         }
         assert!(last < 1e-6, "{last:e}");
     }
-}
-
-/// What a wave adds to HDR per unit of colour × intensity for an integral `h`: the energy above
-/// its `cutoff` (`[[wave]] cutoff`; 0 gives `h` itself). The twin of the energy pass's emission.
-pub fn emitted(h: f64, cutoff: f64) -> f64 {
-    (h - cutoff).max(0.0)
 }
