@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod aov;
+pub mod compare;
 #[doc(hidden)]
 pub mod effects;
 #[doc(hidden)]
@@ -15,6 +16,8 @@ pub mod passes;
 pub mod present;
 #[doc(hidden)]
 pub mod profile;
+#[doc(hidden)]
+pub mod profile_diff;
 pub mod renderer;
 #[doc(hidden)]
 pub mod report;
