@@ -65,7 +65,7 @@ def main():
         base.sort(), slow.sort()
         truth[it] = (base[3] + base[2]) / 2, (slow[3] + slow[2]) / 2
         print(f"busy {it}: tonemap p50 {truth[it][0]:.3f} -> {truth[it][1]:.3f} ms "
-              f"(+{(truth[it][1] / truth[it][0] - 1) * 100:.1f} %), runs {base} / {slow}", file=sys.stderr)
+              f"({(truth[it][1] / truth[it][0] - 1) * 100:+.1f} %), runs {base} / {slow}", file=sys.stderr)
 
     def flagged(stdout):
         # Rows the gate calls SLOWER.
@@ -108,7 +108,7 @@ def main():
     print("| gate | frames per run | tonemap slowed by | trials | tonemap flagged | other rows flagged |")
     print("|---|---|---|---|---|---|")
     for gate, frames, it, n, tone, fp in rows:
-        slowed = "0 (A/A)" if it == 0 else f"+{(truth[it][1] / truth[it][0] - 1) * 100:.0f} % ({it} iterations)"
+        slowed = "0 (A/A)" if it == 0 else f"{(truth[it][1] / truth[it][0] - 1) * 100:+.0f} % ({it} iterations)"
         print(f"| {gate} | {frames} | {slowed} | {n} | {tone}/{n} | {fp}/{n} |")
 
 

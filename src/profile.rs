@@ -63,6 +63,9 @@ pub struct ProfileReport {
     pub samples: BTreeMap<String, RunSamples>,
 }
 
+/// A frame row of the table: its label and how to read it from a frame.
+type FrameRow = (&'static str, fn(&FrameStats) -> f64);
+
 pub fn build_profile_name() -> &'static str {
     if cfg!(debug_assertions) {
         "debug"
@@ -96,7 +99,7 @@ impl ProfileReport {
                 frames.iter().map(|f| f.passes.iter().find(|p| &p.name == name).map(|p| p.gpu_ms)).collect();
             samples.insert(format!("gpu {name}"), RunSamples { runs: vec![per_frame] });
         }
-        let rows: [(&str, fn(&FrameStats) -> f64); 4] = [
+        let rows: [FrameRow; 4] = [
             ("gpu frame", |f| f.gpu_frame_ms),
             ("cpu record", |f| f.cpu_record_ms),
             ("cpu submit+wait", |f| f.cpu_submit_wait_ms),
