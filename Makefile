@@ -14,10 +14,13 @@ check-vulkan: setup
 build: setup
 	$(CARGO) build --release
 
-# Renders the showcase to out/showcase.png (+ its depth AOV) and prints per-pass timings.
+# Renders the showcase to out/showcase.png (+ its depth AOV), a glTF scene (translucent
+# KHR_materials_volume cube) with an energy wave from a TOML overlay to out/gltf_overlay.png,
+# and prints per-pass timings.
 demo: build check-vulkan
 	mkdir -p out
 	./target/release/hadou render assets/scenes/showcase.toml -o out/showcase.png --aov depth=out/showcase_depth.exr
+	./target/release/hadou render assets/gltf/overlay.toml -o out/gltf_overlay.png
 	./target/release/hadou profile assets/scenes/showcase.toml --size 512x512 --frames 30 --warmup 5
 
 # The whole test suite on lavapipe (or any Vulkan device), validation on in every GPU test.

@@ -86,16 +86,13 @@ MetaGroup load_group(uint i) {
 uvec4 tiles(uint i) { return texelFetch(tile_texels, int(i)); }
 uint entries(uint k) { return texelFetch(entry_texels, int(k)).x; }
 
-// ‖c − o‖ − R of entry k of the run, less a margin for the f32 arithmetic: a lower bound of the
-// distance t′ at which a ray from o enters that ball's support (or any later one of the run's).
-float chunk_key(uvec4 run, uint k, vec3 o) {
-    vec4 ball = load_ball(entries(run.y + k)).centre_radius;
-    float key = length(ball.xyz - o) - ball.w;
-    return key - 1e-5 * (abs(key) + 2.0 * ball.w);
-}
+// A lower bound of the distance t′ at which a ray from o enters the support of entry k of the run
+// (or of any later one: the run is sorted by this key).
+float chunk_key(uvec4 run, uint k, vec3 o) { return mb_entry_key(load_ball(entries(run.y + k)), o); }
 
 #define MB_BALL(i) load_ball(i)
 #define MB_INDEX(k) entries(k)
+#define MB_LIST_SORTED 1
 #define MB_TANGENT_FLAGS 0  // this pass never reads MB_TANGENT
 #include "common/metaballs.glsl"
 
@@ -108,14 +105,15 @@ layout(push_constant) uniform MetaballParams {
     vec4 range;    // x: the camera's far distance
 } params;
 
-#define STAT_DROPPED 0         // pixels whose search could not finish (more than
-                               // MB_MAX_RAY_BALLS supports overlap at one point, or
-                               // MB_NOT_CONVERGED: clipping did not converge or sphere
-                               // tracing ran out of steps): a surface may be missing there
+#define STAT_DROPPED 0         // pixels whose search could not finish (MB_NOT_CONVERGED:
+                               // clipping did not converge or sphere tracing ran out of
+                               // steps): a surface may be missing there
 #define STAT_HITS 1            // pixels where a metaball is the nearest surface
 #define STAT_ITERATIONS 2      // Σ Bézier-clipping steps of those hits' casts (sphere
                                // tracing: march steps)
 #define STAT_MAX_ITERATIONS 3
+#define STAT_STREAMED 4        // casts streamed from the run (mb_clip_stream): more than
+                               // MB_MAX_RAY_BALLS supports contain one point of the ray
 
 // Keep in sync with RUN_LONE_BOUND in src/passes/metaballs.rs: all q ≥ 0 and F = 0 on the near
 // plane, so F > T at a point well inside one ball's lone isosurface sphere bounds the first hit.
@@ -146,6 +144,7 @@ void main() {
     uvec2 p = header.zw * 8u + block;
     bool inside = tile < params.dims.z && p.x < params.dims.x && p.y < params.dims.y;
     uint dropped = 0u;
+    uint streamed = 0u;
     bool found = false;
     MetaHit best;
     uint best_group = 0u;
@@ -174,10 +173,11 @@ void main() {
         float from = t_min;
         bool live = inside && t_max >= t_min;
         bool lone_bound = (run.w & RUN_LONE_BOUND) != 0u;
-        float cap = FLT_MAX;  // object space: balls entering later are left out of this round
+        bool stuck = false;  // no step forward: stream the rest
         // Each round casts [from, stop): a miss moves `from` to the entry of the first ball left
-        // out (past at least one more ball of the run); a pile-up halves the window below `cap`.
-        // The guard bounds pathological cases, and counts them.
+        // out (past at least one more of this lane's balls); where that is no step forward, the
+        // next cast streams the rest. So a lane needs at most run.z + 1 rounds; the guard only
+        // bounds what that argument missed, and counts it.
         uint round = 0u;
         do {
             if (round > 2u * run.z + 64u) {
@@ -188,10 +188,9 @@ void main() {
             float t1 = t_max * ts;
             uint slots = 0u;  // subgroup-uniform
             uint mask = 0u;   // this lane's slots
-            float limit = min(cap, t1);  // entry of the first ball left out (object space)
+            float limit = t1;            // entry of the first ball left out (object space)
             float bound = t1;            // a point inside the surface (RUN_LONE_BOUND)
             float stop = limit;          // min(limit, bound): no ball entering later matters
-            float max_en = t0;           // the latest entry kept
             // The chunks of 8 balls, while some lane may still need one: the chunk's first key
             // (‖c − o‖ − R, sorted) bounds the entry of every ball in it and after it.
             uint base = 0u;
@@ -242,10 +241,7 @@ void main() {
                         if (subgroupAny(want)) {
                             if (slots < uint(MB_MAX_RAY_BALLS)) {
                                 mb_fill_slot(slots, bj, ball_id, w, tc, h2, en, ex);
-                                if (want) {
-                                    mask |= 1u << slots;
-                                    max_en = max(max_en, en);
-                                }
+                                if (want) mask |= 1u << slots;
                                 ++slots;
                             } else if (want) {
                                 limit = min(limit, en);
@@ -260,62 +256,68 @@ void main() {
             } while (walk);
             if (live) {
                 bool cut = limit < min(t1, bound);
-                if (cut && !(limit > t0)) {
-                    // A ball containing `from` came after MB_MAX_RAY_BALLS others: search a
-                    // narrower window, unless those all contain `from` as well.
-                    if (max_en > t0) {
-                        cap = t0 + 0.5 * (max_en - t0);
-                    } else {
-                        dropped += 1u;
-                        live = false;
-                    }
-                } else {
-                    cap = FLT_MAX;
-                    float t_end = stop < t1 ? stop / ts : t_max;
-                    MetaHit h;
-                    h.normal = -u;
-                    h.t = t_end;
-                    h.flags = 0u;
-                    h.iterations = 0u;
-                    MetaRay mr;
-                    mr.o = o;
-                    mr.d = d;
-                    mr.ts = ts;
+                // A ball containing `from` came after MB_MAX_RAY_BALLS others (some lanes' balls
+                // filled the slots): no step forward, so the rest of the ray is streamed from the run.
+                bool crowded = stuck || (cut && !(limit > t0));
+                if (crowded) {
+                    cut = false;
+                    bound = t1;
+                    stop = t1;
+                    streamed += 1u;
+                }
+                float t_end = stop < t1 ? stop / ts : t_max;
+                MetaHit h;
+                h.normal = -u;
+                h.t = t_end;
+                h.flags = 0u;
+                h.iterations = 0u;
+                MetaRay mr;
+                mr.o = o;
+                mr.d = d;
+                mr.ts = ts;
+                MetaHit h0 = h;
 #if MB_WITH_CLIP && MB_WITH_TRACE
-                    if ((run.w & RUN_TRACE) != 0u) {
-                        h = mb_trace_slots(g, mr, u, slots, mask, t0, t_end * ts, h);
-                    } else {
-                        h = mb_clip_slots(g, mr, u, slots, mask, t0, t_end * ts, h);
-                    }
+                if ((run.w & RUN_TRACE) != 0u) {
+                    h = mb_trace_slots(g, mr, u, slots, mask, t0, t_end * ts, h0);
+                } else {
+                    h = mb_clip_slots(g, mr, u, slots, mask, t0, t_end * ts, h0);
+                }
 #elif MB_WITH_TRACE
-                    h = mb_trace_slots(g, mr, u, slots, mask, t0, t_end * ts, h);
+                h = mb_trace_slots(g, mr, u, slots, mask, t0, t_end * ts, h0);
 #else
-                    h = mb_clip_slots(g, mr, u, slots, mask, t0, t_end * ts, h);
+                h = mb_clip_slots(g, mr, u, slots, mask, t0, t_end * ts, h0);
 #endif
-                    if ((h.flags & MB_HIT) != 0u) {
-                        best = h;
-                        best_group = run.x;
-                        found = true;
-                        t_max = h.t;  // later groups must be nearer
-                        live = false;
-                    } else if ((h.flags & MB_NOT_CONVERGED) != 0u) {
-                        dropped += 1u;
-                        live = false;
-                    } else if (cut) {
-                        // Go on from where the search stopped.
-                        float next = t_end;
-                        if (!(next > from)) {
-                            dropped += 1u;
-                            live = false;
-                        }
+                // Lavapipe runs a branch's code for the whole SIMD group unless no lane takes it:
+                // the streamed cast (rare, long) in a branch of its own costs the subgroups
+                // without a crowded lane nothing (the slot cast a crowded lane ran is discarded).
+                if (subgroupAny(crowded)) {
+                    if (crowded) h = mb_clip_stream(g, mr, u, run.y, run.z, t0, t_end * ts, h0);
+                }
+                if ((h.flags & MB_HIT) != 0u) {
+                    best = h;
+                    best_group = run.x;
+                    found = true;
+                    t_max = h.t;  // later groups must be nearer
+                    live = false;
+                } else if ((h.flags & MB_NOT_CONVERGED) != 0u) {
+                    dropped += 1u;
+                    live = false;
+                } else if (cut) {
+                    // Go on from where the search stopped; where rounding leaves no step
+                    // forward (the window's end within an ulp of `from` in world units), the
+                    // next round streams.
+                    float next = t_end;
+                    if (next > from) {
                         from = next;
-                    } else if (bound < t1) {
-                        // The bound promised a hit, which only a graze within the tangency band
-                        // can miss: search again without it.
-                        lone_bound = false;
                     } else {
-                        live = false;
+                        stuck = true;
                     }
+                } else if (bound < t1) {
+                    // The bound promised a hit, which only a graze within the tangency band
+                    // can miss: search again without it.
+                    lone_bound = false;
+                } else {
+                    live = false;
                 }
             }
             ++round;
@@ -354,8 +356,10 @@ void main() {
     uint iter_sum = subgroupAdd(found ? best.iterations : 0u);
     uint iter_max = subgroupMax(found ? best.iterations : 0u);
     uint drop_sum = subgroupAdd(dropped);
+    uint stream_sum = subgroupAdd(streamed);
     if (subgroupElect()) {
         if (drop_sum != 0u) atomicAdd(stats[STAT_DROPPED], drop_sum);
+        if (stream_sum != 0u) atomicAdd(stats[STAT_STREAMED], stream_sum);
         if (hit_count != 0u) {
             atomicAdd(stats[STAT_HITS], hit_count);
             atomicAdd(stats[STAT_ITERATIONS], iter_sum);

@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod aov;
+pub mod builtin;
 pub mod compare;
 #[doc(hidden)]
 pub mod effects;
@@ -34,6 +35,7 @@ pub use aov::{Aov, AovImage};
 pub use effects::metaballs::Ball;
 pub use frame::{FrameStats, PassTiming};
 pub use gpu::{DeviceInfo, GpuError, HostWaits, ValidationCounts};
+pub use renderer::instances::{InstanceId, LightId};
 pub use renderer::world::{GroupId, MetaballsDesc, WaveDesc, WaveId};
 pub use renderer::{
     AovReadback, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameTimings, RecordedFrame,

@@ -10,7 +10,9 @@
 //!   place. A failed write removes every temporary and replaces nothing. Temporaries left by a
 //!   killed process (whose PID is gone) are removed the next time that target is written.
 
-use std::io::{Cursor, ErrorKind, Write};
+mod memory;
+
+use std::io::{ErrorKind, Write};
 use std::os::unix::fs::FileTypeExt;
 use std::path::{Component, Path, PathBuf};
 
@@ -241,12 +243,18 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     set.commit()
 }
 
-/// Encodes RGBA8 pixels as PNG; `path` names the output in errors.
+/// Encodes RGBA8 pixels as PNG; `path` names the output in errors. Host memory for the copy and
+/// the encoded bytes is reserved fallibly: too little is an error, not an abort.
 pub fn encode_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<Vec<u8>, OutputError> {
     let encode = |message: String| OutputError::Encode { path: path.to_path_buf(), message };
-    let img = image::RgbaImage::from_raw(width, height, rgba.to_vec())
+    let out_of_memory = |bytes: usize| encode(format!("out of host memory ({bytes} bytes)"));
+    let mut pixels = memory::try_filled(rgba.len(), 0u8).ok_or_else(|| out_of_memory(rgba.len()))?;
+    pixels.copy_from_slice(rgba);
+    let img = image::RgbaImage::from_raw(width, height, pixels)
         .ok_or_else(|| encode(format!("{} bytes is not {width}x{height} RGBA", rgba.len())))?;
-    let mut bytes = Cursor::new(Vec::new());
+    // A PNG is rarely larger than its pixels: that much room first, more only if asked for.
+    let mut bytes =
+        memory::FallibleCursor::with_capacity(rgba.len() / 2).map_err(|_| out_of_memory(rgba.len() / 2))?;
     img.write_to(&mut bytes, image::ImageFormat::Png).map_err(|e| encode(e.to_string()))?;
     Ok(bytes.into_inner())
 }
@@ -265,21 +273,26 @@ pub fn encode_exr(path: &Path, name: &str, aov: &AovImage) -> Result<Vec<u8>, Ou
         return Err(encode(format!("{} values is not {w}x{h}x{n}", aov.data.len())));
     }
     let names: &[&str] = if n == 1 { &["Y"] } else { &["R", "G", "B", "A"] };
-    let channels: Vec<AnyChannel<FlatSamples>> = names
-        .iter()
-        .enumerate()
-        .map(|(c, label)| {
-            let samples: Vec<f32> = aov.data.iter().skip(c).step_by(n).copied().collect();
-            AnyChannel::new(*label, FlatSamples::F32(samples))
-        })
-        .collect();
+    // Planar copies of the channels and the encoded bytes, reserved fallibly: a size the host
+    // cannot hold is an error naming the output, not an abort.
+    let out_of_memory = |bytes: usize| encode(format!("out of host memory ({bytes} bytes)"));
+    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity(names.len());
+    for (c, label) in names.iter().enumerate() {
+        let mut samples = memory::try_filled(w * h, 0f32).ok_or_else(|| out_of_memory(4 * w * h))?;
+        for (s, v) in samples.iter_mut().zip(aov.data.iter().skip(c).step_by(n)) {
+            *s = *v;
+        }
+        channels.push(AnyChannel::new(*label, FlatSamples::F32(samples)));
+    }
     let layer = Layer::new(
         (w, h),
         LayerAttributes::named(name),
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(channels.into()),
     );
-    let mut bytes = Cursor::new(Vec::new());
+    // Lossless compression of noisy floats barely shrinks them: room for half first.
+    let mut bytes =
+        memory::FallibleCursor::with_capacity(2 * w * h * n).map_err(|_| out_of_memory(2 * w * h * n))?;
     Image::from_layer(layer).write().to_buffered(&mut bytes).map_err(|e| encode(e.to_string()))?;
     Ok(bytes.into_inner())
 }

@@ -46,6 +46,18 @@ fn upload(
     Ok(buffer)
 }
 
+/// The instance table (grouped by mesh) and one instanced draw per mesh that has instances.
+fn instance_layout(scene: &Scene) -> (Vec<InstanceData>, Vec<Draw>) {
+    let (instances, ranges) = instance_records(scene);
+    let draws = ranges
+        .iter()
+        .enumerate()
+        .filter(|(_, (_, count))| *count > 0)
+        .map(|(mesh, &(first_instance, instance_count))| Draw { mesh, first_instance, instance_count })
+        .collect();
+    (instances, draws)
+}
+
 impl SceneGpu {
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
         let mut meshes = Vec::with_capacity(scene.meshes.len());
@@ -71,13 +83,7 @@ impl SceneGpu {
             meshes.push(GpuMesh { vertices, indices, index_count: m.mesh.indices.len() as u32 });
         }
         let materials = material_records(scene);
-        let (instances, ranges) = instance_records(scene);
-        let draws = ranges
-            .iter()
-            .enumerate()
-            .filter(|(_, (_, count))| *count > 0)
-            .map(|(mesh, &(first_instance, instance_count))| Draw { mesh, first_instance, instance_count })
-            .collect();
+        let (instances, draws) = instance_layout(scene);
         Ok(SceneGpu { meshes, draws, materials, instances })
     }
 
@@ -96,8 +102,8 @@ impl SceneGpu {
         &self.instances
     }
 
-    /// Rebuilds the instance table after transforms changed (same instances, same order).
+    /// Rebuilds the instance table and the draws after instances moved, came or went.
     pub fn refresh_instances(&mut self, scene: &Scene) {
-        self.instances = instance_records(scene).0;
+        (self.instances, self.draws) = instance_layout(scene);
     }
 }

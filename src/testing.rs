@@ -48,3 +48,34 @@ impl Rng {
         xs[((self.next() * xs.len() as f64) as usize).min(xs.len() - 1)]
     }
 }
+
+/// A metaball group whose supports crowd: `k` faint balls (Σq = 0.35 < T = 0.5, so no surface of
+/// their own) with centres within 0.3 of (0, 0, 0.8) and radii 2–2.4 — every point within 1.4
+/// of that centre lies in all k supports — in front of and around two dense balls near
+/// (0, 0, −1.35), under a random non-uniform scale, rotation and translation. Rays from +z in
+/// object space cross the crowd before they reach the surface.
+pub fn crowded_metaballs(rng: &mut Rng, k: usize) -> crate::effects::metaballs::MetaballGroupParams {
+    use crate::effects::metaballs::{Ball, Kernel, MetaballGroupParams};
+    use crate::scene::transform::{Transform, TransformOp};
+    let mut balls: Vec<Ball> = (0..k)
+        .map(|_| Ball {
+            centre: rng.vec(-0.3, 0.3) + DVec3::new(0.0, 0.0, 0.8),
+            radius: rng.range(2.0, 2.4),
+            q: 0.35 / k as f64,
+        })
+        .collect();
+    balls.push(Ball { centre: DVec3::new(-0.4, 0.1, -1.2), radius: 1.2, q: 1.4 });
+    balls.push(Ball { centre: DVec3::new(0.5, -0.2, -1.5), radius: 1.0, q: 1.1 });
+    let ops = [
+        TransformOp::Scale(DVec3::new(rng.range(0.6, 1.5), rng.range(0.6, 1.5), rng.range(0.6, 1.5))),
+        TransformOp::Rotate { angle_deg: rng.range(0.0, 360.0), axis: rng.unit() },
+        TransformOp::Translate(rng.vec(-2.0, 2.0)),
+    ];
+    MetaballGroupParams {
+        threshold: 0.5,
+        kernel: Kernel::Wyvill6,
+        balls,
+        transform: Transform::from_ops(&ops).expect("a scale ≥ 0.6 is invertible"),
+        method: Default::default(),
+    }
+}

@@ -273,3 +273,159 @@ fn lights_and_materials_change_as_the_file_would() {
     common::assert_clean(&live);
     common::assert_clean(&file);
 }
+
+/// Instances come and go at run time exactly as if the file had listed them: a world where a
+/// plain box, a second box and a translucent jade block (same mesh and voxel_res as the file's,
+/// so its table is baked) were spawned, renders bit for bit as the scene loaded with those
+/// instances (depth, HDR, normal, thickness); despawning the file's instance too equals the file
+/// without it. A translucent instance whose table was never baked, an unknown mesh or material
+/// and a singular matrix are refused with the world unchanged; a despawned id is stale.
+#[test]
+fn instances_spawn_and_despawn_as_the_file_would() {
+    let head = r#"
+        [camera]
+        position = [0, 1.5, 7]
+        look_at = [0, 0, 0]
+        [[light]]
+        direction = [0.3, -0.4, -1]
+        intensity = 3
+        [[mesh]]
+        name = "block"
+        kind = "cube"
+        size = 1.2
+        [[mesh]]
+        name = "ring"
+        kind = "torus"
+        [[material]]
+        name = "stone"
+        albedo = [0.6, 0.6, 0.55]
+        [[material]]
+        name = "jade"
+        kind = "translucent"
+        albedo = [0.55, 0.85, 0.65]
+        sigma = [3.0, 1.2, 2.2]
+        voxel_res = 16
+    "#;
+    let file_instance =
+        "[[instance]]\nmesh = \"block\"\nmaterial = \"jade\"\ntransform = [{ translate = [-1.5, 0, 0] }]\n";
+    let spawned = [
+        (
+            "block",
+            "stone",
+            "[{ translate = [1.5, 0.2, -0.5] }, { rotate = { angle_deg = 20, axis = [0, 1, 0] } }]",
+        ),
+        ("ring", "stone", "[{ scale = [1, 0.5, 1] }, { translate = [0, -1, 0] }]"),
+        (
+            "block",
+            "jade",
+            "[{ rotate = { angle_deg = 35, axis = [1, 1, 0] } }, { translate = [0, 1.2, -1] }]",
+        ),
+    ];
+    let instance_text = |(mesh, material, transform): (&str, &str, &str)| {
+        format!("[[instance]]\nmesh = \"{mesh}\"\nmaterial = \"{material}\"\ntransform = {transform}\n")
+    };
+    let all: String = spawned.iter().map(|&s| instance_text(s)).collect();
+    let with_all = common::parse(&format!("{head}{file_instance}{all}"));
+    let only_spawned = common::parse(&format!("{head}{all}"));
+    let mut request = FrameRequest::new(64, 48);
+    request.aovs = vec![Aov::Depth, Aov::Hdr, Aov::Normal, Aov::Thickness];
+    let render_file = |scene: hadou::scene::Scene| {
+        let mut rt = common::runtime();
+        rt.load_scene(scene).unwrap();
+        let frame = rt.render(&request).unwrap();
+        common::assert_clean(&rt);
+        frame
+    };
+    let mut live = common::runtime();
+    live.load_scene(common::parse(&format!("{head}{file_instance}"))).unwrap();
+    live.render(&request).unwrap();
+    let r = live.renderer();
+    let file_id = r.instance_ids()[0];
+    let before = r.scene().unwrap().instances.clone();
+    let m = DMat4::from_translation(DVec3::X);
+    // Refused: the ring's table at 16³ was never baked; unknown names; a singular matrix.
+    assert!(matches!(r.spawn_instance("ring", "jade", m), Err(Error::InvalidUpdate { .. })));
+    assert!(matches!(r.spawn_instance("no such", "stone", m), Err(Error::InvalidUpdate { .. })));
+    assert!(matches!(r.spawn_instance("block", "no such", m), Err(Error::InvalidUpdate { .. })));
+    assert!(matches!(r.spawn_instance("block", "stone", DMat4::ZERO), Err(Error::InvalidUpdate { .. })));
+    assert_eq!(r.scene().unwrap().instances, before, "a refused call changes nothing");
+    let ids: Vec<_> = with_all.instances[1..]
+        .iter()
+        .zip(spawned)
+        .map(|(inst, (mesh, material, _))| r.spawn_instance(mesh, material, inst.transform.matrix).unwrap())
+        .collect();
+    let got = live.render(&request).unwrap();
+    let want = render_file(with_all);
+    for aov in &request.aovs {
+        assert!(common::same_bits(got.aov(*aov).unwrap(), want.aov(*aov).unwrap()), "{} differs", aov.name());
+    }
+    let r = live.renderer();
+    r.despawn_instance(file_id).unwrap();
+    assert!(matches!(r.despawn_instance(file_id), Err(Error::StaleId(_))));
+    assert!(matches!(r.set_transform(file_id, m), Err(Error::StaleId(_))));
+    assert_eq!(r.instance_index(ids[2]).unwrap(), 2, "indices shift, ids do not");
+    let got = live.render(&request).unwrap();
+    let want = render_file(only_spawned);
+    for aov in &request.aovs {
+        assert!(common::same_bits(got.aov(*aov).unwrap(), want.aov(*aov).unwrap()), "{} differs", aov.name());
+    }
+    // The last translucent instance gone: the translucency passes go out with it.
+    let r = live.renderer();
+    r.despawn_instance(ids[2]).unwrap();
+    let mut opaque = request.clone();
+    opaque.aovs.retain(|a| *a != Aov::Thickness);
+    live.render(&opaque).unwrap();
+    assert!(!live.pass_names().contains(&"translucency"), "{:?}", live.pass_names());
+    common::assert_clean(&live);
+}
+
+/// Lights come and go as if the file had listed them: a second light spawned (then the file's
+/// despawned) renders bit for bit as the file with those lights; a ninth light, a zero
+/// direction and a light past the HDR limit are refused with the lights unchanged.
+#[test]
+fn lights_spawn_and_despawn_as_the_file_would() {
+    let head = "[camera]\nposition = [0, 1, 6]\nlook_at = [0, 0, 0]\n[[mesh]]\nname = \"box\"\nkind = \"cube\"\n\
+                [[instance]]\nmesh = \"box\"\ntransform = [{ rotate = { angle_deg = 30, axis = [1, 1, 0] } }]\n";
+    let first = "[[light]]\ndirection = [-0.3, -1, -0.5]\n";
+    let second = "[[light]]\ndirection = [1, -0.2, -0.4]\ncolor = [1, 0.5, 0.2]\nintensity = 2\n";
+    let mut request = FrameRequest::new(48, 40);
+    request.aovs = vec![Aov::Hdr];
+    let render_file = |text: String| {
+        let mut rt = common::runtime();
+        rt.load_scene(common::parse(&text)).unwrap();
+        rt.render(&request).unwrap()
+    };
+    let mut live = common::runtime();
+    live.load_scene(common::parse(&format!("{head}{first}"))).unwrap();
+    let r = live.renderer();
+    let file_light = r.light_ids()[0];
+    let id = r.spawn_light(DVec3::new(1.0, -0.2, -0.4), DVec3::new(1.0, 0.5, 0.2), 2.0).unwrap();
+    let got = live.render(&request).unwrap();
+    let want = render_file(format!("{head}{first}{second}"));
+    assert!(common::same_bits(got.aov(Aov::Hdr).unwrap(), want.aov(Aov::Hdr).unwrap()), "two lights");
+    let r = live.renderer();
+    let lights = r.scene().unwrap().lights.clone();
+    assert!(matches!(r.spawn_light(DVec3::ZERO, DVec3::ONE, 1.0), Err(Error::InvalidUpdate { .. })));
+    assert!(matches!(r.spawn_light(DVec3::NEG_Y, DVec3::ONE, 1e6), Err(Error::InvalidUpdate { .. })));
+    assert_eq!(r.scene().unwrap().lights, lights, "a refused call changes nothing");
+    for _ in 2..8 {
+        r.spawn_light(DVec3::NEG_Y, DVec3::ONE, 0.01).unwrap();
+    }
+    assert!(
+        matches!(r.spawn_light(DVec3::NEG_Y, DVec3::ONE, 0.01), Err(Error::InvalidUpdate { .. })),
+        "a ninth"
+    );
+    for extra in r.light_ids()[2..].to_vec() {
+        r.despawn_light(extra).unwrap();
+    }
+    r.despawn_light(file_light).unwrap();
+    assert!(matches!(r.despawn_light(file_light), Err(Error::StaleId(_))));
+    assert_eq!(r.light_index(id).unwrap(), 0);
+    let got = live.render(&request).unwrap();
+    let want = render_file(format!("{head}{second}"));
+    assert!(
+        common::same_bits(got.aov(Aov::Hdr).unwrap(), want.aov(Aov::Hdr).unwrap()),
+        "the spawned light alone"
+    );
+    common::assert_clean(&live);
+}

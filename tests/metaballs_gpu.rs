@@ -11,7 +11,7 @@ use gpu_allocator::MemoryLocation;
 use hadou::effects::metaballs::{cast, Ball, Kernel, MetaballGroupParams};
 use hadou::effects::metaballs_f32::{
     cast_f32, gpu_balls, gpu_group, tangency, GpuMetaBall, GpuMetaGroup, BAND_C, MB_HIT, MB_NOT_CONVERGED,
-    MB_OVERFLOW,
+    MB_STREAMED,
 };
 use hadou::gpu::barriers::{cmd_barriers, memory_barrier};
 use hadou::gpu::commands::FrameCommands;
@@ -256,7 +256,7 @@ fn glsl_matches_the_f32_twin_and_f64() {
             ray.dir_tmax[3],
             false,
         );
-        assert_eq!(flags & MB_OVERFLOW, 0);
+        assert_eq!(flags & MB_STREAMED, 0);
         let reference = cast(&params[gi], o, d, t_min, t_max);
         let band = tangency(&params[gi], o, d, t_min, t_max).in_band();
         let gpu_hit = flags & MB_HIT != 0;
@@ -351,7 +351,7 @@ fn glsl_variants_match_the_f32_twin() {
             ray.dir_tmax[3],
             trace == 1,
         );
-        assert_eq!(flags & (MB_OVERFLOW | MB_NOT_CONVERGED), 0, "ray {k}");
+        assert_eq!(flags & (MB_STREAMED | MB_NOT_CONVERGED), 0, "ray {k}");
         assert_eq!(twin.flags & MB_NOT_CONVERGED, 0, "ray {k}");
         let margin = tangency(&params[gi], o, d, t_min, 100.0).margin;
         let limit = if trace == 1 { 2f64.powi(-10) } else { BAND_C * f64::from(f32::EPSILON) };
@@ -397,4 +397,91 @@ fn glsl_variants_match_the_f32_twin() {
     assert!(hits[0] > 500 && hits[1] > 500, "{hits:?}");
     assert!(worst_t[0] <= 1e-5 && worst_t[1] <= 1e-5, "{worst_t:?}");
     assert!(worst_f64 <= 1e-4, "{worst_f64:.2e}");
+}
+
+/// The streamed cast (`mb_clip_stream`) on the device against its f32 twin and f64: crowds of 40,
+/// 48 and 150 overlapping supports (`testing::crowded_metaballs`; more than the 32 slots hold at
+/// one point), half the groups sphere-traced (a crowded ray is streamed with clipping whatever
+/// the method). Same operations on both sides, so outside the tangency band hit/miss agree,
+/// depths to rounding (1e-5 relative, as for the slot casts above) and the f64 bounds hold.
+#[test]
+fn glsl_streamed_casts_match_the_f32_twin() {
+    use hadou::effects::metaballs::CastMethod;
+    let mut rng = Rng(0x7374_7265_616d_6564);
+    let (mut groups, mut params, mut balls, mut lists) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut rays, mut ray_f64) = (Vec::new(), Vec::new());
+    for (gi, k) in [40usize, 48, 150, 40, 48, 150].into_iter().enumerate() {
+        let gi = gi as u32;
+        let mut g = hadou::testing::crowded_metaballs(&mut rng, k);
+        let trace = gi >= 3;
+        if trace {
+            g.method = CastMethod::SphereTrace { steps: 256 };
+        }
+        let first = balls.len() as u32;
+        groups.push(gpu_group(&g, first, gi));
+        balls.extend(gpu_balls(&g));
+        let begin = lists.len() as u32;
+        lists.extend(first..first + g.balls.len() as u32);
+        let eye = g.transform.transform_point(DVec3::new(0.0, 0.0, 10.0));
+        let centre = g.transform.transform_point(DVec3::new(0.05, -0.05, -1.35));
+        for _ in 0..48 {
+            let d = (centre + rng.vec(-1.0, 1.0) - eye).normalize();
+            rays.push(ProbeRay {
+                origin_tmin: [eye.x as f32, eye.y as f32, eye.z as f32, 0.1],
+                dir_tmax: [d.x as f32, d.y as f32, d.z as f32, 100.0],
+                target: [gi, begin, g.balls.len() as u32, trace as u32],
+            });
+            ray_f64.push((params.len(), eye, d));
+        }
+        params.push(g);
+    }
+    let gpu = run_probe(&groups, &balls, &lists, &rays);
+    let (mut hits, mut streamed, mut in_band, mut worst_t, mut worst_f64) =
+        (0usize, 0usize, 0usize, 0f64, 0f64);
+    for (k, (ray, &(gi, o, d))) in rays.iter().zip(&ray_f64).enumerate() {
+        let (normal, t, flags, _) = gpu[k];
+        let (b, c) = (ray.target[1] as usize, ray.target[2] as usize);
+        let twin = cast_f32(
+            &groups[gi],
+            &balls,
+            &lists[b..b + c],
+            glam::Vec3::from_slice(&ray.origin_tmin[..3]),
+            glam::Vec3::from_slice(&ray.dir_tmax[..3]),
+            ray.origin_tmin[3],
+            ray.dir_tmax[3],
+            ray.target[3] == 1,
+        );
+        assert_eq!(flags & MB_NOT_CONVERGED, 0, "ray {k}");
+        assert_eq!(flags & MB_STREAMED, twin.flags & MB_STREAMED, "ray {k}: GPU {flags:#x}, twin {twin:?}");
+        streamed += usize::from(flags & MB_STREAMED != 0);
+        if tangency(&params[gi], o, d, 0.1, 100.0).in_band() {
+            in_band += 1;
+            continue;
+        }
+        let gpu_hit = flags & MB_HIT != 0;
+        assert_eq!(gpu_hit, twin.hit(), "ray {k}: GPU flags {flags:#x}, twin {twin:?}");
+        let reference = cast(&params[gi], o, d, 0.1, 100.0);
+        assert_eq!(gpu_hit, reference.is_some(), "ray {k}: GPU flags {flags:#x}, f64 {reference:?}");
+        if let Some(r) = reference {
+            hits += 1;
+            worst_t = worst_t.max(f64::from((t - twin.t).abs() / twin.t));
+            let gn = glam::Vec3::from(normal);
+            assert!(
+                gn.angle_between(twin.normal).to_degrees() <= 0.05,
+                "ray {k}: normal {gn} vs {}",
+                twin.normal
+            );
+            let rel = (f64::from(t) - r.t).abs() / r.t;
+            worst_f64 = worst_f64.max(rel);
+            assert!(rel <= 1e-4, "ray {k}: GPU t {t} vs f64 {}", r.t);
+            assert!(gn.as_dvec3().angle_between(r.normal).to_degrees() <= 0.5, "ray {k}: normal vs f64");
+        }
+    }
+    println!(
+        "GPU streamed casts, {} rays: {streamed} streamed, {hits} hits; worst depth vs the twin {worst_t:.1e} rel, \
+         vs f64 {worst_f64:.1e}; {in_band} in the band",
+        rays.len()
+    );
+    assert!(streamed > rays.len() * 3 / 4 && hits > 100, "{streamed} streamed, {hits} hits");
+    assert!(worst_t <= 1e-5, "{worst_t:.2e}");
 }

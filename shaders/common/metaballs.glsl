@@ -43,8 +43,8 @@ struct MetaBall {
 // What metaball_cast returns. Keep in sync with MetaHitF32 in src/effects/metaballs_f32.rs.
 struct MetaHit {
     vec3 normal;      // world unit normal −∇F (out of the blob); valid with MB_HIT
-    float t;          // world distance along dir: the hit with MB_HIT, the searched range with MB_OVERFLOW
-    uint flags;       // MB_HIT | MB_TANGENT | MB_OVERFLOW | MB_NOT_CONVERGED
+    float t;          // world distance along dir: the hit with MB_HIT
+    uint flags;       // MB_HIT | MB_TANGENT | MB_STREAMED | MB_NOT_CONVERGED
     uint iterations;  // Bézier-clipping steps spent
 };
 
@@ -53,12 +53,12 @@ struct MetaHit {
 
 #define MB_HIT 1u            // t and normal are set
 #define MB_TANGENT 2u        // the ray passed within δ of the threshold (near miss or double root)
-#define MB_OVERFLOW 4u       // more than MB_MAX_RAY_BALLS supports on the ray and no hit before the
-                             // entry of the nearest dropped ball: t is that distance (the ray is
-                             // known to miss up to it); casting again with t_min = t continues
+#define MB_STREAMED 4u       // more than MB_MAX_RAY_BALLS supports contain one point before the
+                             // answer: from there the cast went on by mb_clip_stream (Bézier
+                             // clipping whatever the method)
 #define MB_NOT_CONVERGED 8u  // MB_MAX_ITERATIONS clip steps spent: reported as a miss
 
-// Support spheres kept per ray (the nearest by entry; see MB_OVERFLOW).
+// Support spheres kept per ray (the nearest by entry; see MB_STREAMED).
 #define MB_MAX_RAY_BALLS 32
 // Clip steps per cast; the tests measure 3.5 per hit on average, at most 8, and 7 on a tangent ray.
 #define MB_MAX_ITERATIONS 256u
@@ -74,6 +74,16 @@ const float MB_BAND_C = 16.0;                     // δ = MB_BAND_C·ε·(S + X�
 const float MB_FLAT_C = 16.0;                     // a part within MB_FLAT_C·ε·S of zero is a root
 const float MB_TRACE_MIN_STEP = 9.765625e-4;      // 2^-10: sphere tracing's least step, × T/L
 #define MB_TRACE_BISECT 16                        // bisections of a sphere-tracing bracket
+// Walks per chord end a streamed cast may spend (mb_clip_stream): two per piece, and one per
+// doubling of the window between two chord ends (at most ~280 across the f32 range).
+#define MB_STREAM_WALKS 300u
+
+// ‖c − o‖ − R of a ball, less a margin for the f32 arithmetic: a lower bound of the distance t′
+// at which a ray from o (object space) enters its support.
+float mb_entry_key(MetaBall ball, vec3 o) {
+    float key = length(ball.centre_radius.xyz - o) - ball.centre_radius.w;
+    return key - 1e-5 * (abs(key) + 2.0 * ball.centre_radius.w);
+}
 
 #endif  // HADOU_METABALLS_STRUCTS
 
@@ -387,6 +397,16 @@ MetaRay mb_object_ray(MetaGroup g, vec3 origin, vec3 dir) {
     return r;
 }
 
+// The hit at object-space t_found with the field's gradient there (object space): the normal
+// −∇F mapped by M⁻ᵀ.
+void mb_finish_grad(inout MetaHit hit, MetaGroup g, MetaRay r, vec3 dir, vec3 grad, float t_found) {
+    vec3 nw = mat3(g.normal_matrix) * -grad;
+    float len = length(nw);
+    hit.normal = len > 0.0 ? nw / len : -dir;
+    hit.t = t_found / r.ts;
+    hit.flags |= MB_HIT;
+}
+
 // The hit at object-space t_found: the normal from the gradient (seed eq. 25) over the balls of
 // the slots in `set` (those whose support contains the point; any others add nothing), mapped
 // by M⁻ᵀ.
@@ -404,11 +424,7 @@ void mb_finish(inout MetaHit hit, MetaGroup g, MetaRay r, vec3 dir, uint set, fl
             grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
         }
     } while (m != 0u);
-    vec3 nw = mat3(g.normal_matrix) * -grad;
-    float len = length(nw);
-    hit.normal = len > 0.0 ? nw / len : -dir;
-    hit.t = t_found / r.ts;
-    hit.flags |= MB_HIT;
+    mb_finish_grad(hit, g, r, dir, grad, t_found);
 }
 
 // An upper bound of F on [t_cur, t_next] ⊂ the chords of `live`: Σ max(q, 0)·f(r′_min), r′_min
@@ -561,6 +577,144 @@ MetaHit mb_clip_slots(MetaGroup g, MetaRay r, vec3 dir, uint slots, uint mask, f
     return hit;
 }
 
+// 1: the caller's list is sorted by mb_entry_key (for the ray's origin), so the streamed walks
+// below stop at the first entry past their window; 0: they read the whole list.
+#ifndef MB_LIST_SORTED
+#define MB_LIST_SORTED 0
+#endif
+
+// The support chord [en, ex] of `ball` on the ray and its a = D/R², computed as mb_chord does;
+// false when the ray misses the support.
+bool mb_ball_chord(MetaBall ball, MetaRay r, out vec2 ct, out float a) {
+    vec3 w = ball.centre_radius.xyz - r.o;
+    float tc = dot(w, r.d);
+    vec3 cr = cross(w, r.d);
+    float h2 = dot(cr, cr);
+    float R = ball.centre_radius.w;
+    float D = R * R - h2;
+    float half_chord = sqrt(max(D, 0.0));
+    ct = vec2(tc - half_chord, tc + half_chord);
+    a = mb_chord_a(ct, R);
+    return D > 0.0;
+}
+
+// Bézier clipping streamed from the list itself: the first crossing of F = T with t′ ∈ [t0, t_end]
+// over every ball of MB_INDEX(list_begin) … MB_INDEX(list_begin + list_count − 1), however many
+// supports overlap (the slots hold MB_MAX_RAY_BALLS; a point inside more than that is cast here).
+// Nothing is stored per ball: every walk over the list recomputes the chords, so the cost is walks
+// × list length. A first walk finds the next chord end t_next and the field bound (mb_field_bound's,
+// over every chord meeting the window) on the window [t_cur, t_hi]: where it shows no root the
+// window is skipped and the next one is twice as wide; otherwise a second walk sums the
+// coefficients of the window's first piece [t_cur, min(t_hi, t_next)] — no chord end inside, so
+// one polynomial (seed 2.2) — and clips it exactly as mb_clip_slots clips an interval (same δ,
+// floors, tolerance, and MB_MAX_ITERATIONS per piece; MB_TANGENT from the clipping only); the
+// next window is twice that piece. Every window ends at a chord end or doubles, so a cast takes
+// at most one piece per chord end and one walk per doubling across the f32 range between them,
+// hence the guard; past it, MB_NOT_CONVERGED.
+MetaHit mb_clip_stream(MetaGroup g, MetaRay r, vec3 dir, uint list_begin, uint list_count, float t0,
+                       float t_end, MetaHit hit) {
+    uint kernel = g.info.x;
+    float T = g.params.x;
+    float X = length(r.o);
+    float t_cur = t0;
+    float t_hi = t_end;
+    uint walks = 0u;
+    uint max_walks = MB_STREAM_WALKS * (2u * min(list_count, 1u << 20) + 1u);
+    float t_found = 0.0;
+    bool found = false;
+    while (!found && t_cur < t_end) {
+        if (walks >= max_walks) {
+            hit.flags |= MB_NOT_CONVERGED;
+            return hit;
+        }
+        ++walks;
+        // The next chord end after t_cur and the field bound over [t_cur, t_hi].
+        float t_next = t_end;
+        float B = 0.0;
+        for (uint k = 0u; k < list_count; ++k) {
+            MetaBall ball = MB_BALL(MB_INDEX(list_begin + k));
+            if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) break;
+            vec2 ct;
+            float a;
+            if (mb_ball_chord(ball, r, ct, a) && ct.y > t_cur && ct.x < t_hi) {
+                t_next = min(t_next, ct.x > t_cur ? ct.x : ct.y);
+                float half_chord = 0.5 * (ct.y - ct.x);
+                float mid = ct.x + half_chord;
+                float s0 = (max(t_cur, ct.x) - mid) / half_chord;
+                float s1 = (min(t_hi, ct.y) - mid) / half_chord;
+                float s2 = s0 <= 0.0 && s1 >= 0.0 ? 0.0 : min(s0 * s0, s1 * s1);
+                B += max(ball.coeffs.x, 0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
+            }
+        }
+        if (B < T - mb_delta(B + T, X + t_hi, 0.0)) {
+            // No root in the window: on to the next one, twice as wide.
+            float width = t_hi - t_cur;
+            t_cur = t_hi;
+            t_hi = min(t_cur + 2.0 * width, t_end);
+            continue;
+        }
+        // The window may hold a root: clip its first piece, [t_cur, t_next].
+        t_hi = min(t_hi, t_next);
+        // One piece: Σ q·f of the chords containing it as one Bernstein polynomial, minus T.
+        float c[7];
+        float scale[7];
+        for (int i = 0; i < 7; ++i) {
+            c[i] = -T;
+            scale[i] = 0.0;
+        }
+        float G = 0.0;
+        for (uint k = 0u; k < list_count; ++k) {
+            MetaBall ball = MB_BALL(MB_INDEX(list_begin + k));
+            if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) break;
+            vec2 ct;
+            float a;
+            if (mb_ball_chord(ball, r, ct, a) && ct.x <= t_cur && ct.y > t_cur) {
+                float chord = ct.y - ct.x;
+                float dj[7];
+                mb_chord_bernstein(kernel, a, ball.coeffs.x, dj);
+                mb_restrict(dj, clamp((t_cur - ct.x) / chord, 0.0, 1.0), clamp((t_hi - ct.x) / chord, 0.0, 1.0));
+                for (int i = 0; i < 7; ++i) {
+                    c[i] += dj[i];
+                    scale[i] += abs(dj[i]);
+                }
+                G += ball.coeffs.z;
+            }
+        }
+        float S = 0.0;
+        for (int i = 0; i < 7; ++i) S = max(S, scale[i]);
+        float delta = mb_delta(S + T, X + t_hi, G);
+        float tol = g.params.y;
+        float alpha_tol = tol > 0.0 ? max(MB_ALPHA_TOL, tol * r.ts / (t_hi - t_cur)) : MB_ALPHA_TOL;
+        // MB_MAX_ITERATIONS per piece: a crowded ray may clip many pieces before its root.
+        uint steps = 0u;
+        float alpha = mb_first_root(c, MB_FLAT_C * MB_EPS * (S + T), delta, alpha_tol, steps, hit.flags);
+        hit.iterations += steps;
+        if ((hit.flags & MB_NOT_CONVERGED) != 0u) return hit;
+        if (alpha >= 0.0) {
+            if (MB_TANGENT_FLAGS != 0 && mb_shallow_root(c, alpha, delta)) hit.flags |= MB_TANGENT;
+            t_found = t_cur + alpha * (t_hi - t_cur);
+            found = true;
+        } else {
+            float width = t_hi - t_cur;
+            t_cur = t_hi;
+            t_hi = min(t_cur + 2.0 * width, t_end);
+        }
+    }
+    if (!found) return hit;
+    // The normal: ∇F over the balls whose support contains the point (others add nothing).
+    vec3 p = r.o + r.d * t_found;
+    vec3 grad = vec3(0.0);
+    for (uint k = 0u; k < list_count; ++k) {
+        MetaBall ball = MB_BALL(MB_INDEX(list_begin + k));
+        if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) > t_found) break;
+        vec3 w = p - ball.centre_radius.xyz;
+        float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
+        grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
+    }
+    mb_finish_grad(hit, g, r, dir, grad, t_found);
+    return hit;
+}
+
 // F along the ray at t′ from the slots (r′ = 1 − a·(1 − s²) on a chord, s ∈ [−1, 1] across it),
 // with L = Σ|q|γ/R over the chords containing t′ (a Lipschitz bound of F along the ray until the
 // next chord entry) and that next entry.
@@ -648,47 +802,56 @@ MetaHit metaball_cast(vec3 origin, vec3 dir, MetaGroup g, uint list_begin, uint 
     float t1 = t_max * r.ts;
     if (!(t1 >= t0)) return hit;
 
-    // The support chords crossing (t0, t1); the nearest MB_MAX_RAY_BALLS by entry kept.
-    uint n = 0u;
-    float t_limit = t1;
-    for (uint k = 0u; k < list_count; ++k) {
-        uint j = min(n, uint(MB_MAX_RAY_BALLS - 1));
-        if (n == uint(MB_MAX_RAY_BALLS)) {
-            // Full: the slot with the latest entry is the candidate to replace.
-            float latest = mb_chord_t[0].x;
-            j = 0u;
-            for (uint i = 1u; i < uint(MB_MAX_RAY_BALLS); ++i) {
-                if (mb_chord_t[i].x > latest) {
-                    latest = mb_chord_t[i].x;
-                    j = i;
+    // Rounds: the support chords crossing (t0, t1), the nearest MB_MAX_RAY_BALLS by entry kept,
+    // cast up to the entry of the first ball left out (t_limit); a miss goes on from there. Where
+    // more than MB_MAX_RAY_BALLS supports contain t0 itself, no slots hold them: the rest of the
+    // ray is streamed. Every round passes at least one entry, hence the guard.
+    uint rounds = 0u;
+    do {
+        uint n = 0u;
+        float t_limit = t1;
+        for (uint k = 0u; k < list_count; ++k) {
+            uint j = min(n, uint(MB_MAX_RAY_BALLS - 1));
+            if (n == uint(MB_MAX_RAY_BALLS)) {
+                // Full: the slot with the latest entry is the candidate to replace.
+                float latest = mb_chord_t[0].x;
+                j = 0u;
+                for (uint i = 1u; i < uint(MB_MAX_RAY_BALLS); ++i) {
+                    if (mb_chord_t[i].x > latest) {
+                        latest = mb_chord_t[i].x;
+                        j = i;
+                    }
                 }
+                vec2 chord0 = mb_chord_t[j];
+                vec2 shape0 = mb_shape[j];
+                vec2 iso0 = mb_iso[j];
+                vec2 meta0 = mb_meta[j];
+                if (!mb_chord(j, MB_INDEX(list_begin + k), r.o, r.d, t0, t1)) continue;
+                if (mb_chord_t[j].x >= latest) {
+                    t_limit = min(t_limit, mb_chord_t[j].x);
+                    mb_chord_t[j] = chord0;
+                    mb_shape[j] = shape0;
+                    mb_iso[j] = iso0;
+                    mb_meta[j] = meta0;
+                } else {
+                    t_limit = min(t_limit, latest);
+                }
+            } else if (mb_chord(j, MB_INDEX(list_begin + k), r.o, r.d, t0, t1)) {
+                ++n;
             }
-            vec2 chord0 = mb_chord_t[j];
-            vec2 shape0 = mb_shape[j];
-            vec2 iso0 = mb_iso[j];
-            vec2 meta0 = mb_meta[j];
-            if (!mb_chord(j, MB_INDEX(list_begin + k), r.o, r.d, t0, t1)) continue;
-            if (mb_chord_t[j].x >= latest) {
-                t_limit = min(t_limit, mb_chord_t[j].x);
-                mb_chord_t[j] = chord0;
-                mb_shape[j] = shape0;
-                mb_iso[j] = iso0;
-                mb_meta[j] = meta0;
-            } else {
-                t_limit = min(t_limit, latest);
-            }
-        } else if (mb_chord(j, MB_INDEX(list_begin + k), r.o, r.d, t0, t1)) {
-            ++n;
         }
-    }
-    float t_end = min(t1, t_limit);
-    uint mask = n >= 32u ? 0xffffffffu : (1u << n) - 1u;
-    hit = trace ? mb_trace_slots(g, r, dir, n, mask, t0, t_end, hit) : mb_clip_slots(g, r, dir, n, mask, t0, t_end, hit);
-    if ((hit.flags & (MB_HIT | MB_NOT_CONVERGED)) == 0u && t_limit < t1) {
-        // Known to miss up to t_limit only: report it, so a caller may cast again from there.
-        hit.flags |= MB_OVERFLOW;
-        hit.t = t_limit / r.ts;
-    }
+        if (!(t_limit > t0)) {
+            hit.flags |= MB_STREAMED;
+            return mb_clip_stream(g, r, dir, list_begin, list_count, t0, t1, hit);
+        }
+        float t_end = min(t1, t_limit);
+        uint mask = n >= 32u ? 0xffffffffu : (1u << n) - 1u;
+        hit = trace ? mb_trace_slots(g, r, dir, n, mask, t0, t_end, hit) : mb_clip_slots(g, r, dir, n, mask, t0, t_end, hit);
+        if ((hit.flags & (MB_HIT | MB_NOT_CONVERGED)) != 0u || !(t_limit < t1)) return hit;
+        t0 = t_limit;
+        ++rounds;
+    } while (rounds <= list_count);
+    hit.flags |= MB_NOT_CONVERGED;  // unreachable (see above)
     return hit;
 }
 

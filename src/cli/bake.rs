@@ -14,12 +14,10 @@ use hadou::effects::thickness_lut::{
 use hadou::scene::mesh::Mesh;
 use hadou::scene::{MaterialKind, ThicknessMode};
 
-use super::progress::Progress;
-
 #[derive(Args, Debug)]
 pub struct BakeArgs {
     /// A Wavefront OBJ (one closed mesh), or a scene file: every mesh drawn with a translucent
-    /// material whose `thickness` is "lut".
+    /// material whose `thickness` is "lut" (`builtin:NAME` names a built-in scene).
     input: PathBuf,
     /// Voxel resolution (default: each material's `voxel_res`; 48 for an OBJ).
     #[arg(long)]
@@ -54,7 +52,7 @@ fn jobs(args: &BakeArgs) -> anyhow::Result<(Vec<Job>, Vec<PathBuf>)> {
         let job = Job { label: args.input.display().to_string(), mesh, res };
         return Ok((vec![job], vec![args.input.clone()]));
     }
-    let scene = hadou::scene::load_scene(&args.input)?;
+    let scene = hadou::builtin::load(&args.input)?;
     let inputs = super::scene_inputs(&args.input, &scene);
     let mut out: Vec<(usize, u32)> = Vec::new();
     for inst in &scene.instances {
@@ -104,9 +102,14 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         log::warn!("no cache folder (set HADOU_CACHE_DIR, XDG_CACHE_HOME or HOME): baking without a cache");
     }
     for job in &jobs {
-        let progress = Progress::new(format!("baking {} at {}³", job.label, job.res));
-        let show =
-            |done: usize, total: usize| progress.show(done, total, &format!("of {total} pairs"), false);
+        let progress = super::progress::bar(&format!("baking {} at {}³", job.label, job.res), 0);
+        let show = |done: usize, total: usize| {
+            if progress.length() != Some(total as u64) {
+                progress.set_length(total as u64);
+                progress.set_message(format!("of {total} pairs"));
+            }
+            progress.set_position(done as u64);
+        };
         let start = Instant::now();
         let (lut, stats, how) = match (&cache, args.force) {
             (Some(cache), false) => {
@@ -137,6 +140,8 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         };
         if stats.is_some() {
             progress.finish();
+        } else {
+            progress.finish_and_clear(); // a cache hit: nothing was baked
         }
         print_summary(job, &lut, stats.as_ref(), start.elapsed().as_secs_f64(), &how);
         if let Some(out) = &args.out {

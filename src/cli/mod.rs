@@ -93,18 +93,28 @@ fn parse_size(text: &str) -> anyhow::Result<(u32, u32)> {
 /// Loads the scene and picks the size: `--size` or the scene's `[render] size`.
 fn load(scene: &Path, size: Option<&str>) -> anyhow::Result<(hadou::scene::Scene, (u32, u32))> {
     let size = size.map(parse_size).transpose().context("--size")?;
-    let scene = hadou::scene::load_scene(scene)?;
+    let scene = hadou::builtin::load(scene)?;
     let size = size.unwrap_or((scene.render.width, scene.render.height));
     Ok((scene, size))
 }
 
-/// The files a scene command reads: the scene and its OBJ meshes (outputs may not replace them).
+/// The files a scene command reads: the scene, its OBJ meshes, its glTF files and their buffer
+/// files (outputs may not replace them).
 fn scene_inputs(path: &Path, scene: &hadou::scene::Scene) -> Vec<PathBuf> {
-    let objs = scene.meshes.iter().filter_map(|m| match &m.spec {
-        hadou::scene::mesh::MeshSpec::Obj { path } => Some(path.clone()),
-        _ => None,
-    });
-    std::iter::once(path.to_path_buf()).chain(objs).collect()
+    use hadou::scene::mesh::MeshSpec;
+    let mut inputs = vec![path.to_path_buf()];
+    let mut gltf_files: Vec<&Path> = Vec::new();
+    for m in &scene.meshes {
+        match &m.spec {
+            MeshSpec::Obj { path } => inputs.push(path.clone()),
+            MeshSpec::Gltf { path, .. } if !gltf_files.contains(&path.as_path()) => {
+                gltf_files.push(path);
+                inputs.extend(hadou::scene::gltf::referenced_files(path));
+            }
+            _ => {}
+        }
+    }
+    inputs
 }
 
 /// Refuses, before any work, outputs that are not regular files, that name an input or each

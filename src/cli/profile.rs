@@ -14,7 +14,7 @@ use hadou::{FrameRequest, Runtime, RuntimeOptions};
 
 #[derive(Args, Debug)]
 pub struct ProfileArgs {
-    /// Scene file.
+    /// Scene file, or `builtin:NAME` (a scene of assets/scenes built into hadou, e.g. builtin:showcase).
     pub(super) scene: PathBuf,
     /// Image size WIDTHxHEIGHT (default: the scene's [render] size).
     #[arg(long)]

@@ -1,51 +1,37 @@
-//! A progress line on stderr for long commands (`bake`, `report`): a bar, the percentage and what
-//! is being done, redrawn in place at most every 100 ms on a terminal, a new line every 2 s
-//! otherwise (logs, CI); 100 % exactly once.
+//! Progress bars on stderr for long commands (`bake`, `report`, `render`), drawn by `indicatif`:
+//! redrawn in place on a terminal, and hidden when stderr is not one (logs, CI, pipes), where a
+//! bar would only be noise.
 
-use std::io::{IsTerminal, Write};
-use std::sync::Mutex;
-use std::time::Instant;
+use std::time::Duration;
 
-pub struct Progress {
-    label: String,
-    terminal: bool,
-    /// When the line was last drawn, and whether 100 % has been shown.
-    state: Mutex<(Option<Instant>, bool)>,
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressFinish, ProgressStyle};
+
+/// indicatif draws nothing into a stderr that is not a terminal.
+fn target() -> ProgressDrawTarget {
+    ProgressDrawTarget::stderr()
 }
 
-const BAR: usize = 24;
+/// A bar of `total` steps: `label: [####    ]  42% message`. `finish()` leaves it on the
+/// terminal; dropped unfinished (an error) it is cleared, so the error stands alone.
+pub fn bar(label: &str, total: u64) -> ProgressBar {
+    let style = ProgressStyle::with_template("{prefix}: [{bar:24}] {percent:>3}% {msg}")
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("## ");
+    let bar = ProgressBar::with_draw_target(Some(total), target())
+        .with_style(style)
+        .with_finish(ProgressFinish::AndClear);
+    bar.set_prefix(label.to_string());
+    bar
+}
 
-impl Progress {
-    pub fn new(label: String) -> Progress {
-        Progress { label, terminal: std::io::stderr().is_terminal(), state: Mutex::new((None, false)) }
-    }
-
-    /// Shows `done` of `total` with `detail` after the percentage. `force` draws even when the
-    /// last line is recent (a new step a person wants to see named).
-    pub fn show(&self, done: usize, total: usize, detail: &str, force: bool) {
-        let Ok(mut state) = self.state.lock() else { return };
-        let (last, finished) = &mut *state;
-        let period = if self.terminal { 100 } else { 2000 };
-        let due = force || last.is_none_or(|t| t.elapsed().as_millis() >= period);
-        if *finished || (!due && done < total) {
-            return;
-        }
-        *last = Some(Instant::now());
-        *finished = done >= total;
-        let fraction = if total == 0 { 1.0 } else { (done as f64 / total as f64).min(1.0) };
-        let filled = (fraction * BAR as f64).round() as usize;
-        let bar = format!("[{}{}]", "#".repeat(filled), " ".repeat(BAR - filled));
-        let mut err = std::io::stderr().lock();
-        // On a terminal: rewrite the line, clearing what a longer earlier line left.
-        let (start, end) = if self.terminal { ("\r\x1b[2K", "") } else { ("", "\n") };
-        let _ = write!(err, "{start}{}: {bar} {:5.1}% {detail}{end}", self.label, fraction * 100.0);
-        let _ = err.flush();
-    }
-
-    /// Ends the line on a terminal.
-    pub fn finish(&self) {
-        if self.terminal {
-            let _ = writeln!(std::io::stderr());
-        }
-    }
+/// A spinner for steps of unknown length (`set_message` names each), ticking on its own every
+/// 100 ms; cleared when dropped.
+pub fn spinner(label: &str) -> ProgressBar {
+    let style = ProgressStyle::with_template("{prefix}: {spinner} {msg} ({elapsed})")
+        .unwrap_or_else(|_| ProgressStyle::default_spinner());
+    let bar =
+        ProgressBar::with_draw_target(None, target()).with_style(style).with_finish(ProgressFinish::AndClear);
+    bar.set_prefix(label.to_string());
+    bar.enable_steady_tick(Duration::from_millis(100));
+    bar
 }

@@ -9,7 +9,7 @@ use hadou::{Aov, FrameRequest, Runtime, RuntimeOptions};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (TOML, see docs/scene-format.md).
+    /// Scene file: TOML or a glTF 2.0 .gltf/.glb (see docs/scene-format.md), or `builtin:NAME`.
     scene: PathBuf,
     /// Output PNG (sRGB).
     #[arg(short, long, default_value = "out.png")]
@@ -51,8 +51,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let outputs: Vec<&Path> =
         std::iter::once(args.output.as_path()).chain(aovs.iter().map(|(_, p)| p.as_path())).collect();
     super::check_outputs(&outputs, &super::scene_inputs(&args.scene, &scene))?;
+    let progress = super::progress::spinner("render");
+    progress.set_message("building the passes (a translucent mesh bakes its table once)");
     let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
     runtime.load_scene(scene)?;
+    progress.set_message("rendering");
     let request = FrameRequest {
         width,
         height,
@@ -61,6 +64,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         aovs: aovs.iter().map(|(a, _)| *a).collect(),
     };
     let frame = runtime.render(&request)?;
+    progress.finish_and_clear();
     let color = frame.color.as_deref().context("the frame returned no colour")?;
     // All outputs or none: a failed write replaces nothing.
     let mut set = OutputSet::default();

@@ -9,8 +9,6 @@ use hadou::report::output::Staging;
 use hadou::report::{docs, ReportOptions};
 use hadou::{Runtime, RuntimeOptions};
 
-use super::progress::Progress;
-
 #[derive(Args, Debug)]
 pub struct ReportArgs {
     /// A CI-sized run: small images, few frames, fewer variants (the report says so).
@@ -55,18 +53,16 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
             std::fs::read_to_string(path).with_context(|| format!("--update-docs {}", path.display()))?;
         docs::check(&text).map_err(|e| anyhow::anyhow!("{}:{e}", path.display()))?;
     }
-    for scene in ["energy_wave.toml", "translucency.toml", "metaballs.toml", "showcase.toml"] {
-        let path = opts.scene(scene);
-        if !path.is_file() {
-            bail!("{}: not found (run `hadou report` from the hadou source tree)", path.display());
-        }
-    }
     let staging = Staging::create(&args.out)?;
     let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
     let command: Vec<String> = std::env::args().skip(1).collect();
     let command = format!("hadou {}", command.join(" "));
-    let progress = Progress::new("report".into());
-    let mut show = |label: &str, done: usize, total: usize| progress.show(done, total, label, true);
+    let progress = super::progress::bar("report", opts.step_count() as u64);
+    let mut show = |label: &str, done: usize, total: usize| {
+        progress.set_length(total as u64);
+        progress.set_position(done as u64);
+        progress.set_message(label.to_string());
+    };
     let report = hadou::report::run(&mut runtime, &opts, &command, &mut show)?;
     progress.finish();
     let counts = runtime.validation_counts();

@@ -44,8 +44,10 @@
 //! The f64 [`tangency`] is what tests use to exclude and count pixels.
 //!
 //! # Caps (the shader's fixed-size arrays; each reports instead of looping or guessing)
-//! - [`MB_MAX_RAY_BALLS`] = 32 supports per ray, the nearest by entry: past the entry of the
-//!   nearest dropped ball nothing is known, so a miss there reports [`MB_OVERFLOW`];
+//! - [`MB_MAX_RAY_BALLS`] = 32 supports per ray in slots, the nearest by entry: a miss before the
+//!   entry of the nearest ball left out casts again from there; where more than 32 supports
+//!   contain one point, the rest of the ray is streamed from the list ([`MB_STREAMED`],
+//!   `stream::clip_stream`), which holds nothing per ball and so has no cap;
 //! - [`MB_MAX_ITERATIONS`] = 256 clip steps per cast (measured: ≤ 8 on simple roots, ~7–17 on
 //!   double roots): beyond, [`MB_NOT_CONVERGED`] and a miss;
 //! - [`MB_STACK_SIZE`] = 24 pending halves, provably enough: each pushed half is wider than
@@ -54,6 +56,8 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat4, DVec3, Mat3, Mat4, Vec3};
+
+mod stream;
 
 use super::metaballs::{
     coefficient_scale, derivative, eval_poly, field_pieces, interval_bernstein, iso_radius, ray_balls,
@@ -101,10 +105,9 @@ const _: () = {
 pub const MB_HIT: u32 = 1;
 /// `MB_TANGENT`: the ray passed within δ of the threshold (a near miss or a double root).
 pub const MB_TANGENT: u32 = 2;
-/// `MB_OVERFLOW`: more than [`MB_MAX_RAY_BALLS`] supports on the ray and no hit before the entry
-/// of the nearest dropped ball; `t` is that distance (the ray misses up to it), and casting again
-/// with t_min = t continues the search.
-pub const MB_OVERFLOW: u32 = 4;
+/// `MB_STREAMED`: more than [`MB_MAX_RAY_BALLS`] supports contain one point before the answer:
+/// from there the cast went on streamed from the list (Bézier clipping whatever the method).
+pub const MB_STREAMED: u32 = 4;
 /// `MB_NOT_CONVERGED`: [`MB_MAX_ITERATIONS`] clip steps spent; reported as a miss.
 pub const MB_NOT_CONVERGED: u32 = 8;
 
@@ -139,7 +142,7 @@ const MB_M4_B3: f32 = 1.6;
 pub struct MetaHitF32 {
     /// World unit normal (valid with `MB_HIT`).
     pub normal: Vec3,
-    /// World distance: the hit with `MB_HIT`, the searched range with `MB_OVERFLOW`.
+    /// World distance: the hit with `MB_HIT`.
     pub t: f32,
     pub flags: u32,
     pub iterations: u32,
@@ -496,6 +499,15 @@ fn mb_chord_a(chord: [f32; 2], r: f32) -> f32 {
     half_chord * half_chord / (r * r)
 }
 
+/// `mb_finish_grad`: the hit at object-space t_found with ∇F there.
+fn finish_grad(hit: &mut MetaHitF32, g: &GpuMetaGroup, r: &MetaRay, dir: Vec3, grad: Vec3, t_found: f32) {
+    let nw = Mat3::from_mat4(Mat4::from_cols_array_2d(&g.normal_matrix)) * -grad;
+    let len = nw.length();
+    hit.normal = if len > 0.0 { nw / len } else { -dir };
+    hit.t = t_found / r.ts;
+    hit.flags |= MB_HIT;
+}
+
 /// The object-space ray (`MetaRay`).
 #[derive(Clone, Copy)]
 struct MetaRay {
@@ -539,11 +551,7 @@ impl Cast<'_> {
             let inv_r2 = 1.0 / (ball.centre_radius[3] * ball.centre_radius[3]);
             grad += w * (2.0 * ball.coeffs[0] * inv_r2 * mb_kernel_deriv(kernel, w.dot(w) * inv_r2));
         }
-        let nw = Mat3::from_mat4(Mat4::from_cols_array_2d(&self.g.normal_matrix)) * -grad;
-        let len = nw.length();
-        hit.normal = if len > 0.0 { nw / len } else { -self.dir };
-        hit.t = t_found / self.r.ts;
-        hit.flags |= MB_HIT;
+        finish_grad(hit, self.g, &self.r, self.dir, grad, t_found);
     }
 
     /// `mb_field_bound`: Σ max(q, 0)·f(r′_min) over the chords of `live` on [t_cur, t_next].
@@ -777,42 +785,53 @@ pub fn cast_f32(
         return hit;
     }
 
-    let mut slots = Slots::new();
-    let mut n = 0usize;
-    let mut t_limit = t1;
-    for &id in list {
-        let mut j = n.min(MB_MAX_RAY_BALLS - 1);
-        if n == MB_MAX_RAY_BALLS {
-            let mut latest = slots.chord[0][0];
-            j = 0;
-            for i in 1..MB_MAX_RAY_BALLS {
-                if slots.chord[i][0] > latest {
-                    latest = slots.chord[i][0];
-                    j = i;
+    // Rounds, as the shader's: up to the first ball left out; streamed where more than
+    // MB_MAX_RAY_BALLS supports contain t0.
+    let mut t0 = t0;
+    for _ in 0..=list.len() {
+        let mut slots = Slots::new();
+        let mut n = 0usize;
+        let mut t_limit = t1;
+        for &id in list {
+            let mut j = n.min(MB_MAX_RAY_BALLS - 1);
+            if n == MB_MAX_RAY_BALLS {
+                let mut latest = slots.chord[0][0];
+                j = 0;
+                for i in 1..MB_MAX_RAY_BALLS {
+                    if slots.chord[i][0] > latest {
+                        latest = slots.chord[i][0];
+                        j = i;
+                    }
                 }
+                let slot0 = slots.get(j);
+                if !mb_chord(&mut slots, j, balls, id, r.o, r.d, t0, t1) {
+                    continue;
+                }
+                if slots.chord[j][0] >= latest {
+                    t_limit = t_limit.min(slots.chord[j][0]);
+                    slots.set(j, slot0);
+                } else {
+                    t_limit = t_limit.min(latest);
+                }
+            } else if mb_chord(&mut slots, j, balls, id, r.o, r.d, t0, t1) {
+                n += 1;
             }
-            let slot0 = slots.get(j);
-            if !mb_chord(&mut slots, j, balls, id, r.o, r.d, t0, t1) {
-                continue;
-            }
-            if slots.chord[j][0] >= latest {
-                t_limit = t_limit.min(slots.chord[j][0]);
-                slots.set(j, slot0);
-            } else {
-                t_limit = t_limit.min(latest);
-            }
-        } else if mb_chord(&mut slots, j, balls, id, r.o, r.d, t0, t1) {
-            n += 1;
         }
+        // (NaN-safe as the shader's `!(t_limit > t0)`: t0 and t1 were checked above.)
+        if t_limit <= t0 {
+            hit.flags |= MB_STREAMED;
+            return stream::clip_stream(g, balls, list, &r, dir, t0, t1, hit);
+        }
+        let t_end = t1.min(t_limit);
+        let mask = if n >= 32 { u32::MAX } else { (1u32 << n) - 1 };
+        let cast = Cast { g, balls, slots, n, mask, r, dir };
+        hit = if trace { cast.trace(t0, t_end, hit) } else { cast.clip(t0, t_end, hit) };
+        if hit.flags & (MB_HIT | MB_NOT_CONVERGED) != 0 || t_limit >= t1 {
+            return hit;
+        }
+        t0 = t_limit;
     }
-    let t_end = t1.min(t_limit);
-    let mask = if n >= 32 { u32::MAX } else { (1u32 << n) - 1 };
-    let cast = Cast { g, balls, slots, n, mask, r, dir };
-    hit = if trace { cast.trace(t0, t_end, hit) } else { cast.clip(t0, t_end, hit) };
-    if hit.flags & (MB_HIT | MB_NOT_CONVERGED) == 0 && t_limit < t1 {
-        hit.flags |= MB_OVERFLOW;
-        hit.t = t_limit / ts;
-    }
+    hit.flags |= MB_NOT_CONVERGED;
     hit
 }
 

@@ -14,14 +14,17 @@
 //! subgroup gathers the support chords its rays cross into at most 32 shared slots per round
 //! (each pixel marking its own), and a pixel whose chords did not all fit searches up to the
 //! first one left out, then goes on from there in the next round. Where that cannot move on (more
-//! than 32 supports overlap at one point), the clipping does not converge, or a sphere-traced
-//! group (`method = "sphere_trace"`) runs out of steps, the pixel is counted in
-//! the frame's counter `metaballs.dropped` and a warning is logged.
+//! than 32 supports overlap at one point) the rest of the ray is cast streamed from the tile's run
+//! (`mb_clip_stream`: every walk recomputes the chords from the ball buffer, so no count of
+//! overlapping supports is too many; the pixel costs walks × run length). Where the clipping does
+//! not converge, or a sphere-traced group (`method = "sphere_trace"`) runs out of steps, the
+//! pixel is counted in the frame's counter `metaballs.dropped` and a warning is logged.
 //!
 //! # Counters (`FrameStats::counter`)
 //! `metaballs.dropped`: pixels whose cast could not finish (a surface may be missing there);
 //! `metaballs.hits`: pixels where a metaball is the nearest surface; `metaballs.clip_steps` and
-//! `metaballs.clip_steps_max`: the Bézier-clipping steps of those hits (sum, max).
+//! `metaballs.clip_steps_max`: the Bézier-clipping steps of those hits (sum, max);
+//! `metaballs.streamed`: casts that went on streamed (more than 32 supports on one point).
 //!
 //! # Methods
 //! Each group's [`CastMethod`] picks Bézier clipping (with its `tolerance`) or sphere tracing (its
@@ -78,7 +81,8 @@ const STAT_DROPPED: usize = 0;
 const STAT_HITS: usize = 1;
 const STAT_ITERATIONS: usize = 2;
 const STAT_MAX_ITERATIONS: usize = 3;
-const STAT_COUNT: usize = 4;
+const STAT_STREAMED: usize = 4;
+const STAT_COUNT: usize = 5;
 
 impl MetaballParams {
     pub fn new(scene: &Scene, extent: vk::Extent2D) -> Self {
@@ -292,6 +296,7 @@ pub const DROPPED: &str = "metaballs.dropped";
 pub const HITS: &str = "metaballs.hits";
 pub const CLIP_STEPS: &str = "metaballs.clip_steps";
 pub const CLIP_STEPS_MAX: &str = "metaballs.clip_steps_max";
+pub const STREAMED: &str = "metaballs.streamed";
 
 /// What the device counted in the last frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -303,6 +308,8 @@ pub struct MetaballCounts {
     /// Σ and max of the Bézier-clipping steps of those hits (sphere-traced groups: march steps).
     pub clip_steps: u64,
     pub clip_steps_max: u64,
+    /// Casts streamed from the tile's run: more than 32 supports contained one point of the ray.
+    pub streamed: u64,
 }
 
 pub struct MetaballsPass {
@@ -355,6 +362,7 @@ impl MetaballsPass {
             hits: word(STAT_HITS),
             clip_steps: word(STAT_ITERATIONS),
             clip_steps_max: word(STAT_MAX_ITERATIONS),
+            streamed: word(STAT_STREAMED),
         }
     }
 }
@@ -435,14 +443,13 @@ impl Pass for MetaballsPass {
         stats.add(HITS, c.hits);
         stats.add(CLIP_STEPS, c.clip_steps);
         stats.max(CLIP_STEPS_MAX, c.clip_steps_max);
+        stats.add(STREAMED, c.streamed);
         let last = self.warned_dropped.swap(c.dropped, std::sync::atomic::Ordering::Relaxed);
         if c.dropped > 0 && c.dropped != last {
             log::warn!(
-                "metaballs: {} pixels could not finish their cast (more than {} support spheres overlap \
-                 at a point, the clipping did not converge, or sphere tracing ran out of steps): a \
-                 surface may be missing there",
-                c.dropped,
-                crate::effects::metaballs_f32::MB_MAX_RAY_BALLS
+                "metaballs: {} pixels could not finish their cast (the clipping did not converge, or \
+                 sphere tracing ran out of steps): a surface may be missing there",
+                c.dropped
             );
         }
     }

@@ -20,6 +20,7 @@
 //! (`latest_timings`).
 
 mod inputs;
+pub mod instances;
 pub(crate) mod readback;
 mod record;
 mod slots;
@@ -81,6 +82,9 @@ struct Loaded {
     /// The id of each of `scene.waves` and `scene.metaballs` (spawned or from the file).
     wave_ids: Vec<u64>,
     group_ids: Vec<u64>,
+    /// The id of each of `scene.instances` and `scene.lights`.
+    instance_ids: Vec<u64>,
+    light_ids: Vec<u64>,
     /// Instance transforms or materials changed since their tables were built.
     tables_dirty: bool,
 }
@@ -213,9 +217,21 @@ impl Renderer {
             crate::passes::registry::build(&self.ctx, &self.memory, &mut self.compiler, &scene, &mut shared)?;
         let wave_ids = (0..scene.waves.len()).map(|_| self.next_id()).collect();
         let group_ids = (0..scene.metaballs.len()).map(|_| self.next_id()).collect();
+        let instance_ids = (0..scene.instances.len()).map(|_| self.next_id()).collect();
+        let light_ids = (0..scene.lights.len()).map(|_| self.next_id()).collect();
         let parked = Vec::new();
-        self.loaded =
-            Some(Loaded { scene, gpu, passes, parked, shared, wave_ids, group_ids, tables_dirty: false });
+        self.loaded = Some(Loaded {
+            scene,
+            gpu,
+            passes,
+            parked,
+            shared,
+            wave_ids,
+            group_ids,
+            instance_ids,
+            light_ids,
+            tables_dirty: false,
+        });
         Ok(())
     }
 

@@ -103,7 +103,7 @@ pub fn section(
     steps: &mut Steps,
 ) -> Result<Section, ReportError> {
     let path = opts.scene("energy_wave.toml");
-    let scene = crate::scene::load_scene(&path)?;
+    let scene = opts.load_scene("energy_wave.toml")?;
     let size = opts.effect_size;
     let pixels = size.0 as f64 * size.1 as f64;
     let waves = scene.waves.len();

@@ -49,7 +49,7 @@ pub fn section(
     steps: &mut Steps,
 ) -> Result<Section, ReportError> {
     let path = opts.scene("showcase.toml");
-    let scene = crate::scene::load_scene(&path)?;
+    let scene = opts.load_scene("showcase.toml")?;
     let analytic = scene.waves.iter().all(|w| w.method == crate::scene::WaveMethod::Analytic);
     let waves = if analytic { scene.waves.len() } else { 0 };
     runtime.load_scene(scene)?;

@@ -91,7 +91,7 @@ pub fn section(
     steps: &mut Steps,
 ) -> Result<Section, ReportError> {
     let path = opts.scene("metaballs.toml");
-    let scene = crate::scene::load_scene(&path)?;
+    let scene = opts.load_scene("metaballs.toml")?;
     steps.next("metaballs: raster reference");
     let mut bare = scene.clone();
     bare.metaballs.clear();

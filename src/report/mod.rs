@@ -46,13 +46,14 @@ pub struct ReportOptions {
     pub raymarch_steps: Vec<u32>,
     /// Thickness-LUT voxel resolutions compared with TSM.
     pub voxel_res: Vec<u32>,
-    /// Where the scenes are (`assets/scenes` of the source tree by default).
-    pub scenes: PathBuf,
+    /// A folder to read the scenes from; `None` (the default) takes the built-in copies of
+    /// `assets/scenes` (`crate::builtin`), so the report runs from any directory.
+    pub scenes: Option<PathBuf>,
 }
 
 impl ReportOptions {
     pub fn new(quick: bool) -> ReportOptions {
-        let scenes = PathBuf::from("assets/scenes");
+        let scenes = None;
         if quick {
             ReportOptions {
                 quick,
@@ -86,8 +87,18 @@ impl ReportOptions {
             + self.frame_sizes.len()
     }
 
+    /// Where scene `name` (`showcase.toml`) comes from, as the report names it: the built-in
+    /// scenes are the source tree's files, so they are named by their place there.
     pub fn scene(&self, name: &str) -> PathBuf {
-        self.scenes.join(name)
+        self.scenes.as_deref().unwrap_or("assets/scenes".as_ref()).join(name)
+    }
+
+    /// Loads scene `name` (`showcase.toml`) from `scenes`, or the built-in copy.
+    pub fn load_scene(&self, name: &str) -> Result<crate::scene::Scene, crate::scene::SceneError> {
+        match &self.scenes {
+            Some(dir) => crate::scene::load_scene(&dir.join(name)),
+            None => crate::builtin::scene(name),
+        }
     }
 }
 

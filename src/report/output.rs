@@ -56,7 +56,8 @@ impl Staging {
                 written.push(put(&format!("{}.csv", table.id), csv::to_csv(table).as_bytes())?);
             }
             for p in &section.plots {
-                let (w, h, rgba) = plot::render(p);
+                let (w, h, rgba) =
+                    plot::render(p).map_err(|e| ReportError::Output(format!("plot {}: {e}", p.id)))?;
                 let name = format!("{}.png", p.id);
                 let path = self.tmp.join(&name);
                 crate::output::write_png(&path, w, h, &rgba)

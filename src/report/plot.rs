@@ -1,14 +1,21 @@
-//! Speed-against-error scatter plots as PNG, drawn into an RGBA buffer: axes (log10 where the
-//! values span more than a decade and are all positive), one colour per series, a
-//! label beside each point, and the Pareto front drawn as a staircase through its points (ringed).
-//! Text uses the DejaVu Sans Mono font committed in assets/fonts (its licence beside it), so no
-//! system font is read.
+//! Speed-against-error scatter plots as PNG, drawn with `plotters` into an RGB bitmap: axes (log10
+//! where the values span more than a decade and are all positive), one colour per series, a label
+//! beside each point, and the Pareto front drawn as a staircase through its points (ringed).
+//! Text goes through plotters' `ab_glyph` font support with the DejaVu Sans Mono font committed in
+//! assets/fonts (its licence beside it), so no system font is read.
 
-use ab_glyph::{Font, FontRef, PxScale, ScaleFont};
+use plotters::backend::BitMapBackend;
+use plotters::coord::Shift;
+use plotters::prelude::{
+    Circle, DrawingArea, IntoDrawingArea, IntoFont, PathElement, RGBColor, Rectangle, ShapeStyle, Text,
+};
+use plotters::style::{FontStyle, TextStyle};
 
 use super::pareto;
 
 const FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSansMono.ttf");
+/// The name the font is registered under with plotters.
+const FONT: &str = "hadou-report-mono";
 const WIDTH: u32 = 1000;
 const HEIGHT: u32 = 600;
 const LEFT: f64 = 90.0;
@@ -17,11 +24,18 @@ const RIGHT: f64 = 300.0;
 const LEGEND_X: f64 = WIDTH as f64 - 170.0;
 const TOP: f64 = 60.0;
 const BOTTOM: f64 = 70.0;
-const PALETTE: [[u8; 3]; 6] =
-    [[31, 119, 180], [255, 127, 14], [44, 160, 44], [148, 103, 189], [140, 86, 75], [23, 190, 207]];
-const FRONT: [u8; 3] = [200, 30, 30];
-const INK: [u8; 3] = [30, 30, 30];
-const GRID: [u8; 3] = [225, 225, 225];
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(23, 190, 207),
+];
+const FRONT: RGBColor = RGBColor(200, 30, 30);
+const INK: RGBColor = RGBColor(30, 30, 30);
+const GRID: RGBColor = RGBColor(225, 225, 225);
+const PAPER: RGBColor = RGBColor(255, 255, 255);
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlotPoint {
@@ -109,122 +123,119 @@ impl Axis {
     }
 }
 
-struct Canvas {
-    rgba: Vec<u8>,
-    font: FontRef<'static>,
+/// The plot area in pixels and the two axes: data → pixel.
+struct Frame {
+    ax: Axis,
+    ay: Axis,
+    w: f64,
+    h: f64,
 }
 
-impl Canvas {
-    fn blend(&mut self, x: i64, y: i64, c: [u8; 3], a: f32) {
-        if x < 0 || y < 0 || x >= WIDTH as i64 || y >= HEIGHT as i64 {
-            return;
-        }
-        let i = ((y as u32 * WIDTH + x as u32) * 4) as usize;
-        for (dst, &src) in self.rgba[i..i + 3].iter_mut().zip(&c) {
-            let old = *dst as f32;
-            *dst = (old + (src as f32 - old) * a.clamp(0.0, 1.0)).round() as u8;
-        }
+impl Frame {
+    fn fit(plot: &Plot) -> Frame {
+        let xs: Vec<f64> = plot.points.iter().map(|p| p.x).collect();
+        let ys: Vec<f64> = plot.points.iter().map(|p| p.y).collect();
+        let (w, h) = (WIDTH as f64 - LEFT - RIGHT, HEIGHT as f64 - TOP - BOTTOM);
+        Frame { ax: Axis::fit(&xs), ay: Axis::fit(&ys), w, h }
     }
 
-    fn rect(&mut self, x0: f64, y0: f64, x1: f64, y1: f64, c: [u8; 3]) {
-        for y in y0.round() as i64..y1.round() as i64 {
-            for x in x0.round() as i64..x1.round() as i64 {
-                self.blend(x, y, c, 1.0);
-            }
-        }
+    fn to_px(&self, x: f64, y: f64) -> (f64, f64) {
+        (LEFT + self.ax.unit(x) * self.w, TOP + (1.0 - self.ay.unit(y)) * self.h)
     }
+}
 
-    /// A line `width` pixels wide (distance test around the segment).
-    fn line(&mut self, a: (f64, f64), b: (f64, f64), width: f64, c: [u8; 3]) {
-        let (x0, x1) = (a.0.min(b.0) - width, a.0.max(b.0) + width);
-        let (y0, y1) = (a.1.min(b.1) - width, a.1.max(b.1) + width);
-        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-        let len2 = (dx * dx + dy * dy).max(1e-12);
-        for y in y0.floor() as i64..=y1.ceil() as i64 {
-            for x in x0.floor() as i64..=x1.ceil() as i64 {
-                let (px, py) = (x as f64 + 0.5 - a.0, y as f64 + 0.5 - a.1);
-                let t = ((px * dx + py * dy) / len2).clamp(0.0, 1.0);
-                let d = ((px - t * dx).powi(2) + (py - t * dy).powi(2)).sqrt();
-                self.blend(x, y, c, (0.5 * width + 0.5 - d) as f32);
-            }
-        }
-    }
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+type Drawn = Result<(), String>;
 
-    /// A disc (filled) or a ring of the given radius.
-    fn circle(&mut self, centre: (f64, f64), r: f64, filled: bool, c: [u8; 3]) {
-        for y in (centre.1 - r - 2.0) as i64..=(centre.1 + r + 2.0) as i64 {
-            for x in (centre.0 - r - 2.0) as i64..=(centre.0 + r + 2.0) as i64 {
-                let d = ((x as f64 + 0.5 - centre.0).powi(2) + (y as f64 + 0.5 - centre.1).powi(2)).sqrt();
-                let a = if filled { r + 0.5 - d } else { 1.25 - (d - r).abs() };
-                self.blend(x, y, c, a as f32);
-            }
-        }
-    }
+fn px(p: (f64, f64)) -> (i32, i32) {
+    (p.0.round() as i32, p.1.round() as i32)
+}
 
-    fn text_width(&self, text: &str, px: f32) -> f64 {
-        let scaled = self.font.as_scaled(PxScale::from(px));
-        text.chars().map(|ch| scaled.h_advance(self.font.glyph_id(ch)) as f64).sum()
-    }
+fn style(px: f64) -> TextStyle<'static> {
+    (FONT, px).into_font().color(&INK)
+}
 
-    /// Text with its top-left corner at (x, y).
-    fn text(&mut self, x: f64, y: f64, text: &str, px: f32, c: [u8; 3]) {
-        let scale = PxScale::from(px);
-        let ascent = self.font.as_scaled(scale).ascent();
-        let mut pen = x as f32;
-        for ch in text.chars() {
-            let id = self.font.glyph_id(ch);
-            let glyph = id.with_scale_and_position(scale, ab_glyph::point(pen, y as f32 + ascent));
-            pen += self.font.as_scaled(scale).h_advance(id);
-            if let Some(outline) = self.font.outline_glyph(glyph) {
-                let b = outline.px_bounds();
-                let mut hits = Vec::new();
-                outline.draw(|gx, gy, cov| {
-                    hits.push((b.min.x as i64 + gx as i64, b.min.y as i64 + gy as i64, cov))
-                });
-                for (px, py, cov) in hits {
-                    self.blend(px, py, c, cov);
-                }
-            }
-        }
+fn width(area: &Area, text: &str, size: f64) -> f64 {
+    area.estimate_text_size(text, &style(size)).map_or(0.0, |(w, _)| w as f64)
+}
+
+/// Text with its top-left corner (the top of a capital) at (x, y). plotters' ab_glyph text puts
+/// the baseline half an em below the position it is given; DejaVu's capitals rise 0.73 em above
+/// the baseline, so the position is moved down by 0.73 − 0.5 of the size.
+fn text(area: &Area, x: f64, y: f64, s: &str, size: f64) -> Drawn {
+    let at = px((x, y + 0.23 * size));
+    area.draw(&Text::new(s.to_string(), at, style(size))).map_err(|e| e.to_string())
+}
+
+fn line(area: &Area, a: (f64, f64), b: (f64, f64), stroke: u32, c: RGBColor) -> Drawn {
+    let s = ShapeStyle { color: c.into(), filled: false, stroke_width: stroke };
+    area.draw(&PathElement::new(vec![px(a), px(b)], s)).map_err(|e| e.to_string())
+}
+
+fn rect(area: &Area, a: (f64, f64), b: (f64, f64), c: RGBColor) -> Drawn {
+    let s = ShapeStyle { color: c.into(), filled: true, stroke_width: 0 };
+    area.draw(&Rectangle::new([px(a), px(b)], s)).map_err(|e| e.to_string())
+}
+
+/// A disc (`ring` false) or a ring 2 px wide.
+fn dot(area: &Area, at: (f64, f64), r: f64, ring: bool, c: RGBColor) -> Drawn {
+    let s = ShapeStyle { color: c.into(), filled: !ring, stroke_width: if ring { 2 } else { 0 } };
+    area.draw(&Circle::new(px(at), r.round() as i32, s)).map_err(|e| e.to_string())
+}
+
+/// Registers the committed font with plotters once per process.
+fn register_font() -> Drawn {
+    static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let ok = *REGISTERED
+        .get_or_init(|| plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok());
+    if ok {
+        Ok(())
+    } else {
+        Err("the committed font assets/fonts/DejaVuSansMono.ttf does not parse".into())
     }
 }
 
 /// The plot as RGBA8 pixels (WIDTH × HEIGHT, row 0 at the top).
-pub fn render(plot: &Plot) -> (u32, u32, Vec<u8>) {
-    let font = FontRef::try_from_slice(FONT_BYTES).expect("the committed font parses");
-    let mut cv = Canvas { rgba: vec![255; (WIDTH * HEIGHT * 4) as usize], font };
-    let xs: Vec<f64> = plot.points.iter().map(|p| p.x).collect();
-    let ys: Vec<f64> = plot.points.iter().map(|p| p.y).collect();
-    let (ax, ay) = (Axis::fit(&xs), Axis::fit(&ys));
-    let (w, h) = (WIDTH as f64 - LEFT - RIGHT, HEIGHT as f64 - TOP - BOTTOM);
-    let to_px = |x: f64, y: f64| (LEFT + ax.unit(x) * w, TOP + (1.0 - ay.unit(y)) * h);
-    cv.text(LEFT, 12.0, &plot.title, 18.0, INK);
+pub fn render(plot: &Plot) -> Result<(u32, u32, Vec<u8>), String> {
+    register_font()?;
+    let mut rgb = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
+    {
+        let area = BitMapBackend::with_buffer(&mut rgb, (WIDTH, HEIGHT)).into_drawing_area();
+        area.fill(&PAPER).map_err(|e| e.to_string())?;
+        draw(&area, plot)?;
+        area.present().map_err(|e| e.to_string())?;
+    }
+    let rgba = rgb.chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect();
+    Ok((WIDTH, HEIGHT, rgba))
+}
+
+fn draw(area: &Area, plot: &Plot) -> Drawn {
+    let f = Frame::fit(plot);
+    let (ax, ay, w, h) = (&f.ax, &f.ay, f.w, f.h);
+    text(area, LEFT, 12.0, &plot.title, 18.0)?;
     for (v, label) in ax.ticks() {
-        let px = LEFT + ax.unit(v) * w;
-        cv.line((px, TOP), (px, TOP + h), 1.0, GRID);
-        let tw = cv.text_width(&label, 13.0);
-        cv.text(px - tw / 2.0, TOP + h + 6.0, &label, 13.0, INK);
+        let x = LEFT + ax.unit(v) * w;
+        line(area, (x, TOP), (x, TOP + h), 1, GRID)?;
+        text(area, x - width(area, &label, 13.0) / 2.0, TOP + h + 6.0, &label, 13.0)?;
     }
     for (v, label) in ay.ticks() {
-        let py = TOP + (1.0 - ay.unit(v)) * h;
-        cv.line((LEFT, py), (LEFT + w, py), 1.0, GRID);
-        let tw = cv.text_width(&label, 13.0);
-        cv.text(LEFT - tw - 6.0, py - 8.0, &label, 13.0, INK);
+        let y = TOP + (1.0 - ay.unit(v)) * h;
+        line(area, (LEFT, y), (LEFT + w, y), 1, GRID)?;
+        text(area, LEFT - width(area, &label, 13.0) - 6.0, y - 8.0, &label, 13.0)?;
     }
-    cv.rect(LEFT, TOP + h, LEFT + w, TOP + h + 1.5, INK);
-    cv.rect(LEFT - 1.5, TOP, LEFT, TOP + h, INK);
+    rect(area, (LEFT, TOP + h), (LEFT + w, TOP + h + 2.0), INK)?;
+    rect(area, (LEFT - 2.0, TOP), (LEFT, TOP + h), INK)?;
     let scale = |a: &Axis| if a.log { " (log scale)" } else { "" };
-    let xl = format!("{}{}", plot.x_label, scale(&ax));
-    let tw = cv.text_width(&xl, 14.0);
-    cv.text(LEFT + (w - tw) / 2.0, TOP + h + 30.0, &xl, 14.0, INK);
-    cv.text(LEFT - 80.0, TOP - 22.0, &format!("{}{}", plot.y_label, scale(&ay)), 14.0, INK);
+    let xl = format!("{}{}", plot.x_label, scale(ax));
+    text(area, LEFT + (w - width(area, &xl, 14.0)) / 2.0, TOP + h + 30.0, &xl, 14.0)?;
+    text(area, LEFT - 80.0, TOP - 22.0, &format!("{}{}", plot.y_label, scale(ay)), 14.0)?;
 
     let pts: Vec<(f64, f64)> = plot.points.iter().map(|p| (p.x, p.y)).collect();
     let front = pareto::front(&pts);
     for pair in front.windows(2) {
-        let (a, b) = (to_px(pts[pair[0]].0, pts[pair[0]].1), to_px(pts[pair[1]].0, pts[pair[1]].1));
-        cv.line(a, (b.0, a.1), 2.0, FRONT);
-        cv.line((b.0, a.1), b, 2.0, FRONT);
+        let (a, b) = (f.to_px(pts[pair[0]].0, pts[pair[0]].1), f.to_px(pts[pair[1]].0, pts[pair[1]].1));
+        line(area, a, (b.0, a.1), 2, FRONT)?;
+        line(area, (b.0, a.1), b, 2, FRONT)?;
     }
     // Labels right of their points, moved up or down past labels already placed (points that
     // nearly coincide would print over each other).
@@ -233,12 +244,12 @@ pub fn render(plot: &Plot) -> (u32, u32, Vec<u8>) {
         if !(p.x.is_finite() && p.y.is_finite()) {
             continue;
         }
-        let at = to_px(p.x, p.y);
-        cv.circle(at, 4.5, true, PALETTE[p.series % PALETTE.len()]);
+        let at = f.to_px(p.x, p.y);
+        dot(area, at, 4.5, false, PALETTE[p.series % PALETTE.len()])?;
         if front.contains(&i) {
-            cv.circle(at, 8.0, false, FRONT);
+            dot(area, at, 8.0, true, FRONT)?;
         }
-        let tw = cv.text_width(&p.label, 12.0);
+        let tw = width(area, &p.label, 12.0);
         let overlaps = |y: f64| {
             placed.iter().any(|r| at.0 + 9.0 < r.2 && r.0 < at.0 + 9.0 + tw && y < r.3 && r.1 < y + 14.0)
         };
@@ -248,22 +259,22 @@ pub fn render(plot: &Plot) -> (u32, u32, Vec<u8>) {
             .find(|&y| !overlaps(y))
             .unwrap_or(at.1 - 16.0);
         placed.push((at.0 + 9.0, y, at.0 + 9.0 + tw, y + 14.0));
-        cv.text(at.0 + 9.0, y, &p.label, 12.0, INK);
+        text(area, at.0 + 9.0, y, &p.label, 12.0)?;
     }
     let lx = LEGEND_X;
     let mut ly = TOP;
     for (k, name) in plot.series.iter().enumerate() {
-        cv.circle((lx + 6.0, ly + 8.0), 4.5, true, PALETTE[k % PALETTE.len()]);
-        cv.text(lx + 18.0, ly, name, 13.0, INK);
+        dot(area, (lx + 6.0, ly + 8.0), 4.5, false, PALETTE[k % PALETTE.len()])?;
+        text(area, lx + 18.0, ly, name, 13.0)?;
         ly += 22.0;
     }
-    cv.circle((lx + 6.0, ly + 8.0), 8.0, false, FRONT);
-    cv.text(lx + 18.0, ly, "Pareto front", 13.0, INK);
+    dot(area, (lx + 6.0, ly + 8.0), 8.0, true, FRONT)?;
+    text(area, lx + 18.0, ly, "Pareto front", 13.0)?;
     let unplotted = plot.points.iter().filter(|p| !(p.x.is_finite() && p.y.is_finite())).count();
     if unplotted > 0 {
-        cv.text(lx, ly + 24.0, &format!("{unplotted} non-finite not drawn"), 12.0, INK);
+        text(area, lx, ly + 24.0, &format!("{unplotted} non-finite not drawn"), 12.0)?;
     }
-    (WIDTH, HEIGHT, cv.rgba)
+    Ok(())
 }
 
 #[cfg(test)]
@@ -283,8 +294,11 @@ mod tests {
         assert!(Axis::fit(&[0.0, 7.0]).ticks().iter().any(|(v, _)| *v == 2.0));
     }
 
+    /// The PNG decodes at WIDTH × HEIGHT; every series-coloured pixel lies on a data point's disc or
+    /// a legend dot (so points are drawn where their data is, nowhere else); each point's centre
+    /// has its series' colour, each front point its ring; an empty corner is paper.
     #[test]
-    fn renders_points_and_the_front() {
+    fn png_has_the_size_and_pixels_where_the_data_is() {
         let plot = Plot {
             id: "p".into(),
             title: "t".into(),
@@ -293,14 +307,42 @@ mod tests {
             series: vec!["a".into(), "b".into()],
             points: vec![
                 PlotPoint { label: "fast".into(), x: 1.0, y: 1.0, series: 0 },
+                PlotPoint { label: "mid".into(), x: 10.0, y: 3.0, series: 0 },
                 PlotPoint { label: "slow".into(), x: 100.0, y: 1e-6, series: 1 },
                 PlotPoint { label: "nan".into(), x: f64::NAN, y: 1.0, series: 1 },
             ],
         };
-        let (w, h, rgba) = render(&plot);
-        assert_eq!(rgba.len(), (w * h * 4) as usize);
-        // Something was drawn in the series' and the front's colours.
-        let has = |c: [u8; 3]| rgba.chunks_exact(4).any(|p| p[..3] == c);
-        assert!(has(PALETTE[0]) && has(PALETTE[1]) && has(FRONT));
+        let (w, h, rgba) = render(&plot).unwrap();
+        let png = crate::output::encode_png("p.png".as_ref(), w, h, &rgba).unwrap();
+        let img = image::load_from_memory(&png).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (WIDTH, HEIGHT));
+        let rgb = |c: RGBColor| image::Rgb([c.0, c.1, c.2]);
+        let f = Frame::fit(&plot);
+        let centres: Vec<(f64, f64)> = plot.points[..3].iter().map(|p| f.to_px(p.x, p.y)).collect();
+        let legend: Vec<(f64, f64)> = (0..2).map(|k| (LEGEND_X + 6.0, TOP + 8.0 + 22.0 * k as f64)).collect();
+        for (x, y, c) in img.enumerate_pixels() {
+            if PALETTE[..2].iter().any(|p| rgb(*p) == *c) {
+                // The disc's radius 4.5 rounds to 5: a pixel centre lies within 5 + ½√2 of it.
+                let near = |p: &(f64, f64)| (x as f64 - p.0).hypot(y as f64 - p.1) <= 5.8;
+                assert!(centres.iter().chain(&legend).any(near), "series colour at ({x}, {y})");
+            }
+        }
+        for (p, at) in plot.points.iter().zip(&centres) {
+            let (x, y) = (at.0.round() as u32, at.1.round() as u32);
+            assert_eq!(*img.get_pixel(x, y), rgb(PALETTE[p.series]), "{}", p.label);
+        }
+        // "fast" and "slow" are on the front, "mid" (slower and worse than "fast") is not. Rings are
+        // looked for away from the staircase: above "fast" (it leaves rightwards), left of "slow"
+        // (it arrives from above).
+        let ring = |at: &(f64, f64), (dx, dy): (f64, f64)| {
+            (0..16).any(|k| {
+                let d = 4.0 + 0.5 * k as f64;
+                *img.get_pixel((at.0 + d * dx).round() as u32, (at.1 + d * dy).round() as u32) == rgb(FRONT)
+            })
+        };
+        let (up, left) = ((0.0, -1.0), (-1.0, 0.0));
+        assert!(ring(&centres[0], up) && ring(&centres[2], left));
+        assert!(!ring(&centres[1], up) && !ring(&centres[1], left));
+        assert_eq!(*img.get_pixel(WIDTH - 5, HEIGHT - 5), rgb(PAPER));
     }
 }

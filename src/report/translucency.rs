@@ -246,7 +246,7 @@ pub fn section(
     steps: &mut Steps,
 ) -> Result<Section, ReportError> {
     let path = opts.scene("translucency.toml");
-    let base = crate::scene::load_scene(&path)?;
+    let base = opts.load_scene("translucency.toml")?;
     let limit = runtime.context().limits.max_image_dimension2_d;
     let aovs = vec![Aov::Thickness, Aov::Depth, Aov::Hdr, Aov::Normal];
     // The surface term alone: the same scene with every material lambert.

@@ -63,9 +63,41 @@ pub(crate) fn line_column(source: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
+/// Line starts of a text, for many (line, column) look-ups in O(log lines) each: `line_column`
+/// scans from the start, which for one position per table of a large scene is quadratic.
+pub(crate) struct LineIndex<'a> {
+    source: &'a str,
+    starts: Vec<usize>,
+}
+
+impl<'a> LineIndex<'a> {
+    pub(crate) fn new(source: &'a str) -> Self {
+        let starts = std::iter::once(0).chain(source.match_indices('\n').map(|(i, _)| i + 1)).collect();
+        LineIndex { source, starts }
+    }
+
+    /// The same as `line_column(source, offset)`.
+    pub(crate) fn line_column(&self, offset: usize) -> (usize, usize) {
+        let offset = offset.min(self.source.len());
+        let line = self.starts.partition_point(|&s| s <= offset);
+        let start = self.starts[line - 1];
+        let column = 1 + self.source.as_bytes()[start..offset].iter().filter(|&&b| b & 0xC0 != 0x80).count();
+        (line, column)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn line_index_agrees_with_line_column() {
+        let s = "ab\nçd = 1\n\n\u{1F600}x\n";
+        let index = LineIndex::new(s);
+        for offset in 0..s.len() + 3 {
+            assert_eq!(index.line_column(offset), line_column(s, offset), "offset {offset}");
+        }
+    }
 
     #[test]
     fn line_column_counts_characters() {

@@ -13,6 +13,7 @@ use super::file_check::{
     show, show_vec, show_vec_approx, Ctx, Owner, Rule, UniqueNames, ANY, F32_NORMAL, FOV, HDR, NON_NEGATIVE,
     POSITIVE, UNIT,
 };
+use super::file_gltf::gltf_files;
 use super::file_mesh::meshes;
 use super::file_metaballs::metaballs;
 use super::file_schema::{CameraDef, InstanceDef, LightDef, MaterialDef, OpDef, RenderDef, SceneDef, Tables};
@@ -46,7 +47,11 @@ pub const MAX_EXTENT: f64 = 281474976710656.0;
 pub const DEFAULT_ALBEDO: f64 = 0.7;
 
 /// Reads and validates the scene file at `path`.
+/// A .gltf or .glb file is read as a glTF scene (`scene::gltf::load_gltf`).
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    if super::gltf::is_gltf(path) {
+        return super::gltf::load_gltf(path);
+    }
     let unreadable =
         |e| SceneError::whole_file(path, format!("cannot read scene file: {e} (expected a readable file)"));
     // The type is checked before opening: a FIFO would block, a device might never end.
@@ -64,13 +69,30 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
     let ctx = Ctx { text, path };
     let def: SceneDef = toml::from_str(text).map_err(|e| ctx.toml(&e))?;
     let render = render(ctx, def.render.as_ref())?;
-    let camera = camera(ctx, def.camera.as_ref())?;
-    let lights = lights(ctx, &def.light, render.ambient)?;
-    let meshes = meshes(ctx, &def.mesh)?;
+    // With a [[gltf]] the camera may come from the glTF file (or frame the scene).
+    let toml_camera = match (&def.camera, def.gltf.0.is_empty()) {
+        (None, false) => None,
+        (c, _) => Some(camera(ctx, c.as_ref())?),
+    };
+    let mut lights = lights(ctx, &def.light, render.ambient)?;
+    let mut meshes = meshes(ctx, &def.mesh)?;
     let mut materials = Materials::new(materials(ctx, &def.material)?);
-    let instances = instances(ctx, &def.instance, &meshes, &mut materials)?;
+    let mut instances = instances(ctx, &def.instance, &meshes, &mut materials)?;
     let waves = waves(ctx, &def.wave)?;
     let metaballs = metaballs(ctx, &def.metaballs, &mut materials)?;
+    let placed = gltf_files(ctx, &def.gltf, render.ambient, &mut meshes, &mut materials, &mut instances)?;
+    let camera = match (toml_camera, placed.camera) {
+        (Some(c), _) => c,
+        (None, Some(g)) => g.camera,
+        (None, None) => super::gltf::framing(super::gltf::scene_bounds(&meshes, &instances)),
+    };
+    if !def.gltf.0.is_empty() && lights.is_empty() {
+        lights = placed.lights;
+        if lights.is_empty() {
+            let direction = super::gltf::DEFAULT_LIGHT_DIRECTION.normalize();
+            lights.push(DirectionalLight { direction, color: DVec3::ONE, intensity: 1.0 });
+        }
+    }
     let materials = materials.list;
     warn_unused(path, &meshes, &materials, &instances, &metaballs);
     Ok(Scene {
@@ -249,26 +271,33 @@ fn light(o: Owner, def: &LightDef) -> Result<DirectionalLight, SceneError> {
 fn materials(ctx: Ctx, defs: &Tables<MaterialDef>) -> Result<Vec<Material>, SceneError> {
     let mut names = UniqueNames::new("material");
     let mut out = Vec::with_capacity(defs.0.len());
+    let lines = super::error::LineIndex::new(ctx.text);
     for def in &defs.0 {
         let name = Owner::new(ctx, "[[material]]", def.span()).name(def.get_ref().name.as_ref())?;
         names.insert(ctx, name)?;
         let o = Owner::new(ctx, format!("material \"{}\"", name.get_ref()), def.span());
-        out.push(material(&o, name.get_ref(), def.get_ref())?);
+        out.push(material(&o, &lines, name.get_ref(), def.get_ref())?);
     }
     Ok(out)
 }
 
-fn material(o: &Owner, name: &str, def: &MaterialDef) -> Result<Material, SceneError> {
+fn material(
+    o: &Owner,
+    lines: &super::error::LineIndex,
+    name: &str,
+    def: &MaterialDef,
+) -> Result<Material, SceneError> {
     let kind = super::file_material::material_kind(o, def)?;
     let albedo = o.vec3("albedo", def.albedo.as_ref(), DVec3::splat(DEFAULT_ALBEDO), UNIT)?;
     let at = def.voxel_res.as_ref().map_or(o.span.start, |v| v.span().start);
-    let (line, column) = super::error::line_column(o.ctx.text, at);
+    let (line, column) = lines.line_column(at);
     let voxel_res_at = format!("{}:{line}:{column}", o.ctx.path.display());
     Ok(Material { name: name.to_owned(), kind, albedo, voxel_res_at })
 }
 
 /// The scene's materials and a name → index map, so resolving n instances costs O(n).
 pub(super) struct Materials {
+    /// In scene order; materials of glTF files are appended without names to look up.
     pub list: Vec<Material>,
     index: HashMap<String, usize>,
 }

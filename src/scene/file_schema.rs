@@ -29,6 +29,8 @@ pub(super) struct SceneDef {
     pub wave: Tables<WaveDef>,
     #[serde(default)]
     pub metaballs: Tables<super::file_metaballs::MetaballsDef>,
+    #[serde(default)]
+    pub gltf: Tables<GltfDef>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -104,6 +106,16 @@ pub(super) struct InstanceDef {
     pub mesh: Option<Spanned<String>>,
     pub material: Option<Spanned<String>>,
     pub transform: Option<Spanned<Tables<OpDef>>>,
+}
+
+/// A glTF file placed in the scene (file_gltf.rs).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a [[gltf]] table")]
+pub(super) struct GltfDef {
+    pub name: Option<Spanned<String>>,
+    pub path: Option<Spanned<String>>,
+    pub transform: Option<Spanned<Tables<OpDef>>>,
+    pub voxel_res: Option<Spanned<Int>>,
 }
 
 /// An energy wave; ranges, the method's fields and the keyframe rules are checked in file_wave.rs.
@@ -200,6 +212,9 @@ impl TableList for OpDef {
 }
 impl TableList for InstanceDef {
     const LIST: &'static str = "an array of tables, each written [[instance]]";
+}
+impl TableList for GltfDef {
+    const LIST: &'static str = "an array of tables, each written [[gltf]]";
 }
 impl TableList for WaveDef {
     const LIST: &'static str = "an array of tables, each written [[wave]]";

@@ -86,6 +86,15 @@ pub enum MeshSpec {
         /// The file, opened as given.
         path: PathBuf,
     },
+    /// One primitive of a glTF file (`scene::gltf`).
+    Gltf {
+        /// The .gltf or .glb file, opened as given.
+        path: PathBuf,
+        /// Index of the glTF mesh.
+        mesh: usize,
+        /// Index of the primitive in that mesh.
+        primitive: usize,
+    },
 }
 
 /// Why a mesh could not be built or loaded. Each variant's message names where the problem is.
@@ -137,6 +146,7 @@ impl MeshSpec {
                 procedural::bottle(*radius, *height, *wall, *fill, *segments)
             }
             MeshSpec::Obj { path } => obj::load_obj(path),
+            MeshSpec::Gltf { path, mesh, primitive } => super::gltf::build_primitive(path, *mesh, *primitive),
         }
     }
 }

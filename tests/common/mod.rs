@@ -2,7 +2,9 @@
 //! and asserts zero errors and zero warnings. No device is a failure, never a skip.
 #![allow(dead_code)]
 
+pub mod gltf_writer;
 pub mod host;
+pub mod xvfb;
 
 use std::path::{Path, PathBuf};
 

@@ -3,7 +3,7 @@
 use std::collections::HashSet;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
 use hadou::gpu::validation::ValidationLog;
 use hadou::scene::Scene;
@@ -17,15 +17,13 @@ use winit::window::{Window, WindowId};
 use super::camera_control::{CameraControl, Mode};
 use super::gpu::{Presented, ViewerGpu};
 use super::keys::{self, Action};
-use super::reload::{LastGood, Replaced, Watch};
+use super::reload::{LastGood, Replaced, Wake, Watch};
 use super::script::{Command, Script};
 use super::title::{title, PassTimes};
 use super::toggles::Toggles;
 
 /// One step of `.`.
 const STEP_SECONDS: f64 = 1.0 / 60.0;
-/// How often files are polled for changes.
-const POLL: Duration = Duration::from_millis(500);
 
 pub struct App {
     scene_path: PathBuf,
@@ -39,9 +37,9 @@ pub struct App {
     held: HashSet<KeyCode>,
     dragging: bool,
     cursor: Option<(f64, f64)>,
-    scene_watch: Watch,
+    /// None for a built-in scene (no file to watch).
+    scene_watch: Option<Watch>,
     shader_watch: Option<Watch>,
-    last_poll: Instant,
     times: PassTimes,
     shown_title: String,
     /// The last presented frame (for screenshots).
@@ -66,12 +64,20 @@ pub struct App {
 }
 
 impl App {
-    pub fn new(scene_path: PathBuf, scene: Scene, size: (u32, u32), script: Option<Script>) -> Self {
+    /// `wake` wakes the event loop (a change was seen while it waits).
+    pub fn new(
+        scene_path: PathBuf,
+        scene: Scene,
+        size: (u32, u32),
+        script: Option<Script>,
+        wake: Wake,
+    ) -> Self {
         let now = Instant::now();
-        let shader_watch =
-            std::env::var_os("HADOU_SHADER_DIR").map(|d| Watch::shader_dir(PathBuf::from(d).as_ref()));
+        let shader_watch = std::env::var_os("HADOU_SHADER_DIR")
+            .map(|d| Watch::shader_dir(PathBuf::from(d).as_ref(), wake.clone()));
+        let builtin = hadou::builtin::name_of(&scene_path).is_some();
         App {
-            scene_watch: Watch::new(vec![scene_path.clone()]),
+            scene_watch: (!builtin).then(|| Watch::files(std::slice::from_ref(&scene_path), wake)),
             scene_path,
             size,
             control: CameraControl::new(&scene.camera),
@@ -84,7 +90,6 @@ impl App {
             dragging: false,
             cursor: None,
             shader_watch,
-            last_poll: now,
             times: PassTimes::new(now),
             shown_title: String::new(),
             last_frame: None,
@@ -155,13 +160,16 @@ impl App {
         }
     }
 
-    fn poll_files(&mut self) {
-        if self.last_poll.elapsed() < POLL {
-            return;
-        }
-        self.last_poll = Instant::now();
-        let scene_changed = self.scene_watch.changed() || self.scene_pending;
-        let shaders_changed = self.shader_watch.as_mut().is_some_and(|w| w.changed());
+    /// When a seen change will be due (debounced), if one is pending.
+    fn reload_due(&self) -> Option<Instant> {
+        self.scene_watch.iter().chain(&self.shader_watch).filter_map(Watch::due).min()
+    }
+
+    /// Reloads the scene or the shaders when their watch hands out a (debounced) change.
+    fn take_file_changes(&mut self) {
+        let now = Instant::now();
+        let scene_changed = self.scene_watch.as_ref().is_some_and(|w| w.take(now)) || self.scene_pending;
+        let shaders_changed = self.shader_watch.as_ref().is_some_and(|w| w.take(now));
         self.scene_pending = false;
         if shaders_changed || (scene_changed && self.shader_error.is_some()) {
             // Compile every shader first: an edit that does not compile never touches the runtime,
@@ -181,7 +189,11 @@ impl App {
             return;
         }
         let Some(gpu) = self.gpu.as_mut() else { return };
-        let candidate = hadou::scene::load_scene(&self.scene_path).map_err(|e| e.to_string());
+        // The file's modification time is its save: how long ago it was, when read, is the reload's
+        // latency (the coarse file clock can only make it look longer).
+        let saved = std::fs::metadata(&self.scene_path).and_then(|m| m.modified()).ok();
+        let since_save = saved.and_then(|t| SystemTime::now().duration_since(t).ok());
+        let candidate = hadou::builtin::load(&self.scene_path).map_err(|e| e.to_string());
         let old_file_camera = self.file.get().camera;
         let (toggles, control) = (self.toggles, &mut self.control);
         let outcome = self.file.replace(candidate, |file| {
@@ -202,7 +214,9 @@ impl App {
             Replaced::Yes => {
                 self.broken = false;
                 self.toggle_error = None;
-                eprintln!("reloaded {}", self.scene_path.display());
+                let after = since_save
+                    .map_or(String::new(), |d| format!(", read {} ms after its save", d.as_millis()));
+                eprintln!("reloaded {}{after}", self.scene_path.display());
             }
             Replaced::KeptLastGood(e) => {
                 self.broken = false;
@@ -395,13 +409,16 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
-        self.poll_files();
+        self.take_file_changes();
         let Some(window) = &self.window else { return };
         let size = window.inner_size();
         if size.width == 0 || size.height == 0 || self.broken {
-            // Minimized, or waiting for a fixed file: look again later instead of spinning.
+            // Minimized, or waiting for a fixed file: look again later instead of spinning (a seen
+            // change wakes the loop; its debounce says when it is due).
             self.last_tick = Instant::now();
-            event_loop.set_control_flow(ControlFlow::wait_duration(Duration::from_millis(100)));
+            let later = self.last_tick + Duration::from_millis(100);
+            event_loop
+                .set_control_flow(ControlFlow::WaitUntil(self.reload_due().map_or(later, |d| d.min(later))));
             self.update_title();
         } else {
             event_loop.set_control_flow(ControlFlow::Poll);

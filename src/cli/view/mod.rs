@@ -18,7 +18,8 @@ use clap::Args;
 #[derive(Args, Debug)]
 #[command(after_help = keys::HELP)]
 pub struct ViewArgs {
-    /// Scene file (TOML, see docs/scene-format.md); reloaded when it changes on disk.
+    /// Scene file (TOML, see docs/scene-format.md), reloaded when it changes on disk, or
+    /// `builtin:NAME` (e.g. builtin:showcase).
     scene: PathBuf,
     /// Initial window size WIDTHxHEIGHT (default: the scene's [render] size).
     #[arg(long)]
@@ -45,7 +46,11 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     let (scene, size) = super::load(&args.scene, args.size.as_deref())?;
     let event_loop = winit::event_loop::EventLoop::new()
         .context("cannot open a window (is DISPLAY set? under CI run an X server such as Xvfb)")?;
-    let mut app = app::App::new(args.scene.clone(), scene, size, script);
+    let proxy = event_loop.create_proxy();
+    let wake: reload::Wake = std::sync::Arc::new(move || {
+        let _ = proxy.send_event(()); // closed: the viewer is exiting
+    });
+    let mut app = app::App::new(args.scene.clone(), scene, size, script, wake);
     app.set_time(args.time, args.paused);
     event_loop.run_app(&mut app).context("window event loop")?;
     let (result, log) = app.finish();

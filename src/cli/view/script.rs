@@ -15,7 +15,8 @@ use super::keys::{action_by_name, Action};
 
 /// Frames a `resize` may take to reach the asked size before the script fails.
 pub const RESIZE_FRAME_BUDGET: u32 = 120;
-/// Frames `await_reload` may take (files are polled every 0.5 s).
+/// Frames `await_reload` may take (a save is handed out 25–50 ms after it; the rest is room for a
+/// slow test harness to make its edit).
 pub const RELOAD_FRAME_BUDGET: u32 = 2000;
 
 #[derive(Clone, Debug, PartialEq)]

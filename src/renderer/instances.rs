@@ -1,0 +1,170 @@
+//! Instances and lights spawned and despawned at run time by typed ids. An instance is a mesh of
+//! the loaded scene drawn
+//! with one of its materials, placed by any affine matrix. The instance table and the instanced
+//! draws are rebuilt before the next frame; the passes follow (the first translucent instance
+//! brings the translucency passes in, the last one takes them out).
+//!
+//! A translucent instance whose material reads a thickness table (`thickness = "lut"`) needs the
+//! table of its (mesh, voxel_res), baked when the scene was loaded: spawning one that was not is
+//! refused (`Error::InvalidUpdate`), never baked on the frame's thread. `thickness = "tsm"`
+//! materials need no table.
+
+use glam::DMat4;
+
+use super::Renderer;
+use crate::passes::translucency::TranslucentData;
+use crate::scene::model::Instance;
+use crate::scene::transform::{Transform, TransformOp};
+use crate::scene::{MaterialKind, ThicknessMode};
+use crate::Error;
+
+/// An instance of the world (from the scene file or spawned); stale once despawned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct InstanceId(pub(super) u64);
+
+fn invalid(what: String, expected: impl Into<String>) -> Error {
+    Error::InvalidUpdate { what, expected: expected.into() }
+}
+
+impl Renderer {
+    /// Adds an instance of mesh `mesh` (a `[[mesh]]` name of the loaded scene) drawn with material
+    /// `material` (a `[[material]]` name), placed by `transform` (object → world, affine and
+    /// invertible in f32), from the next frame on. State is unchanged on error.
+    pub fn spawn_instance(
+        &mut self,
+        mesh: &str,
+        material: &str,
+        transform: DMat4,
+    ) -> Result<InstanceId, Error> {
+        let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
+        let scene = &loaded.scene;
+        let mesh_index =
+            scene.meshes.iter().position(|m| m.name == mesh).ok_or_else(|| {
+                invalid(format!("instance mesh \"{mesh}\""), "the name of a mesh of the scene")
+            })?;
+        let material_index = scene.materials.iter().position(|m| m.name == material).ok_or_else(|| {
+            invalid(format!("instance material \"{material}\""), "the name of a material of the scene")
+        })?;
+        let transform = Transform::from_ops(&[TransformOp::Matrix(transform)])
+            .map_err(|e| invalid(format!("instance of \"{mesh}\""), e.to_string()))?;
+        if let MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Lut, .. } =
+            scene.materials[material_index].kind
+        {
+            let baked = loaded
+                .shared
+                .iter()
+                .find_map(|s| s.clone().downcast::<TranslucentData>().ok())
+                .is_some_and(|data| data.keys.contains(&(mesh_index, voxel_res)));
+            if !baked {
+                return Err(invalid(
+                    format!("translucent instance of \"{mesh}\" with \"{material}\" (voxel_res {voxel_res})"),
+                    "a mesh and voxel_res whose thickness table the loaded scene baked (a scene instance \
+                     drawn with them), or a material with thickness = \"tsm\"",
+                ));
+            }
+        }
+        let id = self.next_id();
+        let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
+        let ops = vec![TransformOp::Matrix(transform.matrix)];
+        loaded.scene.instances.push(Instance {
+            name: None,
+            mesh: mesh_index,
+            material: material_index,
+            ops,
+            transform,
+        });
+        loaded.instance_ids.push(id);
+        loaded.tables_dirty = true;
+        self.sync_passes()?;
+        Ok(InstanceId(id))
+    }
+
+    /// Removes an instance (spawned or from the scene file) from the next frame on.
+    pub fn despawn_instance(&mut self, id: InstanceId) -> Result<(), Error> {
+        let index = self.instance_index(id)?;
+        let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
+        loaded.scene.instances.remove(index);
+        loaded.instance_ids.remove(index);
+        loaded.tables_dirty = true;
+        self.sync_passes()
+    }
+
+    /// Places an instance by the affine `matrix` (object → world); any instance, translucent
+    /// ones included (`set_instance_transform` by scene index).
+    pub fn set_transform(&mut self, id: InstanceId, matrix: DMat4) -> Result<(), Error> {
+        let index = self.instance_index(id)?;
+        self.set_instance_transform(index, matrix)
+    }
+
+    /// The scene index of an instance (its place in the instance table and the `ids` AOV this
+    /// frame: indices shift when an earlier instance is despawned, ids do not).
+    pub fn instance_index(&self, id: InstanceId) -> Result<usize, Error> {
+        let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
+        loaded.instance_ids.iter().position(|i| *i == id.0).ok_or(Error::StaleId(id.0))
+    }
+
+    /// The ids of the world's instances, in scene order (those of the scene file included).
+    pub fn instance_ids(&self) -> Vec<InstanceId> {
+        self.loaded.iter().flat_map(|l| l.instance_ids.iter().map(|&id| InstanceId(id))).collect()
+    }
+}
+
+/// A directional light of the world (from the scene file or spawned); stale once despawned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct LightId(pub(super) u64);
+
+impl Renderer {
+    /// Adds a directional light (the direction it travels, any non-zero length; colour and
+    /// intensity ≥ 0) from the next frame on. At most `MAX_LIGHTS` (8, the frame uniform's array)
+    /// at once; translucent materials are lit by the first. State is unchanged on error.
+    pub fn spawn_light(
+        &mut self,
+        direction: glam::DVec3,
+        color: glam::DVec3,
+        intensity: f64,
+    ) -> Result<LightId, Error> {
+        use crate::scene::file::MAX_LIGHTS;
+        let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
+        let index = loaded.scene.lights.len();
+        if index >= MAX_LIGHTS {
+            return Err(invalid(
+                format!("light {}", index + 1),
+                format!("at most {MAX_LIGHTS} directional lights (the frame uniform's array)"),
+            ));
+        }
+        let placeholder = crate::scene::model::DirectionalLight {
+            direction: glam::DVec3::NEG_Y,
+            color: glam::DVec3::ZERO,
+            intensity: 0.0,
+        };
+        loaded.scene.lights.push(placeholder);
+        if let Err(e) = self.set_light(index, direction, color, intensity) {
+            self.loaded.as_mut().ok_or(Error::NoScene)?.scene.lights.pop();
+            return Err(e);
+        }
+        let id = self.next_id();
+        self.loaded.as_mut().ok_or(Error::NoScene)?.light_ids.push(id);
+        self.sync_passes()?;
+        Ok(LightId(id))
+    }
+
+    /// Removes a light (spawned or from the scene file) from the next frame on.
+    pub fn despawn_light(&mut self, id: LightId) -> Result<(), Error> {
+        let index = self.light_index(id)?;
+        let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
+        loaded.scene.lights.remove(index);
+        loaded.light_ids.remove(index);
+        self.sync_passes()
+    }
+
+    /// The scene index of a light (for `set_light`; indices shift when an earlier light goes).
+    pub fn light_index(&self, id: LightId) -> Result<usize, Error> {
+        let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
+        loaded.light_ids.iter().position(|i| *i == id.0).ok_or(Error::StaleId(id.0))
+    }
+
+    /// The ids of the world's lights, in scene order (those of the scene file included).
+    pub fn light_ids(&self) -> Vec<LightId> {
+        self.loaded.iter().flat_map(|l| l.light_ids.iter().map(|&id| LightId(id))).collect()
+    }
+}

@@ -1,0 +1,85 @@
+//! `[[gltf]]` tables: a glTF file placed in a TOML scene beside its waves, metaballs and meshes.
+//! The file's meshes, materials and instances are appended to the scene's; its camera and lights
+//! are used only where the TOML gives none (parse_scene decides).
+
+use glam::DVec3;
+use toml::Spanned;
+
+use super::error::SceneError;
+use super::file::{transform, Materials, MAX_HDR, MAX_LIGHTS};
+use super::file_check::{Ctx, Owner};
+use super::file_schema::{GltfDef, Tables};
+use super::gltf::{import, GltfCamera, ImportOptions};
+use super::model::{DirectionalLight, Instance, SceneMesh, DEFAULT_VOXEL_RES, MAX_VOXEL_RES, MIN_VOXEL_RES};
+
+/// What the placed files bring besides geometry.
+pub(super) struct Placed {
+    /// The first file's camera, if it has one.
+    pub camera: Option<GltfCamera>,
+    /// Their directional lights, in file order (at most `MAX_LIGHTS`).
+    pub lights: Vec<DirectionalLight>,
+}
+
+/// Imports every `[[gltf]]` into `meshes`, `materials` and `instances`.
+pub(super) fn gltf_files(
+    ctx: Ctx,
+    defs: &Tables<GltfDef>,
+    ambient: DVec3,
+    meshes: &mut Vec<SceneMesh>,
+    materials: &mut Materials,
+    instances: &mut Vec<Instance>,
+) -> Result<Placed, SceneError> {
+    let mut placed = Placed { camera: None, lights: Vec::new() };
+    let mut light_sum = ambient;
+    for (i, def) in defs.0.iter().enumerate() {
+        let d = def.get_ref();
+        let label = match &d.name {
+            Some(name) => format!("gltf \"{}\"", name.get_ref()),
+            None => format!("gltf {}", i + 1),
+        };
+        let o = Owner::new(ctx, label.clone(), def.span());
+        let path = o.required(
+            "path",
+            d.path.as_ref(),
+            "a path to a .gltf or .glb file, relative to the scene file",
+        )?;
+        let file = ctx.path.parent().map_or_else(|| path.get_ref().into(), |dir| dir.join(path.get_ref()));
+        let (base, _) = transform(&o, d.transform.as_ref())?;
+        let voxel_res =
+            o.count("voxel_res", d.voxel_res.as_ref(), DEFAULT_VOXEL_RES, MIN_VOXEL_RES, MAX_VOXEL_RES)?;
+        let options = ImportOptions { base, label: format!("{label}: "), voxel_res, ambient };
+        let imp =
+            import(&file, &options).map_err(|e| ctx.err(path.span(), format!("{label} `path`: {e}")))?;
+        imp.ignored.warn(&file);
+        let (mesh_offset, material_offset) = (meshes.len(), materials.list.len());
+        meshes.extend(imp.meshes);
+        materials.list.extend(imp.materials);
+        instances.extend(imp.instances.into_iter().map(|mut inst| {
+            inst.mesh += mesh_offset;
+            inst.material += material_offset;
+            inst
+        }));
+        if placed.camera.is_none() {
+            placed.camera = imp.camera;
+        }
+        for light in imp.lights {
+            if placed.lights.len() == MAX_LIGHTS {
+                log::warn!("{}: {label}: lights past the {MAX_LIGHTS}th are not used", ctx.path.display());
+                break;
+            }
+            light_sum += light.color * light.intensity;
+            if light_sum.max_element() > MAX_HDR {
+                return Err(too_bright(ctx, path, &label, light_sum));
+            }
+            placed.lights.push(light);
+        }
+    }
+    Ok(placed)
+}
+
+fn too_bright(ctx: Ctx, path: &Spanned<String>, label: &str, sum: DVec3) -> SceneError {
+    let message = format!(
+        "{label} `path`: the file's lights with the scene's ambient and earlier files' lights reach {sum} (expected <= 65504 per channel: the HDR target is 16-bit float)"
+    );
+    ctx.err(path.span(), message)
+}

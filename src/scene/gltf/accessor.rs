@@ -1,0 +1,205 @@
+//! Reading accessors with every range checked: the accessor inside its buffer view, the view
+//! inside its buffer, strides and alignment as glTF requires. Problems name the place that used
+//! the accessor (a primitive's attribute or indices) and the accessor itself.
+
+use std::path::Path;
+
+use gltf::accessor::{DataType, Dimensions};
+
+use super::error::GltfError;
+
+/// The most elements an accessor without a bufferView (zeros, then sparse substitutions) may
+/// have: 2²⁴ vertices (192 MiB of positions) is past any single game asset.
+pub const MAX_ZEROS: usize = 1 << 24;
+
+/// Why an accessor could not be read: a broken file, or a valid encoding hadou does not read.
+pub(super) enum ReadError {
+    /// The file is malformed here.
+    Bad(GltfError),
+    /// Valid glTF hadou does not read (quantized accessors): the primitive is skipped and listed
+    /// as ignored.
+    Unsupported(String),
+}
+
+impl From<GltfError> for ReadError {
+    fn from(e: GltfError) -> Self {
+        ReadError::Bad(e)
+    }
+}
+
+/// Where accessors are read from: the file (for errors) and its buffers' bytes.
+pub(super) struct Source<'a> {
+    pub path: &'a Path,
+    pub buffers: &'a [Vec<u8>],
+}
+
+impl Source<'_> {
+    /// `count` VEC3 FLOAT elements (positions, normals); `at` is the pointer of the reference.
+    pub fn vec3(&self, a: &gltf::Accessor, at: &str) -> Result<Vec<[f32; 3]>, ReadError> {
+        if a.normalized() || a.data_type() != DataType::F32 {
+            return Err(ReadError::Unsupported(format!(
+                "{at}: {} accessor (KHR_mesh_quantization); hadou reads FLOAT",
+                type_name(a.data_type())
+            )));
+        }
+        if a.dimensions() != Dimensions::Vec3 {
+            let found = format!("{:?}", a.dimensions()).to_uppercase();
+            return Err(self.bad(at, a, format!("expected a VEC3 accessor, found {found}")).into());
+        }
+        let decode = |e: &[u8]| [0, 4, 8].map(|o| f32::from_le_bytes([e[o], e[o + 1], e[o + 2], e[o + 3]]));
+        self.read(a, at, 12, decode, [0.0; 3])
+    }
+
+    /// Triangle indices: SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT.
+    pub fn indices(&self, a: &gltf::Accessor, at: &str) -> Result<Vec<u32>, ReadError> {
+        if a.dimensions() != Dimensions::Scalar {
+            let found = format!("{:?}", a.dimensions()).to_uppercase();
+            return Err(self.bad(at, a, format!("expected a SCALAR index accessor, found {found}")).into());
+        }
+        let size = match a.data_type() {
+            DataType::U8 => 1,
+            DataType::U16 => 2,
+            DataType::U32 => 4,
+            t => {
+                let message = format!(
+                    "expected indices of UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, found {}",
+                    type_name(t)
+                );
+                return Err(self.bad(at, a, message).into());
+            }
+        };
+        self.read(a, at, size, move |e| unsigned(e, size), 0)
+    }
+
+    /// The accessor's elements decoded: from its buffer view (zeros without one), then the sparse
+    /// substitutions, if any (glTF 2.0 §3.6.2.3).
+    fn read<T: Clone>(
+        &self,
+        a: &gltf::Accessor,
+        at: &str,
+        size: usize,
+        decode: impl Fn(&[u8]) -> T,
+        zero: T,
+    ) -> Result<Vec<T>, ReadError> {
+        let count = a.count();
+        if count == 0 {
+            return Err(self.bad(at, a, "accessor has count 0 (expected at least one element)").into());
+        }
+        let component = a.data_type().size();
+        let mut out = match a.view() {
+            Some(view) => {
+                let stride = view.stride().unwrap_or(size);
+                if stride < size || stride % component != 0 {
+                    let message = format!(
+                        "buffer view /bufferViews/{} has byteStride {stride} (expected a multiple of {component} and at least the element size {size})",
+                        view.index()
+                    );
+                    return Err(self.bad(at, a, message).into());
+                }
+                let bytes = self.range(a, at, &view, a.offset(), count, size, stride)?;
+                (0..count).map(|i| decode(&bytes[i * stride..])).collect()
+            }
+            // All zeros but the sparse substitutions: no buffer bounds the count, so a limit does.
+            None if count > MAX_ZEROS => {
+                let message =
+                    format!("{count} elements without a bufferView (hadou reads at most {MAX_ZEROS})");
+                return Err(self.bad(at, a, message).into());
+            }
+            None => vec![zero; count],
+        };
+        if let Some(sparse) = a.sparse() {
+            let n = sparse.count();
+            if n == 0 || n > count {
+                let message = format!("sparse count {n} (expected 1..={count}, the accessor's count)");
+                return Err(self.bad(at, a, message).into());
+            }
+            let isize = match sparse.indices().index_type() {
+                gltf::accessor::sparse::IndexType::U8 => 1,
+                gltf::accessor::sparse::IndexType::U16 => 2,
+                gltf::accessor::sparse::IndexType::U32 => 4,
+            };
+            let ind = sparse.indices();
+            let idx = self.range(a, at, &ind.view(), ind.offset(), n, isize, isize)?;
+            let val = sparse.values();
+            let values = self.range(a, at, &val.view(), val.offset(), n, size, size)?;
+            let mut previous = None;
+            for k in 0..n {
+                let i = unsigned(&idx[k * isize..], isize) as usize;
+                if i >= count || previous.is_some_and(|p| i <= p) {
+                    let message = format!(
+                        "sparse index {k} is {i} (expected strictly increasing indices below the count {count})"
+                    );
+                    return Err(self.bad(at, a, message).into());
+                }
+                previous = Some(i);
+                out[i] = decode(&values[k * size..]);
+            }
+        }
+        Ok(out)
+    }
+
+    /// The bytes of `count` elements of `size` bytes, `stride` apart, from byte `offset` of `view`,
+    /// after checking every bound (in u128, so no declared size can overflow the arithmetic).
+    #[allow(clippy::too_many_arguments)]
+    fn range<'b>(
+        &'b self,
+        a: &gltf::Accessor,
+        at: &str,
+        view: &gltf::buffer::View,
+        offset: usize,
+        count: usize,
+        size: usize,
+        stride: usize,
+    ) -> Result<&'b [u8], ReadError> {
+        let v = view.index();
+        let component = a.data_type().size();
+        if offset % component != 0 {
+            let message = format!("byteOffset {offset} is not a multiple of the component size {component}");
+            return Err(self.bad(at, a, message).into());
+        }
+        // u128: offset, stride and count are each at most 2⁶⁴, so their sum of products fits.
+        let end = offset as u128 + stride as u128 * (count as u128 - 1) + size as u128;
+        if end > view.length() as u128 {
+            let message = format!(
+                "accessor reads bytes {offset}..{end} of buffer view /bufferViews/{v}, which has {} bytes (count {count}, stride {stride})",
+                view.length()
+            );
+            return Err(self.bad(at, a, message).into());
+        }
+        let b = view.buffer().index();
+        let data = &self.buffers[b];
+        let view_end = view.offset() as u128 + view.length() as u128;
+        if view_end > data.len() as u128 || view_end > view.buffer().length() as u128 {
+            let message = format!(
+                "buffer view /bufferViews/{v} ends at byte {view_end}, past the end of buffer /buffers/{b} ({} bytes)",
+                view.buffer().length().min(data.len())
+            );
+            return Err(self.bad(at, a, message).into());
+        }
+        Ok(&data[view.offset() + offset..view.offset() + end as usize])
+    }
+
+    fn bad(&self, at: &str, a: &gltf::Accessor, message: impl std::fmt::Display) -> GltfError {
+        GltfError::at(self.path, at, format!("accessor /accessors/{}: {message}", a.index()))
+    }
+}
+
+/// A little-endian unsigned integer of 1, 2 or 4 bytes.
+fn unsigned(e: &[u8], size: usize) -> u32 {
+    match size {
+        1 => e[0] as u32,
+        2 => u16::from_le_bytes([e[0], e[1]]) as u32,
+        _ => u32::from_le_bytes([e[0], e[1], e[2], e[3]]),
+    }
+}
+
+fn type_name(t: DataType) -> &'static str {
+    match t {
+        DataType::I8 => "BYTE",
+        DataType::U8 => "UNSIGNED_BYTE",
+        DataType::I16 => "SHORT",
+        DataType::U16 => "UNSIGNED_SHORT",
+        DataType::U32 => "UNSIGNED_INT",
+        DataType::F32 => "FLOAT",
+    }
+}

@@ -1,0 +1,116 @@
+//! The bytes of every buffer: the GLB's BIN chunk, a base64 `data:` URI, or a file beside the
+//! glTF. Each is checked to hold at least its declared `byteLength`.
+
+use std::path::{Path, PathBuf};
+
+use base64::Engine;
+
+use super::error::GltfError;
+
+/// Every buffer's bytes, in file order, and the external files they came from.
+pub(super) struct Buffers {
+    pub data: Vec<Vec<u8>>,
+    pub files: Vec<PathBuf>,
+}
+
+/// Loads all buffers of `doc` (a missing one is an error even if nothing reads it: the file is
+/// broken, and a later edit would reach it).
+pub(super) fn load(
+    path: &Path,
+    doc: &gltf::Document,
+    blob: &mut Option<Vec<u8>>,
+) -> Result<Buffers, GltfError> {
+    let mut data = Vec::new();
+    let mut files = Vec::new();
+    for buffer in doc.buffers() {
+        let i = buffer.index();
+        let bytes = match buffer.source() {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                GltfError::at(
+                    path,
+                    format!("/buffers/{i}"),
+                    "missing buffer: no `uri` and no GLB BIN chunk to take it from (expected a `uri` or a .glb with binary data)",
+                )
+            })?,
+            gltf::buffer::Source::Uri(uri) => read_uri(path, i, uri, &mut files)?,
+        };
+        let declared = buffer.length();
+        if bytes.len() < declared {
+            let message = format!(
+                "buffer declares {declared} bytes but its data has {} (expected at least byteLength bytes)",
+                bytes.len()
+            );
+            return Err(GltfError::at(path, format!("/buffers/{i}/byteLength"), message));
+        }
+        data.push(bytes);
+    }
+    Ok(Buffers { data, files })
+}
+
+fn read_uri(path: &Path, i: usize, uri: &str, files: &mut Vec<PathBuf>) -> Result<Vec<u8>, GltfError> {
+    let at = format!("/buffers/{i}/uri");
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let Some((_, payload)) = rest.split_once(";base64,") else {
+            return Err(GltfError::at(
+                path,
+                at,
+                "a data: URI without `;base64,` (expected base64-encoded data)",
+            ));
+        };
+        return base64::engine::general_purpose::STANDARD
+            .decode(payload)
+            .map_err(|e| GltfError::at(path, at, format!("invalid base64 in data: URI: {e}")));
+    }
+    if uri.contains("://") {
+        return Err(GltfError::at(
+            path,
+            at,
+            format!("`{uri}`: only data: URIs and relative file paths are read"),
+        ));
+    }
+    let file = path.parent().unwrap_or(Path::new("")).join(percent_decode(uri));
+    let unreadable = |e: std::io::Error| {
+        GltfError::at(path, at.clone(), format!("missing buffer: cannot read {}: {e}", file.display()))
+    };
+    // The type is checked before opening (a FIFO would block).
+    let meta = std::fs::metadata(&file).map_err(unreadable)?;
+    if !meta.is_file() {
+        return Err(unreadable(std::io::Error::other("not a regular file")));
+    }
+    let bytes = std::fs::read(&file).map_err(unreadable)?;
+    files.push(file);
+    Ok(bytes)
+}
+
+/// URIs are percent-encoded (`my%20mesh.bin`); a `%` not followed by two hex digits stays as is.
+fn percent_decode(uri: &str) -> String {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        if b[i] == b'%' && i + 2 < b.len() {
+            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percent_decoding() {
+        assert_eq!(percent_decode("my%20mesh.bin"), "my mesh.bin");
+        assert_eq!(percent_decode("100%"), "100%");
+        assert_eq!(percent_decode("a%2"), "a%2");
+        assert_eq!(percent_decode("%41"), "A");
+    }
+}

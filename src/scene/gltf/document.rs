@@ -1,0 +1,162 @@
+//! Reading a .gltf / .glb file into the gltf crate's `Document`: the file checked regular before it
+//! is opened, the GLB header checked before the crate parses it, and the crate's validation (every
+//! index in range, required fields present) run with each finding turned into a JSON pointer.
+
+use std::path::Path;
+
+use gltf::json::validation::{Error as Invalid, Validate};
+
+use super::error::{pointer_from_crate_path, GltfError};
+
+/// Extensions hadou reads (besides those the gltf crate enables): a file may require them.
+const READ: &[&str] = &["KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_volume"];
+
+/// Extensions that change how geometry is stored: a file that requires one cannot be drawn
+/// without it. Any other required extension only changes the look (textures, shading) and is
+/// listed among the ignored parts instead.
+const GEOMETRY: &[&str] = &[
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
+    "KHR_mesh_quantization",
+    "EXT_mesh_gpu_instancing",
+];
+
+/// A parsed, validated glTF: the document and the GLB's BIN chunk, if any.
+pub(super) struct Parsed {
+    pub doc: gltf::Document,
+    pub blob: Option<Vec<u8>>,
+    /// Required extensions hadou does not read (but can draw without).
+    pub ignored_required: Vec<String>,
+}
+
+/// Reads and validates `path`.
+pub(super) fn read(path: &Path) -> Result<Parsed, GltfError> {
+    let whole = |message: String| GltfError::at(path, "", message);
+    let unreadable = |e: std::io::Error| {
+        whole(format!("cannot read glTF file: {e} (expected a readable .gltf or .glb file)"))
+    };
+    // The type is checked before opening: a FIFO would block, a device might never end.
+    let meta = std::fs::metadata(path).map_err(unreadable)?;
+    if !meta.is_file() {
+        return Err(unreadable(std::io::Error::other("not a regular file")));
+    }
+    let bytes = std::fs::read(path).map_err(unreadable)?;
+    check_glb_header(&bytes).map_err(whole)?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| whole(parse_message(e)))?;
+    let ignored_required = validate(path, &gltf.document)?;
+    Ok(Parsed { doc: gltf.document, blob: gltf.blob, ignored_required })
+}
+
+/// The GLB header's total length must cover the header itself: the crate subtracts 12 from it
+/// unchecked (a length below 12 would underflow).
+fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let Some(length) = bytes.get(8..12) else {
+        return Err(format!("binary glTF header cut short: {} bytes (expected 12)", bytes.len()));
+    };
+    let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]);
+    if length < 20 {
+        return Err(format!("binary glTF header gives a total length of {length} bytes (expected at least 20: header and JSON chunk header)"));
+    }
+    Ok(())
+}
+
+/// The crate's primitive validation reads `accessors[POSITION]` before checking the index is in
+/// range (gltf-json 1.4.1, mesh.rs): an out-of-range POSITION index would panic there.
+fn check_position_indices(path: &Path, root: &gltf::json::Root) -> Result<(), GltfError> {
+    use gltf::json::mesh::Semantic;
+    use gltf::json::validation::Checked;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(a) = prim.attributes.get(&Checked::Valid(Semantic::Positions)) {
+                if a.value() >= root.accessors.len() {
+                    let message = format!(
+                        "accessor {} does not exist (the file has {}): index out of range",
+                        a.value(),
+                        root.accessors.len()
+                    );
+                    return Err(GltfError::at(
+                        path,
+                        format!("/meshes/{m}/primitives/{p}/attributes/POSITION"),
+                        message,
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn parse_message(e: gltf::Error) -> String {
+    match e {
+        gltf::Error::Deserialize(e) if e.line() > 0 => {
+            format!("invalid glTF JSON at line {}, column {}: {e}", e.line(), e.column())
+        }
+        gltf::Error::Deserialize(e) => format!("invalid glTF JSON: {e}"),
+        gltf::Error::Binary(e) => format!("invalid binary glTF (.glb): {e}"),
+        e => format!("cannot parse glTF: {e}"),
+    }
+}
+
+/// Runs the crate's validation; the first finding is the error. `Unsupported` findings are about
+/// `extensionsRequired`: those hadou reads are fine, geometry ones are refused, the others are
+/// returned to be listed as ignored.
+fn validate(path: &Path, doc: &gltf::Document) -> Result<Vec<String>, GltfError> {
+    let root = doc.as_json();
+    check_position_indices(path, root)?;
+    let mut findings = Vec::new();
+    // A backstop: the crate's validation indexes some arrays before checking (see
+    // `check_position_indices`); any other such slip is an error here, not an abort.
+    let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        root.validate(root, gltf::json::Path::new, &mut |p: &dyn Fn() -> gltf::json::Path, e| {
+            findings.push((p().as_str().to_owned(), e));
+        })
+    }));
+    if ran.is_err() {
+        return Err(GltfError::at(
+            path,
+            "",
+            "the gltf crate's validation failed on this file (malformed glTF)",
+        ));
+    }
+    for (p, e) in findings {
+        if e == Invalid::Unsupported {
+            continue;
+        }
+        let what = match e {
+            Invalid::IndexOutOfBounds => "index out of range (no such object in the file)",
+            Invalid::Invalid => "invalid value",
+            Invalid::Missing => "required value missing",
+            Invalid::Oversize => "size or offset too large",
+            Invalid::Unsupported => unreachable!(),
+        };
+        return Err(GltfError::at(path, pointer_from_crate_path(&p), what));
+    }
+    let mut ignored = Vec::new();
+    for (i, ext) in root.extensions_required.iter().enumerate() {
+        if GEOMETRY.contains(&ext.as_str()) {
+            let message = format!("the file requires extension {ext}, which hadou cannot read (its meshes cannot be drawn without it)");
+            return Err(GltfError::at(path, format!("/extensionsRequired/{i}"), message));
+        }
+        let known = READ.contains(&ext.as_str())
+            || gltf::json::extensions::ENABLED_EXTENSIONS.contains(&ext.as_str());
+        if !known {
+            ignored.push(ext.clone());
+        }
+    }
+    Ok(ignored)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn short_glb_headers_are_refused_before_the_crate_sees_them() {
+        assert!(check_glb_header(b"glTF\x02\0\0\0").unwrap_err().contains("cut short"));
+        assert!(check_glb_header(b"glTF\x02\0\0\0\x04\0\0\0").unwrap_err().contains("total length of 4"));
+        assert!(check_glb_header(b"{\"asset\":{}}").is_ok());
+    }
+}

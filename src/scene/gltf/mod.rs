@@ -1,0 +1,203 @@
+//! glTF 2.0 import (docs/scene-format.md, "glTF"): a .gltf (external or embedded buffers) or .glb
+//! file becomes the same model types a TOML scene does — meshes, materials, instances, lights, a
+//! camera — so every pass draws it unchanged. One job per file: `document` (parse, validate),
+//! `buffers`, `accessor` (checked reads), `primitive` (a `Mesh`), `nodes` (hierarchy, transforms),
+//! `material`, `lights`, `view` (camera, framing), `builder` (the parts, shared), `ignored` (the one
+//! warning), `scene` (a whole scene from a glTF file).
+
+mod accessor;
+mod buffers;
+mod builder;
+mod document;
+mod error;
+mod ignored;
+mod lights;
+mod material;
+mod nodes;
+mod primitive;
+mod scene;
+mod view;
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+
+pub use error::GltfError;
+pub use ignored::Ignored;
+pub use material::{sigma, MIN_ATTENUATION_COLOR, MIN_SIGMA};
+pub use nodes::MAX_DEPTH;
+pub(crate) use scene::build_primitive;
+pub use scene::{is_gltf, load_gltf, DEFAULT_LIGHT_DIRECTION};
+pub use view::{framing, GltfCamera, FRAMING_DIRECTION, FRAMING_FOV_DEG};
+
+use super::model::{DirectionalLight, Instance, Material, SceneMesh, DEFAULT_VOXEL_RES};
+use super::transform::{Transform, TransformOp};
+
+/// How a glTF file is placed into a scene.
+#[derive(Clone, Debug)]
+pub struct ImportOptions {
+    /// Steps applied after the file's own node transforms (a TOML `[[gltf]]`'s `transform`).
+    pub base: Vec<TransformOp>,
+    /// Put before every mesh and material name (`gltf 1: `), so names stay unique in a scene.
+    pub label: String,
+    /// Voxel resolution of the thickness tables of translucent meshes.
+    pub voxel_res: u32,
+    /// The scene's ambient: the lights' sum is kept within the HDR target with it.
+    pub ambient: DVec3,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        ImportOptions {
+            base: Vec::new(),
+            label: String::new(),
+            voxel_res: DEFAULT_VOXEL_RES,
+            ambient: super::model::RenderSettings::default().ambient,
+        }
+    }
+}
+
+/// What a glTF file contributes to a scene. `instances` index into `meshes` and `materials`.
+#[derive(Clone, Debug)]
+pub struct GltfImport {
+    /// One mesh per drawn primitive (glTF mesh m, primitive p), shared by every node using it.
+    pub meshes: Vec<SceneMesh>,
+    /// One per glTF material used (two when one is on both closed and open meshes).
+    pub materials: Vec<Material>,
+    /// One per (node, primitive), in depth-first node order.
+    pub instances: Vec<Instance>,
+    /// Directional lights, in node order (at most `MAX_LIGHTS`).
+    pub lights: Vec<DirectionalLight>,
+    /// The first perspective camera of the scene's nodes.
+    pub camera: Option<GltfCamera>,
+    /// World bounds (min, max) of every drawn instance.
+    pub bounds: Option<(DVec3, DVec3)>,
+    /// What was not drawn, with where.
+    pub ignored: Ignored,
+    /// The glTF file and the buffer files it read (outputs may not replace them).
+    pub files: Vec<PathBuf>,
+}
+
+/// Reads `path` (.gltf or .glb) into scene parts.
+pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfError> {
+    let mut parsed = document::read(path)?;
+    let doc = &parsed.doc;
+    let mut ignored = Ignored::default();
+    note_file_level(doc, &parsed.ignored_required, &mut ignored);
+    let buffers = buffers::load(path, doc, &mut parsed.blob)?;
+    let hierarchy = nodes::hierarchy(path, doc)?;
+    let (order, other_scenes) = nodes::scene_nodes(path, doc, &hierarchy)?;
+    for s in other_scenes {
+        ignored.add("scenes other than the one shown", s);
+    }
+    let src = accessor::Source { path, buffers: &buffers.data };
+    let mut b = builder::Builder::new(path, options, ignored);
+    let all_nodes: Vec<gltf::Node> = doc.nodes().collect();
+    let mut cameras = Vec::new();
+    for &n in &order {
+        let node = &all_nodes[n];
+        let ops = hierarchy.world_ops(n, &options.base);
+        let world = match Transform::from_ops(&ops) {
+            Ok(t) => t,
+            Err(e) => {
+                if node.mesh().is_some() || node.camera().is_some() || node.light().is_some() {
+                    b.ignored.add(
+                        "nodes with a singular transform (such as scale 0)",
+                        format!("/nodes/{n} ({e})"),
+                    );
+                }
+                continue;
+            }
+        };
+        if let Some(mesh) = node.mesh() {
+            b.node_mesh(&src, node, &mesh, ops, world)?;
+        }
+        if let Some(cam) = node.camera() {
+            cameras.push((n, cam, world));
+        }
+        if let Some(light) = node.light() {
+            if let Some(l) = lights::light(path, &light, n, &world, &mut b.ignored)? {
+                b.push_light(l, light.index())?;
+            }
+        }
+    }
+    if b.instances.is_empty() {
+        let why = if b.ignored.is_empty() { "the scene has no mesh".to_owned() } else { b.ignored.summary() };
+        return Err(GltfError::at(path, "", format!("nothing to draw: {why}")));
+    }
+    let bounds = scene_bounds(&b.meshes, &b.instances).unwrap_or_default();
+    let mut camera = None;
+    for (n, cam, world) in cameras {
+        let at = format!("/nodes/{n}/camera");
+        if camera.is_some() {
+            b.ignored.add("cameras after the first perspective one", at);
+            continue;
+        }
+        camera = view::perspective(path, &cam, &world, Some(bounds))?;
+        if camera.is_none() {
+            b.ignored.add("orthographic cameras and cameras on degenerate nodes", at);
+        }
+    }
+    let mut files = vec![path.to_path_buf()];
+    files.extend(buffers.files);
+    Ok(GltfImport {
+        meshes: b.meshes,
+        materials: b.materials,
+        instances: b.instances,
+        lights: b.lights,
+        camera,
+        bounds: Some(bounds),
+        ignored: b.ignored,
+        files,
+    })
+}
+
+/// The glTF file and the buffer files it names (empty when it cannot be read: the caller has
+/// already loaded it, so this only lists what to protect from being overwritten).
+pub fn referenced_files(path: &Path) -> Vec<PathBuf> {
+    let mut files = vec![path.to_path_buf()];
+    if let Ok(mut parsed) = document::read(path) {
+        if let Ok(b) = buffers::load(path, &parsed.doc, &mut parsed.blob) {
+            files.extend(b.files);
+        }
+    }
+    files
+}
+
+/// Extensions used or required that hadou does not read, and animations (never drawn).
+fn note_file_level(doc: &gltf::Document, ignored_required: &[String], ignored: &mut Ignored) {
+    const READ: &[&str] = &["KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_volume"];
+    for (i, ext) in doc.extensions_used().enumerate() {
+        if !READ.contains(&ext) {
+            let required = if ignored_required.iter().any(|r| r == ext) { ", required" } else { "" };
+            ignored.add("extensions", format!("/extensionsUsed/{i} ({ext}{required})"));
+        }
+    }
+    for a in doc.animations() {
+        ignored.add("animations", format!("/animations/{}", a.index()));
+    }
+}
+
+/// World bounds (min, max) of the instances: each mesh's box corners through its instance's
+/// matrix; None without instances.
+pub fn scene_bounds(meshes: &[SceneMesh], instances: &[Instance]) -> Option<(DVec3, DVec3)> {
+    if instances.is_empty() {
+        return None;
+    }
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for inst in instances {
+        let (a, b) = meshes[inst.mesh].mesh.bounds();
+        for k in 0..8 {
+            let corner = DVec3::new(
+                if k & 1 == 0 { a.x } else { b.x },
+                if k & 2 == 0 { a.y } else { b.y },
+                if k & 4 == 0 { a.z } else { b.z },
+            );
+            let p = inst.transform.transform_point(corner);
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    Some((lo, hi))
+}

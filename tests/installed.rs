@@ -1,0 +1,152 @@
+//! An installed `hadou` (what `cargo install --path .` puts on PATH): the built binary copied into
+//! a fresh temporary folder and run there, with no source tree beside it, for every command.
+//! The scenes are the built-in ones (`builtin:NAME`); `report` runs the same way in
+//! tests/report.rs (it takes a minute, so once). Progress bars: none into a pipe, drawn on a
+//! terminal (a pseudo-terminal made by util-linux `script`).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+use common::xvfb::Xvfb;
+
+/// A folder with `bin/hadou` in it, removed when dropped.
+struct Installed {
+    dir: PathBuf,
+    exe: PathBuf,
+}
+
+impl Installed {
+    fn new(name: &str) -> Installed {
+        let dir = std::env::temp_dir().join(format!("hadou-installed-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("bin")).unwrap();
+        let exe = dir.join("bin/hadou");
+        std::fs::copy(env!("CARGO_BIN_EXE_hadou"), &exe).unwrap();
+        Installed { dir, exe }
+    }
+
+    fn command(&self, args: &[&str]) -> Command {
+        let mut cmd = Command::new(&self.exe);
+        cmd.args(args)
+            .current_dir(&self.dir)
+            .env("HADOU_VALIDATION", "1")
+            .env("HADOU_CACHE_DIR", self.dir.join("cache"))
+            .env_remove("HADOU_SHADER_DIR")
+            .env_remove("HADOU_VIEW_SCRIPT")
+            .stdin(Stdio::null());
+        cmd
+    }
+
+    fn run(&self, args: &[&str]) -> Output {
+        let out = self.command(args).output().expect("run the installed hadou");
+        assert!(out.status.success(), "hadou {args:?}:\n{}", text(&out));
+        out
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.join(name)
+    }
+}
+
+impl Drop for Installed {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+fn text(out: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+}
+
+fn png_size(path: &Path) -> (u32, u32) {
+    image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgba8().dimensions()
+}
+
+/// The commands `hadou --help` lists; each one must be run below (or in tests/report.rs).
+const COVERED: [&str; 6] = ["render", "profile", "devices", "bake", "report", "view"];
+
+#[test]
+fn every_command_runs_outside_the_source_tree() {
+    let hadou = Installed::new("all");
+    let help = String::from_utf8_lossy(&hadou.run(&["--help"]).stdout).to_string();
+    let commands: Vec<&str> = help
+        .split("Commands:")
+        .nth(1)
+        .and_then(|rest| rest.split("Options:").next())
+        .unwrap_or_else(|| panic!("no command list in:\n{help}"))
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|c| *c != "help")
+        .collect();
+    for c in &commands {
+        assert!(COVERED.contains(c), "`hadou {c}` is not run outside the source tree by this test");
+    }
+    assert_eq!(commands.len(), COVERED.len(), "{commands:?}");
+
+    hadou.run(&["devices"]);
+    let out =
+        hadou.run(&["render", "builtin:showcase", "-o", "s.png", "--size", "64x48", "--aov", "depth=d.exr"]);
+    assert!(out.stderr.is_empty(), "render into a pipe prints no progress:\n{}", text(&out));
+    assert_eq!(png_size(&hadou.path("s.png")), (64, 48));
+    assert!(hadou.path("d.exr").is_file());
+    hadou.run(&[
+        "profile",
+        "builtin:energy_wave",
+        "--size",
+        "32x32",
+        "--frames",
+        "2",
+        "--warmup",
+        "1",
+        "--json",
+        "p.json",
+    ]);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(hadou.path("p.json")).unwrap()).unwrap();
+    assert!(json.is_object());
+    let out = hadou.run(&["bake", "builtin:translucency", "--res", "8"]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("res 8"), "{}", text(&out));
+    assert!(!text(&out).contains('%'), "bake into a pipe prints no progress:\n{}", text(&out));
+    // An unknown built-in is an error that lists the names.
+    let out = hadou.command(&["render", "builtin:nope", "-o", "n.png"]).output().unwrap();
+    assert!(!out.status.success() && text(&out).contains("builtin:nope: no such built-in scene"));
+    assert!(text(&out).contains("showcase"), "{}", text(&out));
+
+    let x = Xvfb::start();
+    let out = hadou
+        .command(&[
+            "view",
+            "builtin:single_cube",
+            "--size",
+            "48x32",
+            "--script",
+            "frames=2;screenshot=v.png;quit",
+        ])
+        .env("DISPLAY", &x.display)
+        .output()
+        .unwrap();
+    drop(x);
+    assert!(out.status.success(), "{}", text(&out));
+    assert_eq!(png_size(&hadou.path("v.png")), (48, 32));
+}
+
+/// On a terminal the bake draws its bar (so the silence into a pipe above is the choice of
+/// indicatif's terminal check, not a bar that never draws).
+#[test]
+fn progress_is_drawn_on_a_terminal() {
+    let hadou = Installed::new("tty");
+    let line = format!("{} bake builtin:translucency --res 9 --force", hadou.exe.display());
+    // `script` runs the command on a new pseudo-terminal and copies what it wrote to stdout.
+    let out = Command::new("script")
+        .args(["-qec", &line, "/dev/null"])
+        .current_dir(&hadou.dir)
+        .env("HADOU_CACHE_DIR", hadou.dir.join("cache"))
+        .stdin(Stdio::null())
+        .output()
+        .expect("util-linux `script`");
+    let tty = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{tty}");
+    assert!(tty.contains("baking mesh") && tty.contains("100%"), "no progress bar on a terminal:\n{tty}");
+}
