@@ -217,3 +217,22 @@ pub fn junit(cases: &[Case], dir: &Path, seconds: f64) -> String {
     out += "  </testsuite>\n</testsuites>\n";
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn junit_escapes_what_xml_reserves() {
+        assert_eq!(xml("a<b>&\"c'\u{1}\n"), "a&lt;b&gt;&amp;&quot;c&apos; \n");
+        let mut case = Case::new(PathBuf::from("s/<odd>.toml"), Path::new("r"));
+        case.outcome = Outcome::Failed("x.png: mean FLIP 0.5 > threshold 0 & more".into());
+        let report = junit(&[case], Path::new("s"), 1.0);
+        assert!(report.contains("name=\"&lt;odd&gt;\""), "{report}");
+        assert!(
+            report.contains("<failure message=\"x.png: mean FLIP 0.5 &gt; threshold 0 &amp; more\">"),
+            "{report}"
+        );
+        assert!(report.contains("tests=\"1\" failures=\"1\" errors=\"0\" skipped=\"0\""), "{report}");
+    }
+}
