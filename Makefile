@@ -3,7 +3,7 @@ CARGO ?= cargo
 # Quiet the loader's complaint in headless sessions.
 export XDG_RUNTIME_DIR ?= /tmp
 
-.PHONY: setup build demo test check-vulkan lint
+.PHONY: setup build demo test check-vulkan lint bless
 
 setup:
 	@bash scripts/setup.sh
@@ -26,6 +26,11 @@ demo: build check-vulkan
 # The whole test suite on lavapipe (or any Vulkan device), validation on in every GPU test.
 test: check-vulkan
 	$(CARGO) test
+
+# After an intended visual change: re-make the golden references of tests/golden (then look at
+# them and commit). `make test` compares against them bit-exact (tests/golden.rs).
+bless: check-vulkan
+	$(CARGO) run -- test assets/scenes --refs tests/golden --bless
 
 lint:
 	$(CARGO) fmt --all -- --check

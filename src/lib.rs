@@ -3,6 +3,7 @@
 
 pub mod aov;
 pub mod builtin;
+pub mod compare;
 #[doc(hidden)]
 pub mod effects;
 #[doc(hidden)]
@@ -16,6 +17,8 @@ pub mod passes;
 pub mod present;
 #[doc(hidden)]
 pub mod profile;
+#[doc(hidden)]
+pub mod profile_diff;
 pub mod renderer;
 #[doc(hidden)]
 pub mod report;

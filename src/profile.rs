@@ -7,6 +7,7 @@ use serde::Serialize;
 
 use crate::frame::FrameStats;
 use crate::gpu::DeviceInfo;
+use crate::profile_diff::RunSamples;
 
 /// min / p50 / p95 / p99 / max of a series, in milliseconds.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -56,7 +57,14 @@ pub struct ProfileReport {
     pub cpu_record: Option<Summary>,
     pub cpu_submit_wait: Option<Summary>,
     pub cpu_frame: Option<Summary>,
+    /// Every frame's value of every row, in frame order (`null` where a frame was untimed), keyed
+    /// by the table's row label ("gpu raster", "gpu frame", "cpu frame", …): what
+    /// `hadou profile-diff` compares.
+    pub samples: BTreeMap<String, RunSamples>,
 }
+
+/// A frame row of the table: its label and how to read it from a frame.
+type FrameRow = (&'static str, fn(&FrameStats) -> f64);
 
 pub fn build_profile_name() -> &'static str {
     if cfg!(debug_assertions) {
@@ -85,6 +93,24 @@ impl ProfileReport {
             }
         }
         let series = |get: fn(&FrameStats) -> f64| Summary::of(&frames.iter().map(get).collect::<Vec<_>>());
+        let mut samples = BTreeMap::new();
+        for name in &pass_order {
+            let per_frame =
+                frames.iter().map(|f| f.passes.iter().find(|p| &p.name == name).map(|p| p.gpu_ms)).collect();
+            samples.insert(format!("gpu {name}"), RunSamples { runs: vec![per_frame] });
+        }
+        let rows: [FrameRow; 4] = [
+            ("gpu frame", |f| f.gpu_frame_ms),
+            ("cpu record", |f| f.cpu_record_ms),
+            ("cpu submit+wait", |f| f.cpu_submit_wait_ms),
+            ("cpu frame", |f| f.cpu_frame_ms),
+        ];
+        for (label, get) in rows {
+            // An untimed frame (no query pool free) has no passes and no GPU frame time.
+            let untimed = |f: &FrameStats| label == "gpu frame" && f.passes.is_empty();
+            let per_frame = frames.iter().map(|f| (!untimed(f)).then(|| get(f))).collect();
+            samples.insert(label.to_string(), RunSamples { runs: vec![per_frame] });
+        }
         ProfileReport {
             scene,
             device,
@@ -99,6 +125,7 @@ impl ProfileReport {
             cpu_record: series(|f| f.cpu_record_ms),
             cpu_submit_wait: series(|f| f.cpu_submit_wait_ms),
             cpu_frame: series(|f| f.cpu_frame_ms),
+            samples,
         }
     }
 

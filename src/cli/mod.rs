@@ -1,13 +1,19 @@
 //! Command-line parsing and dispatch.
 
 mod bake;
+mod compare;
+mod golden;
+mod golden_case;
 mod profile;
+mod profile_ab;
+mod profile_diff;
 mod progress;
 mod render;
 mod report;
 mod view;
 
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand};
@@ -33,20 +39,42 @@ enum Command {
     Report(report::ReportArgs),
     /// Open a window on a scene: orbit/fly camera, pass toggles, hot reload, screenshots.
     View(view::ViewArgs),
+    /// Compare two PNGs (FLIP) or OpenEXRs (abs/rel error): exit 0 same, 1 different, 2 error.
+    Compare(compare::CompareArgs),
+    /// Render every scene of a folder and compare with stored references (golden images).
+    Test(golden::TestArgs),
+    /// Compare two `profile --json` files per pass, noise-aware: exit 1 on a regression.
+    ProfileDiff(profile_diff::ProfileDiffArgs),
 }
 
-pub fn run(cli: Cli) -> anyhow::Result<()> {
+impl Cli {
+    /// The exit code of an error: 2 for the commands whose 1 means "different", else 1.
+    pub fn error_code(&self) -> ExitCode {
+        match self.command {
+            Command::Compare(_) | Command::Test(_) | Command::ProfileDiff(_) => ExitCode::from(2),
+            Command::Profile(ref p) if p.is_ab() => ExitCode::from(2),
+            _ => ExitCode::FAILURE,
+        }
+    }
+}
+
+/// Runs the command; `Ok` carries its exit code (compare, test and profile-diff say 1 for
+/// "different").
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
-        Command::Render(args) => render::run(args),
+        Command::Render(args) => render::run(args).map(|()| ExitCode::SUCCESS),
         Command::Profile(args) => profile::run(args),
-        Command::Bake(args) => bake::run(args),
-        Command::Report(args) => report::run(args),
-        Command::View(args) => view::run(args),
+        Command::Bake(args) => bake::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Report(args) => report::run(args).map(|()| ExitCode::SUCCESS),
+        Command::View(args) => view::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Compare(args) => compare::run(args),
+        Command::Test(args) => golden::run(args),
+        Command::ProfileDiff(args) => profile_diff::run(args),
         Command::Devices => {
             let runtime = hadou::Runtime::new(&hadou::RuntimeOptions::from_env())?;
             let info = runtime.device_info();
             println!("{} ({}), Vulkan {}, driver {}", info.name, info.kind, info.api_version, info.driver);
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
     }
 }

@@ -1,7 +1,9 @@
 //! `hadou profile SCENE [--size WxH] [--frames N] [--warmup K] [--json F] [--trace F]`
+//! (`--ab OTHER_BINARY`: see `profile_ab`).
 
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
@@ -13,30 +15,58 @@ use hadou::{FrameRequest, Runtime, RuntimeOptions};
 #[derive(Args, Debug)]
 pub struct ProfileArgs {
     /// Scene file, or `builtin:NAME` (a scene of assets/scenes built into hadou, e.g. builtin:showcase).
-    scene: PathBuf,
+    pub(super) scene: PathBuf,
     /// Image size WIDTHxHEIGHT (default: the scene's [render] size).
     #[arg(long)]
-    size: Option<String>,
+    pub(super) size: Option<String>,
     /// Frames measured.
     #[arg(long, default_value_t = 100)]
-    frames: usize,
+    pub(super) frames: usize,
     /// Frames rendered first and not measured (shader JIT, caches).
     #[arg(long, default_value_t = 5)]
-    warmup: usize,
+    pub(super) warmup: usize,
     /// Scene time advanced per frame, seconds.
     #[arg(long, default_value_t = 1.0 / 60.0)]
-    dt: f64,
+    pub(super) dt: f64,
     /// Write the summary as JSON.
     #[arg(long)]
-    json: Option<PathBuf>,
+    pub(super) json: Option<PathBuf>,
     /// Write a Chrome trace (open in Perfetto).
     #[arg(long)]
-    trace: Option<PathBuf>,
+    pub(super) trace: Option<PathBuf>,
+    /// Another hadou binary: run `profile` on both in alternating runs and gate OTHER against
+    /// this one (exit 1 when a pass is slower beyond --threshold).
+    #[arg(long, value_name = "OTHER_BINARY")]
+    pub(super) ab: Option<PathBuf>,
+    /// With --ab: runs of each binary (alternating, ABBA).
+    #[arg(long, default_value_t = 6)]
+    pub(super) rounds: usize,
+    /// With --ab: where to write the other binary's pooled samples (--json gets this one's).
+    #[arg(long, value_name = "FILE")]
+    pub(super) json_other: Option<PathBuf>,
+    #[command(flatten)]
+    pub(super) gate: super::profile_diff::GateArgs,
 }
 
-pub fn run(args: ProfileArgs) -> anyhow::Result<()> {
+impl ProfileArgs {
+    /// Whether this is an A/B run (whose exit 1 means "slower").
+    pub fn is_ab(&self) -> bool {
+        self.ab.is_some()
+    }
+}
+
+pub fn run(args: ProfileArgs) -> anyhow::Result<ExitCode> {
     if args.frames == 0 {
         bail!("--frames must be at least 1");
+    }
+    if let Some(other) = &args.ab {
+        if args.trace.is_some() {
+            bail!("--trace is not written with --ab (profile each binary alone for a trace)");
+        }
+        return super::profile_ab::run(&args, other);
+    }
+    if args.json_other.is_some() {
+        bail!("--json-other needs --ab OTHER_BINARY");
     }
     if !args.dt.is_finite() {
         bail!("--dt must be finite");
@@ -100,5 +130,5 @@ pub fn run(args: ProfileArgs) -> anyhow::Result<()> {
     }
     set.commit()?;
     print!("{}", report.table());
-    Ok(())
+    Ok(ExitCode::SUCCESS)
 }
