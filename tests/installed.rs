@@ -65,7 +65,8 @@ fn png_size(path: &Path) -> (u32, u32) {
 }
 
 /// The commands `hadou --help` lists; each one must be run below (or in tests/report.rs).
-const COVERED: [&str; 6] = ["render", "profile", "devices", "bake", "report", "view"];
+const COVERED: [&str; 9] =
+    ["render", "profile", "devices", "bake", "report", "view", "compare", "test", "profile-diff"];
 
 #[test]
 fn every_command_runs_outside_the_source_tree() {
@@ -106,6 +107,20 @@ fn every_command_runs_outside_the_source_tree() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(hadou.path("p.json")).unwrap()).unwrap();
     assert!(json.is_object());
+    // The CI commands: compare two images, golden-test a folder, gate two profiles.
+    let out = hadou.command(&["compare", "s.png", "s.png"]).output().unwrap();
+    assert!(out.status.success(), "compare: {}", text(&out));
+    std::fs::create_dir_all(hadou.path("scenes")).unwrap();
+    let cube = "[camera]\nposition = [0, 1, 4]\nlook_at = [0, 0, 0]\n[render]\nsize = [32, 24]\n\
+                [[mesh]]\nname = \"box\"\nkind = \"cube\"\n[[instance]]\nmesh = \"box\"\n";
+    std::fs::write(hadou.path("scenes/cube.toml"), cube).unwrap();
+    for args in [&["test", "scenes", "--refs", "refs", "--bless"][..], &["test", "scenes", "--refs", "refs"]]
+    {
+        let out = hadou.command(args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {}", text(&out));
+    }
+    let out = hadou.command(&["profile-diff", "p.json", "p.json"]).output().unwrap();
+    assert!(out.status.success(), "profile-diff: {}", text(&out));
     let out = hadou.run(&["bake", "builtin:translucency", "--res", "8"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("res 8"), "{}", text(&out));
     assert!(!text(&out).contains('%'), "bake into a pipe prints no progress:\n{}", text(&out));
