@@ -32,6 +32,12 @@ size = 2
 [[material]]
 name = "slime"
 albedo = [0.3, 0.8, 0.4]
+[[material]]
+name = "jade"
+kind = "translucent"
+albedo = [0.55, 0.85, 0.65]
+sigma = [3.0, 1.2, 2.2]
+voxel_res = 10
 [[instance]]
 mesh = "box"
 transform = [{ translate = [2, 0, -1] }]
@@ -68,7 +74,8 @@ const W: u32 = 40;
 const H: u32 = 30;
 const AOVS: [Aov; 3] = [Aov::Depth, Aov::Energy, Aov::Normal];
 
-/// 100 waves and 50 metaball groups spawned and despawned over 300 frames, 3 in flight.
+/// 100 waves, 50 metaball groups and 20 translucent instances spawned and despawned over 300
+/// frames, 3 in flight.
 #[test]
 fn spawn_and_despawn_over_three_hundred_frames() {
     let ctx = common::context();
@@ -78,11 +85,16 @@ fn spawn_and_despawn_over_three_hundred_frames() {
     let mut hadou = Renderer::with_options(ctx, &options).unwrap();
     hadou.load_scene(common::parse(SCENE)).unwrap();
     assert_eq!(hadou.pass_names(), ["raster", "tonemap"], "no effect: only the raster runs");
+    // The box's thickness table, baked (and uploaded) once before the frames: later translucent
+    // boxes spawn on it with no bake and no upload.
+    let warm = hadou.spawn_instance("box", "jade", DMat4::IDENTITY).unwrap();
+    hadou.wait_for_bakes().unwrap();
+    hadou.despawn_instance(warm).unwrap();
     let inputs = FrameInputs::headless(W, H, 0.0);
     hadou.prepare(&inputs).unwrap();
     let waits = hadou.context().host_waits();
-    let (mut waves, mut groups) = (Vec::new(), Vec::new());
-    let (mut spawned_waves, mut spawned_groups) = (0, 0);
+    let (mut waves, mut groups, mut blocks) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut spawned_waves, mut spawned_groups, mut spawned_blocks) = (0, 0, 0);
     let (mut with_energy, mut without_energy) = (0, 0);
     let mut sampled = Vec::new();
     for i in 0..300usize {
@@ -91,6 +103,16 @@ fn spawn_and_despawn_over_three_hundred_frames() {
         if i % 2 == 0 && spawned_waves < 100 && (i / 40) % 3 != 2 {
             waves.push((hadou.spawn_wave(&wave(spawned_waves)).unwrap(), i + 8 + spawned_waves % 13));
             spawned_waves += 1;
+        }
+        // Translucent boxes: one every 14th frame (20 in all), each living 6 to 20 frames, turned
+        // and scaled as they come.
+        if i % 14 == 3 && spawned_blocks < 20 {
+            let k = spawned_blocks as f64;
+            let m = DMat4::from_translation(DVec3::new(-3.0 + 0.3 * k, 1.2 - 0.1 * k, -1.5))
+                * DMat4::from_axis_angle(DVec3::new(0.2, 1.0, 0.3).normalize(), 0.4 * k)
+                * DMat4::from_scale(DVec3::new(0.4, 0.3 + 0.02 * k, 0.5));
+            blocks.push((hadou.spawn_instance("box", "jade", m).unwrap(), i + 6 + spawned_blocks % 15));
+            spawned_blocks += 1;
         }
         // Metaball groups: one every sixth frame (50 in all), each living 10 to 25 frames.
         if i % 6 == 1 && spawned_groups < 50 {
@@ -108,7 +130,12 @@ fn spawn_and_despawn_over_three_hundred_frames() {
             hadou.despawn_metaballs(*id).unwrap();
         }
         groups.retain(|(_, until)| *until != i);
+        for (id, _) in blocks.iter().filter(|(_, until)| *until == i) {
+            hadou.despawn_instance(*id).unwrap();
+        }
+        blocks.retain(|(_, until)| *until != i);
         let names = hadou.pass_names();
+        assert_eq!(names.contains(&"translucency"), !blocks.is_empty(), "frame {i}: {names:?}");
         assert_eq!(names.contains(&"energy_wave"), !waves.is_empty(), "frame {i}: {names:?}");
         assert_eq!(names.contains(&"metaballs"), !groups.is_empty(), "frame {i}: {names:?}");
         if waves.is_empty() {
@@ -125,7 +152,7 @@ fn spawn_and_despawn_over_three_hundred_frames() {
         }
         host.submit(slot);
     }
-    assert_eq!((spawned_waves, spawned_groups), (100, 50));
+    assert_eq!((spawned_waves, spawned_groups, spawned_blocks), (100, 50, 20));
     assert!(
         with_energy > 50 && without_energy > 20,
         "the energy pass came and went: {with_energy}/{without_energy}"
