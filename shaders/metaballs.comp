@@ -112,8 +112,9 @@ layout(push_constant) uniform MetaballParams {
 #define STAT_ITERATIONS 2      // Σ Bézier-clipping steps of those hits' casts (sphere
                                // tracing: march steps)
 #define STAT_MAX_ITERATIONS 3
-#define STAT_STREAMED 4        // casts streamed from the run (mb_clip_stream): more than
-                               // MB_MAX_RAY_BALLS supports contain one point of the ray
+#define STAT_STREAMED 4        // casts streamed from the run (mb_clip_stream): a ball
+                               // containing `from` found no slot (more than MB_MAX_RAY_BALLS
+                               // supports there, or the subgroup's other rays filled them)
 
 // Keep in sync with RUN_LONE_BOUND in src/passes/metaballs.rs: all q ≥ 0 and F = 0 on the near
 // plane, so F > T at a point well inside one ball's lone isosurface sphere bounds the first hit.

@@ -14,7 +14,8 @@
 //! subgroup gathers the support chords its rays cross into at most 32 shared slots per round
 //! (each pixel marking its own), and a pixel whose chords did not all fit searches up to the
 //! first one left out, then goes on from there in the next round. Where that cannot move on (more
-//! than 32 supports overlap at one point) the rest of the ray is cast streamed from the tile's run
+//! than 32 supports overlap at one point, or the other rays' balls took the slots) the rest of
+//! the ray is cast streamed from the tile's run
 //! (`mb_clip_stream`: every walk recomputes the chords from the ball buffer, so no count of
 //! overlapping supports is too many; the pixel costs walks × run length). Where the clipping does
 //! not converge, or a sphere-traced group (`method = "sphere_trace"`) runs out of steps, the
@@ -24,7 +25,8 @@
 //! `metaballs.dropped`: pixels whose cast could not finish (a surface may be missing there);
 //! `metaballs.hits`: pixels where a metaball is the nearest surface; `metaballs.clip_steps` and
 //! `metaballs.clip_steps_max`: the Bézier-clipping steps of those hits (sum, max);
-//! `metaballs.streamed`: casts that went on streamed (more than 32 supports on one point).
+//! `metaballs.streamed`: casts that went on streamed (a ball containing the search's start found
+//! no slot: more than 32 supports there, or the subgroup's other rays filled the slots).
 //!
 //! # Methods
 //! Each group's [`CastMethod`] picks Bézier clipping (with its `tolerance`) or sphere tracing (its
@@ -308,7 +310,8 @@ pub struct MetaballCounts {
     /// Σ and max of the Bézier-clipping steps of those hits (sphere-traced groups: march steps).
     pub clip_steps: u64,
     pub clip_steps_max: u64,
-    /// Casts streamed from the tile's run: more than 32 supports contained one point of the ray.
+    /// Casts streamed from the tile's run: a ball containing the search's start found none of the
+    /// subgroup's 32 slots (more than 32 supports there, or the other rays' balls filled them).
     pub streamed: u64,
 }
 
