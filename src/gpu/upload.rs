@@ -21,11 +21,47 @@ pub const SAMPLED_ANYWHERE: ImageAccess = ImageAccess {
     layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
 };
 
-/// Creates a sampled 2D image of `extent` and `format` named `name`, fills it with `bytes` (tightly
-/// packed rows of `texel_bytes`-byte texels, row 0 first) and waits for the copy. The image is left
-/// in SHADER_READ_ONLY_OPTIMAL, made visible to fragment and compute shaders by the upload's own
-/// barrier, and never changes layout afterwards (so frames need no barrier for it).
-pub fn upload_image(
+/// The copy that fills an image staged by `stage_image`, with the barriers around it, recorded
+/// into a command buffer by `record` (a one-off at load, or the next frame's for a run-time bake).
+/// Dropping it after recording retires the staging buffer with the frames that may still read it.
+pub struct ImageCopy {
+    staging: super::memory::Buffer,
+    image: vk::Image,
+    format: vk::Format,
+    extent: vk::Extent2D,
+}
+
+impl ImageCopy {
+    /// Records the upload: to TRANSFER_DST, the copy, then to SHADER_READ_ONLY_OPTIMAL visible to
+    /// fragment and compute shaders (`SAMPLED_ANYWHERE`); the image never changes layout after.
+    pub fn record(&self, ctx: &GpuContext, cmd: vk::CommandBuffer) {
+        let (image, format, extent) = (self.image, self.format, self.extent);
+        let to_dst = image_barrier(image, format, ImageAccess::UNDEFINED, ImageAccess::TRANSFER_DST);
+        cmd_barriers(&ctx.device, cmd, &to_dst.into_iter().collect::<Vec<_>>(), &[]);
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(
+                vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1),
+            )
+            .image_extent(vk::Extent3D { width: extent.width, height: extent.height, depth: 1 });
+        // SAFETY: recording; the buffer holds exactly the image's bytes, the image is in
+        // TRANSFER_DST_OPTIMAL after the barrier above.
+        unsafe {
+            ctx.device.cmd_copy_buffer_to_image(
+                cmd,
+                self.staging.raw,
+                image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
+        let to_read = image_barrier(image, format, ImageAccess::TRANSFER_DST, SAMPLED_ANYWHERE);
+        cmd_barriers(&ctx.device, cmd, &to_read.into_iter().collect::<Vec<_>>(), &[]);
+    }
+}
+
+/// Creates a sampled 2D image of `extent` and `format` named `name` and the copy that fills it
+/// with `bytes` (tightly packed rows of `texel_bytes`-byte texels, row 0 first), not recorded yet.
+pub fn stage_image(
     ctx: &GpuContext,
     memory: &Memory,
     name: &str,
@@ -33,7 +69,7 @@ pub fn upload_image(
     format: vk::Format,
     texel_bytes: u64,
     bytes: &[u8],
-) -> GpuResult<Image> {
+) -> GpuResult<(Image, ImageCopy)> {
     let expected = extent.width as u64 * extent.height as u64 * texel_bytes;
     if bytes.len() as u64 != expected {
         return Err(GpuError::Limit {
@@ -52,37 +88,27 @@ pub fn upload_image(
     let src = vk::BufferUsageFlags::TRANSFER_SRC;
     let mut staging = memory.create_buffer(ctx, &staging_name, expected, src, MemoryLocation::CpuToGpu)?;
     staging.write(0, bytes)?;
-    {
-        let mut commands = FrameCommands::new(ctx, &format!("{name} upload"))?;
-        commands.begin(ctx)?;
-        {
-            let cmd = commands.cmd;
-            let to_dst = image_barrier(image.raw, format, ImageAccess::UNDEFINED, ImageAccess::TRANSFER_DST);
-            cmd_barriers(&ctx.device, cmd, &to_dst.into_iter().collect::<Vec<_>>(), &[]);
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(
-                    vk::ImageSubresourceLayers::default()
-                        .aspect_mask(vk::ImageAspectFlags::COLOR)
-                        .layer_count(1),
-                )
-                .image_extent(vk::Extent3D { width: extent.width, height: extent.height, depth: 1 });
-            // SAFETY: recording; the buffer holds exactly the image's bytes, the image is in
-            // TRANSFER_DST_OPTIMAL after the barrier above.
-            unsafe {
-                ctx.device.cmd_copy_buffer_to_image(
-                    cmd,
-                    staging.raw,
-                    image.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
-                )
-            };
-            let to_read = image_barrier(image.raw, format, ImageAccess::TRANSFER_DST, SAMPLED_ANYWHERE);
-            cmd_barriers(&ctx.device, cmd, &to_read.into_iter().collect::<Vec<_>>(), &[]);
-        }
-        // A one-off fence wait at load, not a frame: the staging buffer is freed with the frames.
-        commands.submit_and_wait(ctx, &format!("{name} upload"))?;
-    }
+    let copy = ImageCopy { staging, image: image.raw, format, extent };
+    Ok((image, copy))
+}
+
+/// `stage_image`, then the copy on a one-off command buffer, waited for by its own fence (at
+/// load, not in a frame). The image is left in SHADER_READ_ONLY_OPTIMAL for good.
+pub fn upload_image(
+    ctx: &GpuContext,
+    memory: &Memory,
+    name: &str,
+    extent: vk::Extent2D,
+    format: vk::Format,
+    texel_bytes: u64,
+    bytes: &[u8],
+) -> GpuResult<Image> {
+    let (image, copy) = stage_image(ctx, memory, name, extent, format, texel_bytes, bytes)?;
+    let mut commands = FrameCommands::new(ctx, &format!("{name} upload"))?;
+    commands.begin(ctx)?;
+    copy.record(ctx, commands.cmd);
+    // A one-off fence wait at load, not a frame: the staging buffer is freed with the frames.
+    commands.submit_and_wait(ctx, &format!("{name} upload"))?;
     Ok(image)
 }
 

@@ -82,7 +82,7 @@ use crate::gpu::memory::{Image, Memory};
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::texel_buffer::{TexelBuffer, Texels};
-use crate::gpu::upload::{upload_image, Sampler};
+use crate::gpu::upload::{stage_image, Sampler};
 use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
 use crate::passes::gpu_structs::{instance_records, mat4_f32};
 use crate::scene::camera::PixelRect;
@@ -447,8 +447,23 @@ impl TranslucentData {
         Self::from_packed(ctx, memory, pack(scene, ctx.limits.max_image_dimension2_d)?)
     }
 
-    /// Uploads tables packed already (`pack_keys`, e.g. by a run-time bake).
+    /// Uploads tables packed already, the LUT image by a one-off copy waited for (at load).
     pub(crate) fn from_packed(ctx: &GpuContext, memory: &Memory, packed: Packed) -> GpuResult<Self> {
+        let (data, copy) = Self::staged(ctx, memory, packed)?;
+        let mut commands = crate::gpu::commands::FrameCommands::new(ctx, "translucency lut upload")?;
+        commands.begin(ctx)?;
+        copy.record(ctx, commands.cmd);
+        commands.submit_and_wait(ctx, "translucency lut upload")?;
+        Ok(data)
+    }
+
+    /// Tables packed already (`pack_keys`, e.g. by a run-time bake), with the copy that fills the
+    /// LUT image still to record (into a frame's command buffer before any pass reads it).
+    pub(crate) fn staged(
+        ctx: &GpuContext,
+        memory: &Memory,
+        packed: Packed,
+    ) -> GpuResult<(Self, crate::gpu::upload::ImageCopy)> {
         let (word, quad) = (Texels::U32, Texels::U32x4);
         let texels =
             |name: &str, bytes: &[u8], texels| TexelBuffer::from_bytes(ctx, memory, name, bytes, texels);
@@ -456,8 +471,8 @@ impl TranslucentData {
         let records = texels("translucency lut records", bytemuck::cast_slice(&packed.records), quad)?;
         let centres = texels("translucency centres", bytemuck::cast_slice(&packed.centres), quad)?;
         let format = vk::Format::R8_UNORM;
-        let lut_image =
-            upload_image(ctx, memory, "translucency lut", packed.extent, format, 1, &packed.atlas)?;
+        let (lut_image, copy) =
+            stage_image(ctx, memory, "translucency lut", packed.extent, format, 1, &packed.atlas)?;
         let sampler = Sampler::nearest(ctx, "translucency lut sampler")?;
         let (table_bytes, grid_bytes): (u64, u64) =
             packed.tables.iter().fold((0, 0), |(t, g), s| (t + s.table_bytes, g + s.grid_bytes));
@@ -470,7 +485,7 @@ impl TranslucentData {
             packed.atlas.len(),
             packed.centres.len() * 16
         );
-        Ok(TranslucentData {
+        let data = TranslucentData {
             tables: packed.tables,
             keys: packed.keys,
             lut_image,
@@ -478,7 +493,8 @@ impl TranslucentData {
             grid,
             records,
             centres,
-        })
+        };
+        Ok((data, copy))
     }
 }
 

@@ -3,9 +3,9 @@
 //! (TSM: the translucency pass falls back to it for an instance without a table), while a
 //! background thread bakes the table through the bake cache (keyed on the mesh's content, so the
 //! same mesh under many transforms bakes once) and packs it with the tables already in use. The
-//! first frame recorded after the job ends uploads the new tables (one one-off upload, waited for
-//! by its own fence, never the device) and rebuilds the two translucency passes on them: the
-//! instance switches to its table. One job runs at a time; keys asked for meanwhile make the next.
+//! first frame recorded after the job ends puts the new tables in use — host-visible buffers
+//! written at once, the LUT image filled by a copy in that frame's own command buffer, no wait —
+//! and rebuilds the two translucency passes on them: the instance switches to its table. One job runs at a time; keys asked for meanwhile make the next.
 //! `bakes_in_progress` shows progress, `wait_for_bakes` blocks until all are in (tests, tools).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -46,6 +46,18 @@ pub(super) struct Bakes {
     queued: Vec<(usize, u32)>,
     /// Keys whose bake failed (logged): their instances stay on TSM.
     failed: Vec<(usize, u32)>,
+    /// Copies into the new tables' LUT image, recorded by the next frame before its passes.
+    copies: Vec<crate::gpu::upload::ImageCopy>,
+}
+
+impl Bakes {
+    /// Records the pending LUT copies into the frame's command buffer; their staging buffers are
+    /// retired with this frame.
+    pub(super) fn record_copies(&mut self, ctx: &crate::gpu::GpuContext, cmd: ash::vk::CommandBuffer) {
+        for copy in self.copies.drain(..) {
+            copy.record(ctx, cmd);
+        }
+    }
 }
 
 /// The scene's current tables, if the translucency passes were ever built.
@@ -122,8 +134,10 @@ impl Renderer {
                 message: "the bake thread panicked".into(),
             })
         });
-        match packed.and_then(|p| TranslucentData::from_packed(&self.ctx, &self.memory, p)) {
-            Ok(data) => {
+        match packed.and_then(|p| TranslucentData::staged(&self.ctx, &self.memory, p)) {
+            Ok((data, copy)) => {
+                // The LUT image is filled by this frame's command buffer, before its passes.
+                loaded.bakes.copies.push(copy);
                 loaded.shared.retain(|s| s.clone().downcast::<TranslucentData>().is_err());
                 loaded.shared.push(Arc::new(data));
                 // The passes holding the old tables go (retired with the frames that use them);
