@@ -76,12 +76,16 @@ impl Renderer {
             || b.failed.contains(&key)
     }
 
-    /// Makes sure the tables exist (an empty set if the scene had no translucent instance) so
-    /// passes built from now on find them instead of baking on this thread.
+    /// Makes sure the tables exist (an empty set when the scene never drew a translucent
+    /// instance) so passes built from now on find them instead of baking on this thread; their
+    /// (empty) LUT image is filled by the next frame, like a bake's.
     pub(super) fn ensure_tables(&mut self) -> Result<(), Error> {
+        let limit = self.ctx.limits.max_image_dimension2_d;
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         if current_data(&loaded.shared).is_none() {
-            let data = TranslucentData::new(&self.ctx, &self.memory, &loaded.scene)?;
+            let packed = pack_keys(&loaded.scene, Vec::new(), limit, &|_, _| {})?;
+            let (data, copy) = TranslucentData::staged(&self.ctx, &self.memory, packed)?;
+            loaded.bakes.copies.push(copy);
             loaded.shared.push(Arc::new(data));
         }
         Ok(())
