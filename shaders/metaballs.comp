@@ -146,6 +146,10 @@ void main() {
     bool inside = tile < params.dims.z && p.x < params.dims.x && p.y < params.dims.y;
     uint dropped = 0u;
     uint streamed = 0u;
+    // Runs (groups of the tile) whose cast is crowded, streamed after the rounds (below).
+    uint pending_lo = 0u;
+    uint pending_hi = 0u;
+    uint pending_rest = 0xffffffffu;
     bool found = false;
     MetaHit best;
     uint best_group = 0u;
@@ -258,13 +262,18 @@ void main() {
             if (live) {
                 bool cut = limit < min(t1, bound);
                 // A ball containing `from` came after MB_MAX_RAY_BALLS others (some lanes' balls
-                // filled the slots): no step forward, so the rest of the ray is streamed from the run.
+                // filled the slots): no step forward. This group is cast streamed from its run
+                // after all the tile's groups (below); its slot cast here is discarded.
                 bool crowded = stuck || (cut && !(limit > t0));
                 if (crowded) {
-                    cut = false;
-                    bound = t1;
-                    stop = t1;
                     streamed += 1u;
+                    if (r < 32u) {
+                        pending_lo |= 1u << r;
+                    } else if (r < 64u) {
+                        pending_hi |= 1u << (r - 32u);
+                    } else {
+                        pending_rest = min(pending_rest, r);
+                    }
                 }
                 float t_end = stop < t1 ? stop / ts : t_max;
                 MetaHit h;
@@ -288,13 +297,9 @@ void main() {
 #else
                 h = mb_clip_slots(g, mr, u, slots, mask, t0, t_end * ts, h0);
 #endif
-                // Lavapipe runs a branch's code for the whole SIMD group unless no lane takes it:
-                // the streamed cast (rare, long) in a branch of its own costs the subgroups
-                // without a crowded lane nothing (the slot cast a crowded lane ran is discarded).
-                if (subgroupAny(crowded)) {
-                    if (crowded) h = mb_clip_stream(g, mr, u, run.y, run.z, t0, t_end * ts, h0);
-                }
-                if ((h.flags & MB_HIT) != 0u) {
+                if (crowded) {
+                    live = false;
+                } else if ((h.flags & MB_HIT) != 0u) {
                     best = h;
                     best_group = run.x;
                     found = true;
@@ -323,6 +328,52 @@ void main() {
             }
             ++round;
         } while (subgroupAny(live));
+    }
+
+    // The crowded groups, each cast streamed from its run over [near, the nearest hit so far].
+    // Here, once per pixel after every group's slot rounds, rather than in the rounds: lavapipe
+    // runs a branch's code for the whole SIMD group even when no lane takes it, so this long cast
+    // costs a tile without crowded pixels one masked pass, not one per round and group. Runs
+    // 0–63 by bit; from the first crowded run past them, every later run is streamed (exact for
+    // any group, only slower), so no count of groups is too many.
+    bool pending = pending_lo != 0u || pending_hi != 0u || pending_rest < header.y;
+    if (subgroupAny(pending)) {
+        do {
+            uint r = 0u;
+            bool some = true;
+            if (pending_lo != 0u) {
+                r = uint(findLSB(pending_lo));
+                pending_lo &= pending_lo - 1u;
+            } else if (pending_hi != 0u) {
+                r = 32u + uint(findLSB(pending_hi));
+                pending_hi &= pending_hi - 1u;
+            } else if (pending_rest < header.y) {
+                r = pending_rest;
+                pending_rest += 1u;
+            } else {
+                some = false;
+            }
+            uvec4 run = tiles(header.x + r);
+            MetaGroup g = load_group(run.x);
+            MetaRay mr = mb_object_ray(g, origin, u);
+            MetaHit h;
+            h.normal = -u;
+            h.t = t_max;
+            h.flags = 0u;
+            h.iterations = 0u;
+            if (some && t_max >= t_min) {
+                h = mb_clip_stream(g, mr, u, run.y, run.z, t_min * mr.ts, t_max * mr.ts, h);
+                if ((h.flags & MB_HIT) != 0u) {
+                    best = h;
+                    best_group = run.x;
+                    found = true;
+                    t_max = h.t;
+                } else if ((h.flags & MB_NOT_CONVERGED) != 0u) {
+                    dropped += 1u;
+                }
+            }
+            pending = pending_lo != 0u || pending_hi != 0u || pending_rest < header.y;
+        } while (subgroupAny(pending));
     }
 
     if (found) {
