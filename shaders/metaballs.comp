@@ -123,7 +123,6 @@ layout(push_constant) uniform MetaballParams {
 #define RUN_TRACE 2u
 
 const float HALF_MAX = 65504.0;
-const float FLT_MAX = 3.402823466e38;
 // Blinn-Phong: a white highlight of this strength and exponent on every metaball material.
 const float SPECULAR = 0.25;
 const float SHININESS = 48.0;

@@ -291,9 +291,7 @@ fn lights_and_materials_change_as_the_file_would() {
     let mut file = common::runtime();
     file.load_scene(changed).unwrap();
     let want = file.render(&request).unwrap();
-    for aov in [Aov::Hdr, Aov::Thickness] {
-        assert!(common::same_bits(after.aov(aov).unwrap(), want.aov(aov).unwrap()), "{} differs", aov.name());
-    }
+    assert_same(&after, &want, &[Aov::Hdr, Aov::Thickness]);
     assert!(
         !common::same_bits(before.aov(Aov::Hdr).unwrap(), after.aov(Aov::Hdr).unwrap()),
         "the change shows"
@@ -383,9 +381,7 @@ fn instances_spawn_and_despawn_as_the_file_would() {
         .collect();
     let got = live.render(&request).unwrap();
     let want = render_file(with_all);
-    for aov in &request.aovs {
-        assert!(common::same_bits(got.aov(*aov).unwrap(), want.aov(*aov).unwrap()), "{} differs", aov.name());
-    }
+    assert_same(&got, &want, &request.aovs);
     let r = live.renderer();
     r.despawn_instance(file_id).unwrap();
     assert!(matches!(r.despawn_instance(file_id), Err(Error::StaleId(_))));
@@ -393,9 +389,7 @@ fn instances_spawn_and_despawn_as_the_file_would() {
     assert_eq!(r.instance_index(ids[2]).unwrap(), 2, "indices shift, ids do not");
     let got = live.render(&request).unwrap();
     let want = render_file(only_spawned);
-    for aov in &request.aovs {
-        assert!(common::same_bits(got.aov(*aov).unwrap(), want.aov(*aov).unwrap()), "{} differs", aov.name());
-    }
+    assert_same(&got, &want, &request.aovs);
     // The last translucent instance gone: the translucency passes go out with it.
     let r = live.renderer();
     r.despawn_instance(ids[2]).unwrap();
@@ -429,7 +423,7 @@ fn lights_spawn_and_despawn_as_the_file_would() {
     let id = r.spawn_light(DVec3::new(1.0, -0.2, -0.4), DVec3::new(1.0, 0.5, 0.2), 2.0).unwrap();
     let got = live.render(&request).unwrap();
     let want = render_file(format!("{head}{first}{second}"));
-    assert!(common::same_bits(got.aov(Aov::Hdr).unwrap(), want.aov(Aov::Hdr).unwrap()), "two lights");
+    assert_same(&got, &want, &[Aov::Hdr]);
     let r = live.renderer();
     let lights = r.scene().unwrap().lights.clone();
     assert!(matches!(r.spawn_light(DVec3::ZERO, DVec3::ONE, 1.0), Err(Error::InvalidUpdate { .. })));
@@ -450,10 +444,7 @@ fn lights_spawn_and_despawn_as_the_file_would() {
     assert_eq!(r.light_index(id).unwrap(), 0);
     let got = live.render(&request).unwrap();
     let want = render_file(format!("{head}{second}"));
-    assert!(
-        common::same_bits(got.aov(Aov::Hdr).unwrap(), want.aov(Aov::Hdr).unwrap()),
-        "the spawned light alone"
-    );
+    assert_same(&got, &want, &[Aov::Hdr]);
     common::assert_clean(&live);
 }
 
@@ -521,9 +512,7 @@ fn a_new_translucent_mesh_bakes_in_the_background() {
     let mut rt = common::runtime();
     rt.load_scene(file).unwrap();
     let want = rt.render(&request).unwrap();
-    for aov in &request.aovs {
-        assert!(common::same_bits(got.aov(*aov).unwrap(), want.aov(*aov).unwrap()), "{} differs", aov.name());
-    }
+    assert_same(&got, &want, &request.aovs);
     common::assert_clean(&live);
     common::assert_clean(&rt);
 }
@@ -595,4 +584,11 @@ fn a_moving_translucent_object_keeps_its_thickness() {
 
 fn live_waits(rt: &hadou::Runtime) -> hadou::HostWaits {
     rt.context().host_waits()
+}
+
+/// Every AOV of `aovs` bit-identical in the two frames.
+fn assert_same(got: &hadou::FrameOutput, want: &hadou::FrameOutput, aovs: &[Aov]) {
+    for aov in aovs {
+        assert!(common::same_bits(got.aov(*aov).unwrap(), want.aov(*aov).unwrap()), "{} differs", aov.name());
+    }
 }

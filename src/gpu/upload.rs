@@ -32,6 +32,15 @@ pub struct ImageCopy {
 }
 
 impl ImageCopy {
+    /// Records the copy on a one-off command buffer and waits for it by its own fence (at load,
+    /// not in a frame); the staging buffer is freed with the frames.
+    pub fn submit_once(self, ctx: &GpuContext) -> GpuResult<()> {
+        let mut commands = FrameCommands::new(ctx, "image upload")?;
+        commands.begin(ctx)?;
+        self.record(ctx, commands.cmd);
+        commands.submit_and_wait(ctx, "image upload")
+    }
+
     /// Records the upload: to TRANSFER_DST, the copy, then to SHADER_READ_ONLY_OPTIMAL visible to
     /// fragment and compute shaders (`SAMPLED_ANYWHERE`); the image never changes layout after.
     pub fn record(&self, ctx: &GpuContext, cmd: vk::CommandBuffer) {
@@ -104,11 +113,7 @@ pub fn upload_image(
     bytes: &[u8],
 ) -> GpuResult<Image> {
     let (image, copy) = stage_image(ctx, memory, name, extent, format, texel_bytes, bytes)?;
-    let mut commands = FrameCommands::new(ctx, &format!("{name} upload"))?;
-    commands.begin(ctx)?;
-    copy.record(ctx, commands.cmd);
-    // A one-off fence wait at load, not a frame: the staging buffer is freed with the frames.
-    commands.submit_and_wait(ctx, &format!("{name} upload"))?;
+    copy.submit_once(ctx)?;
     Ok(image)
 }
 

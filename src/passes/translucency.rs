@@ -450,10 +450,7 @@ impl TranslucentData {
     /// Uploads tables packed already, the LUT image by a one-off copy waited for (at load).
     pub(crate) fn from_packed(ctx: &GpuContext, memory: &Memory, packed: Packed) -> GpuResult<Self> {
         let (data, copy) = Self::staged(ctx, memory, packed)?;
-        let mut commands = crate::gpu::commands::FrameCommands::new(ctx, "translucency lut upload")?;
-        commands.begin(ctx)?;
-        copy.record(ctx, commands.cmd);
-        commands.submit_and_wait(ctx, "translucency lut upload")?;
+        copy.submit_once(ctx)?;
         Ok(data)
     }
 
