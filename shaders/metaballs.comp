@@ -15,7 +15,9 @@
 // its own in a bit mask; at most MB_MAX_RAY_BALLS slots per round. The run is sorted by a lower
 // bound of the entry distance, so the walk stops once every lane's `stop` lies before the next
 // ball. The cast (mb_clip_slots or mb_trace_slots) then runs on the pixel's chords only, with no
-// second pass over the balls and no sorting.
+// second pass over the balls and no sorting. A pixel whose cast of a group is crowded (a point
+// inside more supports than the slots hold) leaves that group to the second dispatch
+// (MB_STREAM_PASS, indirect, over the tiles listed here), which casts it streamed from the run.
 //
 // Lavapipe (Mesa 22.3) runs both sides of every branch for the whole 8-lane SIMD group, every
 // loop body at least once, and a `for`/`while` body once more (masked) to find the loop done;
@@ -54,6 +56,14 @@ layout(set = 0, binding = 8) uniform usamplerBuffer tile_texels;
 layout(set = 0, binding = 9) uniform usamplerBuffer entry_texels;
 // Keep in sync with the STAT_* indices in src/passes/metaballs.rs.
 layout(set = 0, binding = 10, std430) buffer Stats { uint stats[]; };
+// Keep in sync with `PendingRecord` and `StreamDispatch` in src/passes/metaballs.rs. Per pixel of
+// each active tile (tile · 64 + lane): the runs whose cast is crowded (x: runs 0–31 by bit, y:
+// 32–63, z: the first crowded run from 64 on, every later run streamed too; 0xffffffff: none) and
+// w: bit 31 set when the rounds found a hit, its clipping steps below.
+layout(set = 0, binding = 11, std430) buffer Pending { uvec4 pending_runs[]; };
+// The streamed dispatch (vkCmdDispatchIndirect): x, y, z, then the count of tiles with a crowded
+// pixel and their indices. x = min(count, 65535): a workgroup takes every x-th tile.
+layout(set = 0, binding = 12, std430) buffer StreamDispatch { uint stream[]; };
 
 // Which casts this pipeline holds (the pass defines them from the scene's methods, so a method
 // the scene does not use costs nothing).
@@ -107,7 +117,8 @@ layout(push_constant) uniform MetaballParams {
 
 #define STAT_DROPPED 0         // pixels whose search could not finish (MB_NOT_CONVERGED:
                                // clipping did not converge or sphere tracing ran out of
-                               // steps): a surface may be missing there
+                               // steps; or lavapipe's loop limit cut them, see main):
+                               // a surface may be missing there
 #define STAT_HITS 1            // pixels where a metaball is the nearest surface
 #define STAT_ITERATIONS 2      // Σ Bézier-clipping steps of those hits' casts (sphere
                                // tracing: march steps)
@@ -130,18 +141,160 @@ const float SHININESS = 48.0;
 // Keep in sync with TILES_PER_ROW in src/passes/metaballs.rs.
 #define TILES_PER_ROW 8192u
 
+// The shading and outputs of a metaball hit at pixel p (ray u).
+void store_hit(uvec2 p, vec3 u, MetaHit best, uint best_group) {
+    vec3 n = best.normal;
+    // Toward the camera, like the raster's normals (the camera may be inside the blob).
+    if (dot(n, u) > 0.0) n = -n;
+    MetaGroup g = load_group(best_group);
+    MaterialData mat = materials[g.info.w];
+    vec3 v = -u;
+    vec3 diffuse = frame.ambient.rgb;
+    vec3 specular = vec3(0.0);
+    uint i = 0u;
+    do {  // a do-while: see shaders/common/metaballs.glsl on loops
+        vec3 l = -frame.lights[i].direction.xyz;
+        float nl = dot(n, l);
+        if (i < frame.counts.x && nl > 0.0) {
+            diffuse += nl * frame.lights[i].radiance.rgb;
+            vec3 hv = normalize(l + v);
+            specular += SPECULAR * pow(max(dot(n, hv), 0.0), SHININESS) * frame.lights[i].radiance.rgb;
+        }
+        ++i;
+    } while (i < frame.counts.x);
+    vec3 color = min(mat.albedo.rgb * diffuse + specular, vec3(HALF_MAX));
+    imageStore(hdr, ivec2(p), vec4(color, 1.0));
+    imageStore(distance_image, ivec2(p), vec4(best.t, 0.0, 0.0, 0.0));
+    imageStore(normal_image, ivec2(p), vec4(n, 1.0));
+    imageStore(ids, ivec2(p), uvec4(params.dims.w + best_group + 1u, g.info.w, 0u, 0u));
+}
+
+// Lavapipe (Mesa's gallivm) ends every loop of a SIMD group, silently, once all its loops
+// together have iterated 65,535 times in one invocation of the shader; a crowded group's casts
+// may then have stopped short. A loop that must run n + 2 times (n from a buffer: a count the
+// compiler cannot know, so it stays a loop) tells. No such limit on other devices; the streamed
+// walks take 8 balls per iteration and run in their own dispatch to stay far below it.
+bool loops_cut(uint n) {
+    uint loops = 0u;
+    uint wanted = n + 2u;
+    do {
+        ++loops;
+    } while (loops < wanted);
+    return loops != wanted;
+}
+
+// Counters: one atomic per subgroup. `hit`: this pixel's final answer is a hit (`iterations`
+// its steps).
+void count(bool hit, uint iterations, uint dropped, uint streamed) {
+    uint hit_count = subgroupAdd(hit ? 1u : 0u);
+    uint iter_sum = subgroupAdd(hit ? iterations : 0u);
+    uint iter_max = subgroupMax(hit ? iterations : 0u);
+    uint drop_sum = subgroupAdd(dropped);
+    uint stream_sum = subgroupAdd(streamed);
+    if (subgroupElect()) {
+        if (drop_sum != 0u) atomicAdd(stats[STAT_DROPPED], drop_sum);
+        if (stream_sum != 0u) atomicAdd(stats[STAT_STREAMED], stream_sum);
+        if (hit_count != 0u) {
+            atomicAdd(stats[STAT_HITS], hit_count);
+            atomicAdd(stats[STAT_ITERATIONS], iter_sum);
+            atomicMax(stats[STAT_MAX_ITERATIONS], iter_max);
+        }
+    }
+}
+
+// The pixel of `lane` (an invocation of an 8×8 workgroup) in active tile `header`: each 8
+// consecutive invocations (lavapipe's SIMD group, the subgroup) take a 4×2 block of pixels (a
+// compact block's rays are closer together than a row's, so its cone culls more balls and fewer
+// chords are shared: measured 0.92–0.93× the pass time of 8×1 rows).
+uvec2 tile_pixel(uvec4 header, uint lane) {
+    uvec2 block = uvec2((lane & 3u) | ((lane >> 1u) & 4u), ((lane >> 2u) & 1u) | ((lane >> 3u) & 6u));
+    return header.zw * 8u + block;
+}
+
+#ifdef MB_STREAM_PASS
+// The crowded groups of the tiles listed by the first dispatch, each cast streamed from its run
+// over [near, the nearest hit so far] (the `distance` the rounds left), in run order. Runs 0–63 by
+// bit; from the first crowded run past them, every later run is streamed (exact for any group,
+// only slower), so no count of groups is too many.
+void main() {
+    uint lane = gl_LocalInvocationIndex;
+    for (uint w = gl_WorkGroupID.x; w < stream[3]; w += gl_NumWorkGroups.x) {
+        uint tile = stream[4u + w];
+        uvec4 header = tiles(tile);
+        uvec2 p = tile_pixel(header, lane);
+        bool inside = p.x < params.dims.x && p.y < params.dims.y;
+        uvec4 record = uvec4(0u, 0u, 0xffffffffu, 0u);
+        if (inside) record = pending_runs[64u * tile + lane];
+        uint pending_lo = record.x;
+        uint pending_hi = record.y;
+        uint pending_rest = record.z;
+        bool was_hit = (record.w & 0x80000000u) != 0u;
+        bool pending = pending_lo != 0u || pending_hi != 0u || pending_rest < header.y;
+        bool crowded = pending;  // this pixel's hit is counted here, not by the rounds
+        vec3 u = camera_pixel_ray(p, params.dims.xy, params.right, params.up, params.forward.xyz);
+        vec3 origin = frame.camera_pos.xyz;
+        float t_min = params.forward.w / dot(u, params.forward.xyz);
+        float t_max = -1.0;
+        if (pending) t_max = min(imageLoad(distance_image, ivec2(p)).r, params.range.x);
+        bool found = false;
+        MetaHit best;
+        best.iterations = record.w & 0x7fffffffu;
+        uint best_group = 0u;
+        uint dropped = 0u;
+        if (subgroupAny(pending)) {
+            do {
+                uint r = 0u;
+                bool some = true;
+                if (pending_lo != 0u) {
+                    r = uint(findLSB(pending_lo));
+                    pending_lo &= pending_lo - 1u;
+                } else if (pending_hi != 0u) {
+                    r = 32u + uint(findLSB(pending_hi));
+                    pending_hi &= pending_hi - 1u;
+                } else if (pending_rest < header.y) {
+                    r = pending_rest;
+                    pending_rest += 1u;
+                } else {
+                    some = false;
+                }
+                uvec4 run = tiles(header.x + r);
+                MetaGroup g = load_group(run.x);
+                MetaRay mr = mb_object_ray(g, origin, u);
+                MetaHit h;
+                h.normal = -u;
+                h.t = t_max;
+                h.flags = 0u;
+                h.iterations = 0u;
+                if (some && t_max >= t_min) {
+                    h = mb_clip_stream(g, mr, u, run.y, run.z, t_min * mr.ts, t_max * mr.ts, h);
+                    if ((h.flags & MB_HIT) != 0u) {
+                        best = h;
+                        best_group = run.x;
+                        found = true;
+                        t_max = h.t;
+                    } else if ((h.flags & MB_NOT_CONVERGED) != 0u) {
+                        dropped += 1u;
+                    }
+                }
+                pending = pending_lo != 0u || pending_hi != 0u || pending_rest < header.y;
+            } while (subgroupAny(pending));
+        }
+        if (found) store_hit(p, u, best, best_group);
+        if (loops_cut(header.y) && crowded) dropped += 1u;
+        count(crowded && (found || was_hit), best.iterations, dropped, 0u);
+    }
+}
+#else
+shared uint tile_pending;
+
 void main() {
     // One 8×8 workgroup per active tile (a tile holding any ball): every subgroup shares its
-    // tile, so the loops over the tile's runs and balls are uniform. Each 8 consecutive
-    // invocations (lavapipe's SIMD group, the subgroup) take a 4×2 block of pixels: a compact
-    // block's rays are closer together than a row's, so its cone culls more balls and fewer
-    // chords are shared (measured: 0.92–0.93× the pass time of 8×1 rows).
+    // tile, so the loops over the tile's runs and balls are uniform.
     uint tile = gl_WorkGroupID.y * TILES_PER_ROW + gl_WorkGroupID.x;
     uvec4 header = uvec4(0u);
     if (tile < params.dims.z) header = tiles(tile);
     uint lane = gl_LocalInvocationIndex;
-    uvec2 block = uvec2((lane & 3u) | ((lane >> 1u) & 4u), ((lane >> 2u) & 1u) | ((lane >> 3u) & 6u));
-    uvec2 p = header.zw * 8u + block;
+    uvec2 p = tile_pixel(header, lane);
     bool inside = tile < params.dims.z && p.x < params.dims.x && p.y < params.dims.y;
     uint dropped = 0u;
     uint streamed = 0u;
@@ -329,92 +482,28 @@ void main() {
         } while (subgroupAny(live));
     }
 
-    // The crowded groups, each cast streamed from its run over [near, the nearest hit so far].
-    // Here, once per pixel after every group's slot rounds, rather than in the rounds: lavapipe
-    // runs a branch's code for the whole SIMD group even when no lane takes it, so this long cast
-    // costs a tile without crowded pixels one masked pass, not one per round and group. Runs
-    // 0–63 by bit; from the first crowded run past them, every later run is streamed (exact for
-    // any group, only slower), so no count of groups is too many.
+    // The crowded groups are cast streamed in a second dispatch over the tiles that hold a
+    // crowded pixel (main below, MB_STREAM_PASS): lavapipe runs a branch's code for the whole SIMD
+    // group even when no lane takes it, so here the long streamed cast would cost every tile, and
+    // its own dispatch starts a fresh loop budget (loops_cut).
     bool pending = pending_lo != 0u || pending_hi != 0u || pending_rest < header.y;
-    if (subgroupAny(pending)) {
-        do {
-            uint r = 0u;
-            bool some = true;
-            if (pending_lo != 0u) {
-                r = uint(findLSB(pending_lo));
-                pending_lo &= pending_lo - 1u;
-            } else if (pending_hi != 0u) {
-                r = 32u + uint(findLSB(pending_hi));
-                pending_hi &= pending_hi - 1u;
-            } else if (pending_rest < header.y) {
-                r = pending_rest;
-                pending_rest += 1u;
-            } else {
-                some = false;
-            }
-            uvec4 run = tiles(header.x + r);
-            MetaGroup g = load_group(run.x);
-            MetaRay mr = mb_object_ray(g, origin, u);
-            MetaHit h;
-            h.normal = -u;
-            h.t = t_max;
-            h.flags = 0u;
-            h.iterations = 0u;
-            if (some && t_max >= t_min) {
-                h = mb_clip_stream(g, mr, u, run.y, run.z, t_min * mr.ts, t_max * mr.ts, h);
-                if ((h.flags & MB_HIT) != 0u) {
-                    best = h;
-                    best_group = run.x;
-                    found = true;
-                    t_max = h.t;
-                } else if ((h.flags & MB_NOT_CONVERGED) != 0u) {
-                    dropped += 1u;
-                }
-            }
-            pending = pending_lo != 0u || pending_hi != 0u || pending_rest < header.y;
-        } while (subgroupAny(pending));
+    if (lane == 0u) tile_pending = 0u;
+    barrier();
+    if (pending) tile_pending = 1u;
+    barrier();
+    if (lane == 0u && tile_pending != 0u) {
+        uint k = atomicAdd(stream[3], 1u);
+        stream[4u + k] = tile;
+        atomicMax(stream[0], min(k + 1u, 65535u));
+    }
+    if (inside && tile_pending != 0u) {
+        uint mark = found ? (0x80000000u | min(best.iterations, 0x7fffffffu)) : 0u;
+        pending_runs[64u * tile + lane] = uvec4(pending_lo, pending_hi, pending ? pending_rest : 0xffffffffu, mark);
     }
 
-    if (found) {
-        vec3 n = best.normal;
-        // Toward the camera, like the raster's normals (the camera may be inside the blob).
-        if (dot(n, u) > 0.0) n = -n;
-        MetaGroup g = load_group(best_group);
-        MaterialData mat = materials[g.info.w];
-        vec3 v = -u;
-        vec3 diffuse = frame.ambient.rgb;
-        vec3 specular = vec3(0.0);
-        uint i = 0u;
-        do {  // a do-while: see shaders/common/metaballs.glsl on loops
-            vec3 l = -frame.lights[i].direction.xyz;
-            float nl = dot(n, l);
-            if (i < frame.counts.x && nl > 0.0) {
-                diffuse += nl * frame.lights[i].radiance.rgb;
-                vec3 hv = normalize(l + v);
-                specular += SPECULAR * pow(max(dot(n, hv), 0.0), SHININESS) * frame.lights[i].radiance.rgb;
-            }
-            ++i;
-        } while (i < frame.counts.x);
-        vec3 color = min(mat.albedo.rgb * diffuse + specular, vec3(HALF_MAX));
-        imageStore(hdr, ivec2(p), vec4(color, 1.0));
-        imageStore(distance_image, ivec2(p), vec4(best.t, 0.0, 0.0, 0.0));
-        imageStore(normal_image, ivec2(p), vec4(n, 1.0));
-        imageStore(ids, ivec2(p), uvec4(params.dims.w + best_group + 1u, g.info.w, 0u, 0u));
-    }
-
-    // Counters: one atomic per subgroup.
-    uint hit_count = subgroupAdd(found ? 1u : 0u);
-    uint iter_sum = subgroupAdd(found ? best.iterations : 0u);
-    uint iter_max = subgroupMax(found ? best.iterations : 0u);
-    uint drop_sum = subgroupAdd(dropped);
-    uint stream_sum = subgroupAdd(streamed);
-    if (subgroupElect()) {
-        if (drop_sum != 0u) atomicAdd(stats[STAT_DROPPED], drop_sum);
-        if (stream_sum != 0u) atomicAdd(stats[STAT_STREAMED], stream_sum);
-        if (hit_count != 0u) {
-            atomicAdd(stats[STAT_HITS], hit_count);
-            atomicAdd(stats[STAT_ITERATIONS], iter_sum);
-            atomicMax(stats[STAT_MAX_ITERATIONS], iter_max);
-        }
-    }
+    if (found) store_hit(p, u, best, best_group);
+    if (loops_cut(header.y) && inside) dropped += 1u;
+    // A pending pixel's hit is counted by the stream pass, which knows the final answer.
+    count(found && !pending, best.iterations, dropped, streamed);
 }
+#endif

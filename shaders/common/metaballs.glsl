@@ -598,6 +598,72 @@ bool mb_ball_chord(MetaBall ball, MetaRay r, out vec2 ct, out float a) {
     return D > 0.0;
 }
 
+// The streamed walks below take MB_STREAM_UNROLL balls of the list per loop iteration, each by
+// a call (inlined, no loop): lavapipe (Mesa's gallivm) ends every loop of a SIMD group once all
+// its loops together have iterated 65,535 times, and a crowded cast walks a long list many
+// times (a dense fluid's tile runs hold ~2,000 balls: ~33,000 iterations one ball at a time).
+// The pass detects a spent limit and counts it (metaballs.comp, `loops_cut`).
+#define MB_STREAM_UNROLL 8u
+#define MB_STREAM_BLOCK(step) \
+    { const int i = 0; step; } { const int i = 1; step; } { const int i = 2; step; } { const int i = 3; step; } \
+    { const int i = 4; step; } { const int i = 5; step; } { const int i = 6; step; } { const int i = 7; step; }
+
+// Walk 1, one ball: the next chord end after t_cur (t_next) and the field bound (B) over
+// [t_cur, t_hi]. False past the list's end or, sorted, past the window (so are all later balls).
+bool mb_stream_bound(uint kernel, MetaRay r, uint index, bool listed, float t_cur, float t_hi,
+                     inout float t_next, inout float B) {
+    if (!listed) return false;
+    MetaBall ball = MB_BALL(MB_INDEX(index));
+    if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) return false;
+    vec2 ct;
+    float a;
+    if (mb_ball_chord(ball, r, ct, a) && ct.y > t_cur && ct.x < t_hi) {
+        t_next = min(t_next, ct.x > t_cur ? ct.x : ct.y);
+        float half_chord = 0.5 * (ct.y - ct.x);
+        float mid = ct.x + half_chord;
+        float s0 = (max(t_cur, ct.x) - mid) / half_chord;
+        float s1 = (min(t_hi, ct.y) - mid) / half_chord;
+        float s2 = s0 <= 0.0 && s1 >= 0.0 ? 0.0 : min(s0 * s0, s1 * s1);
+        B += max(ball.coeffs.x, 0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
+    }
+    return true;
+}
+
+// Walk 2, one ball: its chord's share of the piece [t_cur, t_hi] (Bernstein coefficients c, their
+// magnitudes `scale`, and G), when the chord contains t_cur. False as mb_stream_bound.
+bool mb_stream_piece(uint kernel, MetaRay r, uint index, bool listed, float t_cur, float t_hi,
+                     inout float c[7], inout float scale[7], inout float G) {
+    if (!listed) return false;
+    MetaBall ball = MB_BALL(MB_INDEX(index));
+    if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) return false;
+    vec2 ct;
+    float a;
+    if (mb_ball_chord(ball, r, ct, a) && ct.x <= t_cur && ct.y > t_cur) {
+        float chord = ct.y - ct.x;
+        float dj[7];
+        mb_chord_bernstein(kernel, a, ball.coeffs.x, dj);
+        mb_restrict(dj, clamp((t_cur - ct.x) / chord, 0.0, 1.0), clamp((t_hi - ct.x) / chord, 0.0, 1.0));
+        for (int j = 0; j < 7; ++j) {
+            c[j] += dj[j];
+            scale[j] += abs(dj[j]);
+        }
+        G += ball.coeffs.z;
+    }
+    return true;
+}
+
+// The normal's walk, one ball: its share of ∇F at p (t_found along the ray). False past the
+// list's end or, sorted, past t_found.
+bool mb_stream_grad(uint kernel, MetaRay r, uint index, bool listed, vec3 p, float t_found, inout vec3 grad) {
+    if (!listed) return false;
+    MetaBall ball = MB_BALL(MB_INDEX(index));
+    if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) > t_found) return false;
+    vec3 w = p - ball.centre_radius.xyz;
+    float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
+    grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
+    return true;
+}
+
 // Bézier clipping streamed from the list itself: the first crossing of F = T with t′ ∈ [t0, t_end]
 // over every ball of MB_INDEX(list_begin) … MB_INDEX(list_begin + list_count − 1), however many
 // supports overlap (the slots hold MB_MAX_RAY_BALLS; a point inside more than that is cast here).
@@ -631,21 +697,13 @@ MetaHit mb_clip_stream(MetaGroup g, MetaRay r, vec3 dir, uint list_begin, uint l
         // The next chord end after t_cur and the field bound over [t_cur, t_hi].
         float t_next = t_end;
         float B = 0.0;
-        for (uint k = 0u; k < list_count; ++k) {
-            MetaBall ball = MB_BALL(MB_INDEX(list_begin + k));
-            if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) break;
-            vec2 ct;
-            float a;
-            if (mb_ball_chord(ball, r, ct, a) && ct.y > t_cur && ct.x < t_hi) {
-                t_next = min(t_next, ct.x > t_cur ? ct.x : ct.y);
-                float half_chord = 0.5 * (ct.y - ct.x);
-                float mid = ct.x + half_chord;
-                float s0 = (max(t_cur, ct.x) - mid) / half_chord;
-                float s1 = (min(t_hi, ct.y) - mid) / half_chord;
-                float s2 = s0 <= 0.0 && s1 >= 0.0 ? 0.0 : min(s0 * s0, s1 * s1);
-                B += max(ball.coeffs.x, 0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
-            }
-        }
+        uint k = 0u;
+        bool more = true;
+        do {
+            MB_STREAM_BLOCK(more = mb_stream_bound(kernel, r, list_begin + k + uint(i), k + uint(i) < list_count,
+                                                   t_cur, t_hi, t_next, B))
+            k += MB_STREAM_UNROLL;
+        } while (more);
         if (B < T - mb_delta(B + T, X + t_hi, 0.0)) {
             // No root in the window: on to the next one, twice as wide.
             float width = t_hi - t_cur;
@@ -663,23 +721,13 @@ MetaHit mb_clip_stream(MetaGroup g, MetaRay r, vec3 dir, uint list_begin, uint l
             scale[i] = 0.0;
         }
         float G = 0.0;
-        for (uint k = 0u; k < list_count; ++k) {
-            MetaBall ball = MB_BALL(MB_INDEX(list_begin + k));
-            if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) break;
-            vec2 ct;
-            float a;
-            if (mb_ball_chord(ball, r, ct, a) && ct.x <= t_cur && ct.y > t_cur) {
-                float chord = ct.y - ct.x;
-                float dj[7];
-                mb_chord_bernstein(kernel, a, ball.coeffs.x, dj);
-                mb_restrict(dj, clamp((t_cur - ct.x) / chord, 0.0, 1.0), clamp((t_hi - ct.x) / chord, 0.0, 1.0));
-                for (int i = 0; i < 7; ++i) {
-                    c[i] += dj[i];
-                    scale[i] += abs(dj[i]);
-                }
-                G += ball.coeffs.z;
-            }
-        }
+        k = 0u;
+        more = true;
+        do {
+            MB_STREAM_BLOCK(more = mb_stream_piece(kernel, r, list_begin + k + uint(i), k + uint(i) < list_count,
+                                                   t_cur, t_hi, c, scale, G))
+            k += MB_STREAM_UNROLL;
+        } while (more);
         float S = 0.0;
         for (int i = 0; i < 7; ++i) S = max(S, scale[i]);
         float delta = mb_delta(S + T, X + t_hi, G);
@@ -704,13 +752,13 @@ MetaHit mb_clip_stream(MetaGroup g, MetaRay r, vec3 dir, uint list_begin, uint l
     // The normal: ∇F over the balls whose support contains the point (others add nothing).
     vec3 p = r.o + r.d * t_found;
     vec3 grad = vec3(0.0);
-    for (uint k = 0u; k < list_count; ++k) {
-        MetaBall ball = MB_BALL(MB_INDEX(list_begin + k));
-        if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) > t_found) break;
-        vec3 w = p - ball.centre_radius.xyz;
-        float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
-        grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
-    }
+    uint k = 0u;
+    bool more = true;
+    do {
+        MB_STREAM_BLOCK(more = mb_stream_grad(kernel, r, list_begin + k + uint(i), k + uint(i) < list_count, p,
+                                              t_found, grad))
+        k += MB_STREAM_UNROLL;
+    } while (more);
     mb_finish_grad(hit, g, r, dir, grad, t_found);
     return hit;
 }

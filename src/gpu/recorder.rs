@@ -54,6 +54,27 @@ impl Recorder<'_> {
         cmd_barriers(self.device(), self.cmd, &[], &[memory_barrier(stage, access, stage, read_write)]);
     }
 
+    /// Makes one compute dispatch's storage writes visible to the next dispatch's reads and
+    /// writes and to its indirect arguments.
+    pub fn compute_to_indirect_barrier(&self) {
+        use super::barriers::{cmd_barriers, memory_barrier};
+        let (stage, access) =
+            (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE);
+        let read_write = vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
+        let b = memory_barrier(
+            stage,
+            access,
+            stage | vk::PipelineStageFlags2::DRAW_INDIRECT,
+            read_write | vk::AccessFlags2::INDIRECT_COMMAND_READ,
+        );
+        cmd_barriers(self.device(), self.cmd, &[], &[b]);
+    }
+
+    /// A compute dispatch whose workgroup counts are read from `buffer` at `offset`.
+    pub fn dispatch_indirect(&self, buffer: vk::Buffer, offset: u64) {
+        unsafe { self.device().cmd_dispatch_indirect(self.cmd, buffer, offset) };
+    }
+
     /// Makes one compute dispatch's storage-buffer writes visible to a following copy.
     pub fn compute_to_copy_barrier(&self) {
         use super::barriers::{cmd_barriers, memory_barrier};

@@ -17,9 +17,20 @@
 //! than 32 supports overlap at one point, or the other rays' balls took the slots) the rest of
 //! the ray is cast streamed from the tile's run
 //! (`mb_clip_stream`: every walk recomputes the chords from the ball buffer, so no count of
-//! overlapping supports is too many; the pixel costs walks × run length). Where the clipping does
-//! not converge, or a sphere-traced group (`method = "sphere_trace"`) runs out of steps, the
+//! overlapping supports is too many; the pixel costs walks × run length). Those streamed casts
+//! run in a second, indirect dispatch over the tiles holding a crowded pixel (the first lists
+//! them, with each pixel's crowded runs in a [`PendingRecord`]): lavapipe runs a branch's code for
+//! the whole SIMD group even where no lane takes it, so inside the first dispatch the long cast
+//! would cost every tile, and each dispatch starts a fresh loop budget (below). Where the clipping
+//! does not converge, or a sphere-traced group (`method = "sphere_trace"`) runs out of steps, the
 //! pixel is counted in the frame's counter `metaballs.dropped` and a warning is logged.
+//!
+//! Lavapipe (Mesa's gallivm) ends every loop of a SIMD group, silently, once all of them together
+//! have iterated 65,535 times in one invocation. The streamed walks take 8 balls per iteration
+//! (the dense fluid of assets/scenes/metaballs_dense.toml stays below it), and each dispatch
+//! checks at its end, with a loop the compiler cannot unroll, whether the limit was reached: then
+//! every pixel of the SIMD group counts in `metaballs.dropped` (tests/gpu_metaballs.rs: 100,000
+//! concentric balls). Other devices have no such limit.
 //!
 //! # Counters (`FrameStats::counter`)
 //! `metaballs.dropped`: pixels whose cast could not finish (a surface may be missing there);
@@ -51,6 +62,21 @@ use crate::scene::Scene;
 use crate::targets::Target;
 
 const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
+const GPU: MemoryLocation = MemoryLocation::GpuOnly;
+const HOST: MemoryLocation = MemoryLocation::CpuToGpu;
+
+/// Per pixel of an active tile with a crowded pixel, written by the rounds for the streamed
+/// dispatch (keep in sync with `pending_runs` in shaders/metaballs.comp): the crowded runs (bits
+/// of runs 0–31 and 32–63, the first crowded run from 64 on or u32::MAX) and the rounds' hit (bit
+/// 31) with its clipping steps.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct PendingRecord {
+    pub runs_lo: u32,
+    pub runs_hi: u32,
+    pub runs_from: u32,
+    pub hit_steps: u32,
+}
 
 /// Tile edge in pixels: one 8×8 workgroup per tile (keep in sync with shaders/metaballs.comp). A
 /// pixel walks only the balls of its tile: with the 4,096-ball scene at 256², 58 per tile on
@@ -317,8 +343,16 @@ pub struct MetaballCounts {
 
 pub struct MetaballsPass {
     pipeline: Pipeline,
+    /// The second dispatch: the crowded pixels' streamed casts (MB_STREAM_PASS).
+    stream: Pipeline,
     /// Per frame slot: the device's counters of the frame last recorded in it (host-readable).
     stats: Vec<Buffer>,
+    /// Per frame slot: a `PendingRecord` per pixel of every active tile (device-only), and the
+    /// streamed dispatch's arguments and tile list (`StreamDispatch`, reset by the host).
+    pending: Vec<Buffer>,
+    stream_dispatch: Vec<Buffer>,
+    /// The frame being recorded's `stream_dispatch` buffer.
+    frame_dispatch: vk::Buffer,
     params: MetaballParams,
     /// The previous finished frame's dropped count: a frame repeating it does not warn again (the
     /// count is in `FrameStats` every frame).
@@ -346,9 +380,15 @@ impl MetaballsPass {
         let spirv = compiler.compile("metaballs.comp", &defines)?;
         let push = std::mem::size_of::<MetaballParams>() as u32;
         let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, push)?;
+        let spirv = compiler.compile("metaballs.comp", &[defines[0], defines[1], ("MB_STREAM_PASS", "1")])?;
+        let stream = create_compute_pipeline(ctx, "metaballs streamed", &spirv, push)?;
         Ok(MetaballsPass {
             pipeline,
+            stream,
             stats: Vec::new(),
+            pending: Vec::new(),
+            stream_dispatch: Vec::new(),
+            frame_dispatch: vk::Buffer::null(),
             params: MetaballParams::default(),
             warned_dropped: Default::default(),
         })
@@ -408,6 +448,39 @@ impl Pass for MetaballsPass {
         let stats = &mut self.stats[frame.slot];
         stats.write(0, &[0u8; 4 * STAT_COUNT])?;
         let stats = BufferRange::whole(stats.raw);
+        // The streamed dispatch's buffers, grown to this frame's active tiles.
+        let tiles = lists.active.max(1) as u64;
+        let pending_bytes = tiles * 64 * std::mem::size_of::<PendingRecord>() as u64;
+        let dispatch_bytes = (4 + tiles) * 4;
+        while self.pending.len() <= frame.slot {
+            self.pending.push(frame.memory.create_buffer(
+                frame.ctx,
+                "metaballs pending",
+                16,
+                STORAGE,
+                GPU,
+            )?);
+            let usage = STORAGE | vk::BufferUsageFlags::INDIRECT_BUFFER;
+            let dispatch =
+                frame.memory.create_buffer(frame.ctx, "metaballs stream dispatch", 16, usage, HOST)?;
+            self.stream_dispatch.push(dispatch);
+        }
+        if self.pending[frame.slot].size < pending_bytes {
+            let name = "metaballs pending";
+            self.pending[frame.slot] =
+                frame.memory.create_buffer(frame.ctx, name, pending_bytes, STORAGE, GPU)?;
+        }
+        if self.stream_dispatch[frame.slot].size < dispatch_bytes {
+            let usage = STORAGE | vk::BufferUsageFlags::INDIRECT_BUFFER;
+            let name = "metaballs stream dispatch";
+            self.stream_dispatch[frame.slot] =
+                frame.memory.create_buffer(frame.ctx, name, dispatch_bytes, usage, HOST)?;
+        }
+        // No tile listed yet: x = 0 workgroups, y = z = 1, count 0.
+        self.stream_dispatch[frame.slot].write(0, bytemuck::cast_slice(&[0u32, 1, 1, 0]))?;
+        let pending = BufferRange::whole(self.pending[frame.slot].raw);
+        self.frame_dispatch = self.stream_dispatch[frame.slot].raw;
+        let dispatch = BufferRange::whole(self.frame_dispatch);
         let (quad, word) = (Texels::U32x4, Texels::U32);
         Ok(vec![
             Binding::Image(Target::Distance),
@@ -421,11 +494,13 @@ impl Pass for MetaballsPass {
             Binding::Bound(frame.texels("metaballs tiles", &lists.tiles, quad)?),
             Binding::Bound(frame.texels("metaballs entries", &lists.entries, word)?),
             Binding::Written(stats, Reader::Host),
+            Binding::Written(pending, Reader::Compute),
+            Binding::Written(dispatch, Reader::Indirect),
         ])
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
-        vec![&self.pipeline]
+        vec![&self.pipeline, &self.stream]
     }
 
     fn record(&self, pass: &PassRecording) {
@@ -437,6 +512,11 @@ impl Pass for MetaballsPass {
         if active > 0 {
             let rows = active.div_ceil(TILES_PER_ROW);
             rec.dispatch_2d(8 * active.min(TILES_PER_ROW), 8 * rows, (8, 8));
+            // The tiles with a crowded pixel, listed by the first dispatch.
+            rec.compute_to_indirect_barrier();
+            rec.bind_pipeline(&self.stream, pass.set(1));
+            rec.push_constants(&self.stream, bytemuck::bytes_of(&self.params));
+            rec.dispatch_indirect(self.frame_dispatch, 0);
         }
     }
 
@@ -450,8 +530,9 @@ impl Pass for MetaballsPass {
         let last = self.warned_dropped.swap(c.dropped, std::sync::atomic::Ordering::Relaxed);
         if c.dropped > 0 && c.dropped != last {
             log::warn!(
-                "metaballs: {} pixels could not finish their cast (the clipping did not converge, or \
-                 sphere tracing ran out of steps): a surface may be missing there",
+                "metaballs: {} pixels could not finish their cast (the clipping did not converge, \
+                 sphere tracing ran out of steps, or lavapipe's loop limit cut it): a surface may be \
+                 missing there",
                 c.dropped
             );
         }

@@ -55,6 +55,10 @@ pub enum Reader {
     Host,
     /// A copy command later in the same pass.
     Copy,
+    /// A later compute dispatch of the same pass (which places the barrier between them).
+    Compute,
+    /// A later indirect dispatch of the same pass, as its arguments (the pass places the barrier).
+    Indirect,
 }
 
 impl Reader {
@@ -62,6 +66,12 @@ impl Reader {
         match self {
             Reader::Host => (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
             Reader::Copy => (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ),
+            Reader::Compute => {
+                (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ)
+            }
+            Reader::Indirect => {
+                (vk::PipelineStageFlags2::DRAW_INDIRECT, vk::AccessFlags2::INDIRECT_COMMAND_READ)
+            }
         }
     }
 }
