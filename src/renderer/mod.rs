@@ -20,6 +20,7 @@
 //! (`latest_timings`).
 
 pub mod bakes;
+mod deform;
 mod inputs;
 pub mod instances;
 pub(crate) mod readback;
@@ -30,6 +31,7 @@ mod update;
 pub mod view_projection;
 pub mod world;
 
+pub use deform::vertex_normals;
 pub use inputs::{DepthConvention, ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
 pub use readback::AovReadback;
 pub use timings::FrameTimings;

@@ -179,6 +179,8 @@ impl Renderer {
         let (ctx, memory) = (&self.ctx, &self.memory);
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         let s = &mut self.slots[slot];
+        // Deformed meshes: this slot's vertex buffers (its previous frame has finished).
+        loaded.gpu.begin_slot(ctx, memory, &loaded.scene, slot)?;
         // A run-time bake's new LUT image, filled before any pass reads it (bakes.rs).
         loaded.bakes.record_copies(ctx, cmd);
         if loaded.tables_dirty {

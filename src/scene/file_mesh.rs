@@ -21,6 +21,7 @@ const KINDS: &[(&str, &[&str])] = &[
     ("torus", &["major_radius", "minor_radius", "segments", "sides"]),
     ("tetrahedron", &["size"]),
     ("cavity_cube", &["size", "cavity_radius", "segments", "rings"]),
+    ("hollow_ball", &["radius", "cavity_radius", "segments", "rings"]),
     ("bottle", &["radius", "height", "wall", "fill", "segments"]),
     ("obj", &["path"]),
 ];
@@ -121,6 +122,12 @@ fn spec(o: &Owner, d: &MeshDef, kind: &str) -> Result<MeshSpec, SceneError> {
             cavity_radius: length("cavity_radius", d.cavity_radius.as_ref(), 0.6)?,
             segments: segments(32)?,
             rings: rings(16)?,
+        },
+        "hollow_ball" => MeshSpec::HollowBall {
+            radius: radius(1.0)?,
+            cavity_radius: length("cavity_radius", d.cavity_radius.as_ref(), 0.2)?,
+            segments: segments(48)?,
+            rings: rings(24)?,
         },
         "bottle" => MeshSpec::Bottle {
             // The seed's proportions (assets/scenes/translucency.toml): at 56³ its LUT is 7.2 MB

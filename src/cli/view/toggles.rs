@@ -27,11 +27,14 @@ impl Default for Toggles {
 }
 
 impl Toggles {
-    /// T: switches thickness between LUT and TSM, starting from what the file uses.
+    /// T: cycles thickness LUT → TSM → peel → LUT, starting from what the file uses.
     pub fn switch_thickness(&mut self, file: &Scene) {
         let now = self.thickness.or_else(|| file_thickness(file)).unwrap_or(ThicknessMode::Lut);
-        self.thickness =
-            Some(if now == ThicknessMode::Lut { ThicknessMode::Tsm } else { ThicknessMode::Lut });
+        self.thickness = Some(match now {
+            ThicknessMode::Lut => ThicknessMode::Tsm,
+            ThicknessMode::Tsm => ThicknessMode::Peel,
+            ThicknessMode::Peel => ThicknessMode::Lut,
+        });
     }
 
     /// R: switches the energy wave between analytic and raymarch, starting from the file.
@@ -94,6 +97,7 @@ impl Toggles {
             (true, None) => "none",
             (true, Some(ThicknessMode::Lut)) => "lut",
             (true, Some(ThicknessMode::Tsm)) => "tsm",
+            (true, Some(ThicknessMode::Peel)) => "peel",
         };
         let meta = match (self.metaballs, file.metaballs.is_empty()) {
             (false, _) => "off",
