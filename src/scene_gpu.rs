@@ -123,6 +123,11 @@ impl SceneGpu {
         &self.instances
     }
 
+    /// Whether mesh `mesh` was deformed since the scene was loaded.
+    pub fn is_deformed(&self, mesh: usize) -> bool {
+        self.meshes.get(mesh).is_some_and(|m| m.stale != 0 || !m.deformed.is_empty())
+    }
+
     /// Mesh `mesh`'s vertices changed in the scene: every slot's copy is stale.
     pub fn mesh_deformed(&mut self, mesh: usize) {
         if let Some(m) = self.meshes.get_mut(mesh) {

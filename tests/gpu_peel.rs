@@ -341,6 +341,38 @@ fn deformed_meshes_are_followed_across_frames_in_flight() {
     common::assert_clean(&rt);
 }
 
+/// `[[mesh]] wobble`: the scene's own deformation at a frame's time, followed by peel exactly as
+/// a game's `set_mesh_positions` (the same thickness as that shape loaded still, and its twin).
+#[test]
+fn a_wobbling_mesh_is_followed_at_the_frame_time() {
+    let text = BACK_LIT
+        .replace("MESH", "ball")
+        .replace("rings = 24\n", "rings = 24\n    wobble = 0.06\n    wobble_hz = 0.5\n");
+    let mut scene = common::parse(&text);
+    assert!(scene.meshes[0].wobble.is_some());
+    let ops = vec![rot(80.0, [1.0, 0.0, 0.0])];
+    scene.instances[0].transform = Transform::from_ops(&ops).unwrap();
+    scene.instances[0].ops = ops;
+    let mut rt = common::runtime();
+    rt.load_scene(scene.clone()).unwrap();
+    let (w, h) = (128, 128);
+    let mut request = FrameRequest::new(w, h);
+    request.color = false;
+    request.aovs = vec![Aov::Thickness];
+    request.time = 0.5;
+    let wobbled = rt.render(&request).unwrap().aov(Aov::Thickness).unwrap().data.clone();
+    common::assert_clean(&rt);
+    let mut still = rt.scene().unwrap().clone();
+    assert_ne!(still.meshes[0].mesh.positions, scene.meshes[0].mesh.positions);
+    still.meshes[0].wobble = None;
+    assert!(wobbled.iter().zip(&render(&still, w, h).thickness).all(|(a, b)| a.to_bits() == b.to_bits()));
+    compare("wobbled ball", &still);
+    // Back at rest at time 0.
+    request.time = 0.0;
+    let rest = rt.render(&request).unwrap().aov(Aov::Thickness).unwrap().data.clone();
+    assert!(rest.iter().zip(&render(&scene, w, h).thickness).all(|(a, b)| a.to_bits() == b.to_bits()));
+}
+
 /// Peel materials with nothing to draw: no peel pass, no lists; a peel instance without a light
 /// adds nothing.
 #[test]

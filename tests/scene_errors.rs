@@ -54,6 +54,13 @@ const BAD: &[(&str, usize, usize, &str)] = &[
     ("far_le_near.toml", 5, 7, "`far`: expected a number > near (10), found 10"),
     ("fov_out_of_range.toml", 4, 13, "`fov_y_deg`: expected a number in [0.1, 180), found 180"),
     ("torus_minor_too_large.toml", 9, 16, "mesh \"ring\": torus minor_radius must be < major_radius"),
+    ("wobble_too_large.toml", 8, 10, "mesh \"ball\" `wobble`: expected a number in [0, 0.1], found 0.2"),
+    (
+        "wobble_with_lut.toml",
+        17,
+        12,
+        "`material`: material \"jade\" reads a thickness table baked from the loaded shape, but mesh \"ball\" wobbles",
+    ),
     (
         "hollow_ball_cavity_too_large.toml",
         9,

@@ -33,12 +33,45 @@ pub fn vertex_normals(positions: &[[f32; 3]], indices: &[u32], old: &[[f32; 3]])
     sums.iter().zip(old).map(|(s, o)| s.try_normalize().map_or(*o, |n| n.as_vec3().to_array())).collect()
 }
 
+/// The wobbling meshes of a loaded scene (`scene::wobble`): each one's loaded positions, and the
+/// scene time their current shape is of.
+#[derive(Default)]
+pub(super) struct WobbleState {
+    base: Vec<Option<Vec<[f32; 3]>>>,
+    time: Option<f64>,
+}
+
+impl WobbleState {
+    pub fn new(scene: &crate::scene::Scene) -> Self {
+        let base = scene.meshes.iter().map(|m| m.wobble.map(|_| m.mesh.positions.clone())).collect();
+        WobbleState { base, time: None }
+    }
+}
+
 impl Renderer {
+    /// Deforms the wobbling meshes to scene time `time` (nothing when none wobbles or the time is
+    /// the one applied last).
+    pub(super) fn apply_wobble(&mut self, time: f64) {
+        let Some(loaded) = &mut self.loaded else { return };
+        if loaded.wobble.time == Some(time) || loaded.wobble.base.iter().all(Option::is_none) {
+            return;
+        }
+        loaded.wobble.time = Some(time);
+        for (i, base) in loaded.wobble.base.iter().enumerate() {
+            let (Some(base), Some(w)) = (base, loaded.scene.meshes[i].wobble) else { continue };
+            let m = &mut loaded.scene.meshes[i].mesh;
+            m.positions = w.positions(base, time);
+            m.normals = vertex_normals(&m.positions, &m.indices, &m.normals);
+            loaded.gpu.mesh_deformed(i);
+        }
+    }
+
     /// Moves the vertices of mesh `mesh` (a `[[mesh]]` name of the loaded scene) to `positions`
     /// (object space, one per vertex in the mesh's order, finite, within 1e6 of the origin) from
     /// the next recorded frame on, for every instance of it; the normals are recomputed
     /// (area-weighted over the triangles using each vertex: vertices the mesh splits, at hard
-    /// edges or seams, stay split). The triangles are kept. No host wait. The mesh should stay
+    /// edges or seams, stay split). The triangles are kept. No host wait. A mesh with a `wobble`
+    /// in the scene file stops wobbling: the game's positions replace it. The mesh should stay
     /// closed and not cut through itself for translucent instances (their thickness counts
     /// the winding number of the surface). State is unchanged on error.
     pub fn set_mesh_positions(&mut self, mesh: &str, positions: &[Vec3]) -> Result<(), Error> {
@@ -88,6 +121,10 @@ impl Renderer {
                      reads a table baked from the loaded shape; use \"peel\" or \"tsm\")"
                 ),
             ));
+        }
+        loaded.scene.meshes[index].wobble = None;
+        if let Some(base) = loaded.wobble.base.get_mut(index) {
+            *base = None;
         }
         let m = &mut loaded.scene.meshes[index].mesh;
         m.positions = positions.iter().map(|p| p.to_array()).collect();

@@ -93,6 +93,8 @@ struct Loaded {
     bakes: bakes::Bakes,
     /// Instance transforms or materials changed since their tables were built.
     tables_dirty: bool,
+    /// Per mesh with a `wobble`: its loaded positions, and the scene time last applied.
+    wobble: deform::WobbleState,
 }
 
 impl Loaded {
@@ -238,7 +240,11 @@ impl Renderer {
             light_ids,
             bakes: Default::default(),
             tables_dirty: false,
+            wobble: deform::WobbleState::default(),
         });
+        if let Some(l) = &mut self.loaded {
+            l.wobble = deform::WobbleState::new(&l.scene);
+        }
         Ok(())
     }
 

@@ -87,6 +87,8 @@ impl Renderer {
         self.ensure_edges(inputs)?;
         // A run-time bake that finished goes in before the frame's passes are prepared.
         self.poll_bakes(false)?;
+        // `[[mesh]] wobble`: the meshes' shapes at this frame's time.
+        self.apply_wobble(inputs.time);
         let (frame, slot) = self.begin_frame()?;
         let result = self.record_in_slot(cmd, inputs, frame, slot);
         if result.is_err() {

@@ -67,6 +67,8 @@ pub struct SceneMesh {
     pub spec: MeshSpec,
     /// `spec` built.
     pub mesh: Mesh,
+    /// `wobble`/`wobble_hz`: the mesh deforms with scene time (`scene::wobble`); None when still.
+    pub wobble: Option<super::wobble::Wobble>,
 }
 
 /// A `[[material]]` (or the built-in `"default"`).
