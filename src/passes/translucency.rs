@@ -22,6 +22,9 @@
 //! neighbours that does (P at the silhouette seen from the light). With
 //! tsm = max(z(P) − z(entry), 0):
 //! - `thickness = "tsm"`: d = tsm (translucent shadow maps: cavities and gaps count as material).
+//! - `thickness = "peel"` (built with WITH_PEEL when the scene has it): d = the inside intervals of
+//!   P's instance on the crossing list of P's texel t (the `peel` pass), up to z(P); an overflowed
+//!   list takes the TSM path below (src/passes/peel.rs).
 //! - `thickness = "lut"`: the light's entry point a = P − l·tsm lies on P's own light ray; with
 //!   b = P, both taken to object space by M⁻¹, d = |M(b − a)| − (1 − f(i, j))·|M(c_j − c_i)|,
 //!   clamped to [0, tsm] (`effects::translucency::lut_thickness`): the path less the gaps the

@@ -30,7 +30,7 @@ impl Wobble {
             (lo.min(p), hi.max(p))
         });
         let size = (hi - lo).max_element();
-        if !(size > 0.0) {
+        if size.is_nan() || size <= 0.0 {
             return base.to_vec();
         }
         let tau = std::f64::consts::TAU;
