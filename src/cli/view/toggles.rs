@@ -143,7 +143,7 @@ mod tests {
     }
 
     #[test]
-    fn switches_flip_from_the_file_and_back() {
+    fn switches_cycle_from_the_file_and_back() {
         let file = showcase();
         let mut t = Toggles::default();
         t.switch_thickness(&file);
@@ -159,6 +159,9 @@ mod tests {
         t.switch_wave_method(&file);
         let s = t.apply(&file);
         assert_eq!(s.waves[0].method, WaveMethod::Analytic);
-        assert_eq!(s.materials, file.materials);
+        assert_eq!(t.summary(&file), "wave:analytic trans:peel meta:on");
+        // LUT → TSM → peel → LUT.
+        t.switch_thickness(&file);
+        assert_eq!(t.apply(&file).materials, file.materials);
     }
 }
