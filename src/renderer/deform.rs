@@ -33,17 +33,24 @@ pub fn vertex_normals(positions: &[[f32; 3]], indices: &[u32], old: &[[f32; 3]])
     sums.iter().zip(old).map(|(s, o)| s.try_normalize().map_or(*o, |n| n.as_vec3().to_array())).collect()
 }
 
-/// The wobbling meshes of a loaded scene (`scene::wobble`): each one's loaded positions, and the
+/// The vertices of a mesh as loaded: positions and normals.
+type Vertices = (Vec<[f32; 3]>, Vec<[f32; 3]>);
+
+/// The wobbling meshes of a loaded scene (`scene::wobble`): each one's loaded vertices, and the
 /// scene time their current shape is of.
 #[derive(Default)]
 pub(super) struct WobbleState {
-    base: Vec<Option<Vec<[f32; 3]>>>,
+    base: Vec<Option<Vertices>>,
     time: Option<f64>,
 }
 
 impl WobbleState {
     pub fn new(scene: &crate::scene::Scene) -> Self {
-        let base = scene.meshes.iter().map(|m| m.wobble.map(|_| m.mesh.positions.clone())).collect();
+        let base = scene
+            .meshes
+            .iter()
+            .map(|m| m.wobble.map(|_| (m.mesh.positions.clone(), m.mesh.normals.clone())))
+            .collect();
         WobbleState { base, time: None }
     }
 }
@@ -58,10 +65,17 @@ impl Renderer {
         }
         loaded.wobble.time = Some(time);
         for (i, base) in loaded.wobble.base.iter().enumerate() {
-            let (Some(base), Some(w)) = (base, loaded.scene.meshes[i].wobble) else { continue };
+            let (Some((positions, normals)), Some(w)) = (base, loaded.scene.meshes[i].wobble) else {
+                continue;
+            };
             let m = &mut loaded.scene.meshes[i].mesh;
-            m.positions = w.positions(base, time);
-            m.normals = vertex_normals(&m.positions, &m.indices, &m.normals);
+            m.positions = w.positions(positions, time);
+            // At rest (t = 0, each half period) the mesh is as loaded, its own normals included.
+            m.normals = if m.positions == *positions {
+                normals.clone()
+            } else {
+                vertex_normals(&m.positions, &m.indices, normals)
+            };
             loaded.gpu.mesh_deformed(i);
         }
     }
