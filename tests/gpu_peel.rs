@@ -235,6 +235,9 @@ fn cavities_drop_out_where_tsm_counts_them() {
     let scene = scene_of("ball", vec![rot(90.0, [1.0, 0.0, 0.0])]);
     let (w, h) = (160, 160);
     let peel_frame = render(&scene, w, h);
+    // Outer shell and both cavities along the light: lists of 6, more than K/2, so reported.
+    assert_eq!(peel_frame.stats.counter(peel::LONGEST), 6);
+    assert_eq!(peel_frame.stats.counter(peel::OVERFLOWED), 0);
     let (samples, _) = report::samples(&scene, (w, h), &peel_frame.thickness, &peel_frame.depth).unwrap();
     let voxel = report::world_voxel(&scene, 0).unwrap();
     let through: Vec<&Sample> = samples.iter().filter(|s| s.tsm - s.exact > 0.2).collect();

@@ -32,7 +32,8 @@
 //! overflowed: the translucency pass gives its pixels TSM's thickness (`thickness = "tsm"`, the
 //! light_id maps), and the frame's counters report it (`FrameStats::counter`):
 //! `peel.overflowed_texels` (texels with more than K crossings; a warning is logged when it
-//! changes), `peel.longest` (the longest list this frame, overflowed ones included) and
+//! changes), `peel.longest` (the longest list this frame, overflowed ones included, when longer
+//! than K/2 = 4; 0 when every list holds at most 4: only the fuller lists pay a global atomic) and
 //! `peel.texels` (texels with any crossing).
 //!
 //! Needs `fragmentStoresAndAtomics` (its fragment shader writes storage images and a buffer):
