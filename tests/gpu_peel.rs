@@ -250,6 +250,24 @@ fn cavities_drop_out_where_tsm_counts_them() {
     assert!(p95 <= 0.25, "p95 {p95}");
 }
 
+/// Two peel boxes one behind the other along the light: the front one (seen by the camera) is lit
+/// through the back one, whose material does not count (only the pixel's own instance's
+/// intervals), as in the twin and the exact per-instance thickness.
+#[test]
+fn other_instances_in_front_do_not_count() {
+    let base =
+        BACK_LIT.replace("MESH", "box").replace("direction = [0.1, -0.2, 1]", "direction = [0.05, -0.1, 1]");
+    let mut text = base.replace("[[instance]]\n    mesh = \"box\"\n    material = \"wax\"\n", "");
+    for (z, turn) in [(-1.2, 20.0), (0.6, -15.0)] {
+        text += &format!(
+            "[[instance]]\nmesh = \"box\"\nmaterial = \"wax\"\ntransform = [{{ rotate = {{ angle_deg = {turn}, axis = [0.3, 1, 0.2] }} }}, {{ scale = [0.9, 0.9, 0.5] }}, {{ translate = [0, 0, {z}] }}]\n"
+        );
+    }
+    let scene = common::parse(&text);
+    let (_, p95) = compare("two boxes along the light", &scene);
+    assert!(p95 <= 0.25, "p95 {p95:.3} voxels vs exact");
+}
+
 /// Five boxes in a row along the light: 10 crossings per texel through all of them, more than
 /// PEEL_K = 8 — as five instances, and as one mesh of five boxes. The overflow is counted, and
 /// those pixels get exactly TSM's thickness.
