@@ -21,6 +21,7 @@ demo: build check-vulkan
 	mkdir -p out
 	./target/release/hadou render assets/scenes/showcase.toml -o out/showcase.png --aov depth=out/showcase_depth.exr
 	./target/release/hadou render assets/gltf/overlay.toml -o out/gltf_overlay.png
+	./target/release/hadou render assets/scenes/translucency_peel.toml -o out/translucency_peel.png --time 0.5
 	./target/release/hadou profile assets/scenes/showcase.toml --size 512x512 --frames 30 --warmup 5
 
 # The whole test suite on lavapipe (or any Vulkan device), validation on in every GPU test.

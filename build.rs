@@ -27,7 +27,11 @@ fn main() {
 
 /// Writes `$OUT_DIR/shaders.rs`: `(path under shaders/, include_str!(..))` for every shader file.
 fn embed_shaders() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    // At run time, not `env!` at the script's compile time: a target folder shared by worktrees
+    // (or copied from another checkout) reuses the compiled script, which then embedded the
+    // other checkout's shaders.
+    let manifest = std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR");
+    let root = std::path::Path::new(&manifest).join("shaders");
     println!("cargo:rerun-if-changed={}", root.display());
     let mut files = Vec::new();
     let mut dirs = vec![root.clone()];

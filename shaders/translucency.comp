@@ -55,6 +55,12 @@ layout(set = 0, binding = 13, rgba16f) uniform readonly image2D normal_image;
 
 const float HALF_MAX = 65504.0;
 
+#ifdef WITH_PEEL
+layout(set = 0, binding = 14, r32ui) uniform readonly uimage2D peel_counts;
+layout(set = 0, binding = 15, rg32ui) uniform readonly uimage2D peel_lists;
+#include "common/translucency_peel.glsl"
+#endif
+
 // The stored fraction f(i, j) of a table.
 float lut_fraction(LutRecord r, uint i, uint j) {
     uint k = r.offsets.y + lut_pair_index(i, j, r.dims.w);
@@ -79,6 +85,14 @@ float thickness_at(vec3 P, uint instance, uint mode) {
     vec3 lp = light_project(params.view, P);
     float size = float(params.dims.z);
     ivec2 centre = clamp(ivec2(floor((lp.xy * 0.5 + 0.5) * size)), ivec2(0), ivec2(params.dims.z - 1u));
+#ifdef WITH_PEEL
+    // peel (common/translucency_peel.glsl); an overflowed list falls back to TSM below.
+    if (mode == THICKNESS_PEEL) {
+        float d = peel_thickness(centre, instance + 1u, lp.z);
+        if (d >= 0.0) return d;
+        mode = THICKNESS_TSM;
+    }
+#endif
     ivec2 t = own_texel(centre, instance);
     if (t.x < 0) {
         // The light reaches P first through another instance: TSM's distance from that surface

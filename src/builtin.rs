@@ -11,7 +11,7 @@ use crate::scene::{Scene, SceneError};
 pub const PREFIX: &str = "builtin:";
 
 /// (name, TOML text) of every built-in scene: each file of `assets/scenes`.
-pub const SCENES: [(&str, &str); 10] = [
+pub const SCENES: [(&str, &str); 11] = [
     ("empty", include_str!("../assets/scenes/empty.toml")),
     ("energy_wave", include_str!("../assets/scenes/energy_wave.toml")),
     ("energy_wave_open", include_str!("../assets/scenes/energy_wave_open.toml")),
@@ -22,6 +22,7 @@ pub const SCENES: [(&str, &str); 10] = [
     ("showcase", include_str!("../assets/scenes/showcase.toml")),
     ("single_cube", include_str!("../assets/scenes/single_cube.toml")),
     ("translucency", include_str!("../assets/scenes/translucency.toml")),
+    ("translucency_peel", include_str!("../assets/scenes/translucency_peel.toml")),
 ];
 
 /// The TOML text of built-in scene `name` (`showcase` or `showcase.toml`).

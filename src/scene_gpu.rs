@@ -1,6 +1,12 @@
 //! The scene on the GPU: one vertex and index buffer per mesh (shared by all its instances), built
 //! once per loaded scene; the instance and material tables are kept on the host and uploaded each
 //! frame through the frame slot's ring (transforms and materials change per frame).
+//!
+//! A mesh deformed at run time (`Renderer::set_mesh_positions`) gets one vertex buffer per frame
+//! slot, written on the host when its slot begins a frame (that slot's previous frame has
+//! finished: the frame contract) and only when it is older than the mesh: a frame in flight keeps
+//! reading the vertices it was recorded with. The draws of a frame use its slot's buffer
+//! (`GpuMesh::vertex_buffer`).
 
 use crate::gpu::memory::{Buffer, Memory};
 use crate::gpu::{vk, GpuContext, GpuResult};
@@ -9,9 +15,28 @@ use crate::scene::Scene;
 use gpu_allocator::MemoryLocation;
 
 pub struct GpuMesh {
+    /// The vertices as loaded (position, normal: 24 bytes).
     pub vertices: Buffer,
     pub indices: Buffer,
     pub index_count: u32,
+    /// Once deformed: a vertex buffer per frame slot, made on the slot's first frame after that.
+    deformed: Vec<Option<Buffer>>,
+    /// Bit s: slot s's buffer is older than the mesh.
+    stale: u32,
+    /// The slot whose buffer this frame draws (None: `vertices`).
+    in_use: Option<usize>,
+}
+
+impl GpuMesh {
+    /// The vertex buffer the frame being recorded draws: the slot's own once the mesh deformed.
+    pub fn vertex_buffer(&self) -> &Buffer {
+        self.in_use.and_then(|s| self.deformed.get(s)?.as_ref()).unwrap_or(&self.vertices)
+    }
+}
+
+/// The vertex buffer's contents: position and normal per vertex.
+fn interleaved(mesh: &crate::scene::mesh::Mesh) -> Vec<[f32; 6]> {
+    mesh.positions.iter().zip(&mesh.normals).map(|(p, n)| [p[0], p[1], p[2], n[0], n[1], n[2]]).collect()
 }
 
 /// One instanced draw: a mesh and its range in the instance table.
@@ -62,13 +87,7 @@ impl SceneGpu {
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
         let mut meshes = Vec::with_capacity(scene.meshes.len());
         for m in &scene.meshes {
-            let vertices: Vec<[f32; 6]> = m
-                .mesh
-                .positions
-                .iter()
-                .zip(&m.mesh.normals)
-                .map(|(p, n)| [p[0], p[1], p[2], n[0], n[1], n[2]])
-                .collect();
+            let vertices = interleaved(&m.mesh);
             let name = format!("mesh {} vertices", m.name);
             let vertices = upload(
                 ctx,
@@ -80,7 +99,9 @@ impl SceneGpu {
             let name = format!("mesh {} indices", m.name);
             let index_bytes = bytemuck::cast_slice(&m.mesh.indices);
             let indices = upload(ctx, memory, &name, vk::BufferUsageFlags::INDEX_BUFFER, index_bytes)?;
-            meshes.push(GpuMesh { vertices, indices, index_count: m.mesh.indices.len() as u32 });
+            let index_count = m.mesh.indices.len() as u32;
+            let (deformed, stale, in_use) = (Vec::new(), 0, None);
+            meshes.push(GpuMesh { vertices, indices, index_count, deformed, stale, in_use });
         }
         let materials = material_records(scene);
         let (instances, draws) = instance_layout(scene);
@@ -100,6 +121,61 @@ impl SceneGpu {
     /// The instance table to upload this frame.
     pub fn instance_table(&self) -> &[InstanceData] {
         &self.instances
+    }
+
+    /// Whether mesh `mesh` was deformed since the scene was loaded.
+    pub fn is_deformed(&self, mesh: usize) -> bool {
+        self.meshes.get(mesh).is_some_and(|m| m.stale != 0 || !m.deformed.is_empty())
+    }
+
+    /// Mesh `mesh`'s vertices changed in the scene: every slot's copy is stale.
+    pub fn mesh_deformed(&mut self, mesh: usize) {
+        if let Some(m) = self.meshes.get_mut(mesh) {
+            m.stale = u32::MAX;
+        }
+    }
+
+    /// Before recording a frame in `slot` (whose previous frame has finished): the deformed meshes'
+    /// buffers of that slot brought up to date and put in use.
+    pub fn begin_slot(
+        &mut self,
+        ctx: &GpuContext,
+        memory: &Memory,
+        scene: &Scene,
+        slot: usize,
+    ) -> GpuResult<()> {
+        for (i, m) in self.meshes.iter_mut().enumerate() {
+            if m.stale == 0 && m.deformed.is_empty() {
+                continue; // never deformed
+            }
+            if m.deformed.len() <= slot {
+                m.deformed.resize_with(slot + 1, || None);
+            }
+            let bit = 1u32 << slot;
+            if m.stale & bit != 0 || m.deformed[slot].is_none() {
+                let bytes = interleaved(&scene.meshes[i].mesh);
+                let bytes: &[u8] = bytemuck::cast_slice(&bytes);
+                let buffer = match &mut m.deformed[slot] {
+                    Some(b) => b,
+                    empty => {
+                        let name = format!("mesh {} vertices, slot {slot}", scene.meshes[i].name);
+                        let usage = vk::BufferUsageFlags::VERTEX_BUFFER;
+                        let size = bytes.len() as u64;
+                        empty.insert(memory.create_buffer(
+                            ctx,
+                            &name,
+                            size,
+                            usage,
+                            MemoryLocation::CpuToGpu,
+                        )?)
+                    }
+                };
+                buffer.write(0, bytes)?;
+                m.stale &= !bit;
+            }
+            m.in_use = Some(slot);
+        }
+        Ok(())
     }
 
     /// Rebuilds the instance table and the draws after instances moved, came or went.

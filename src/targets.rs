@@ -32,6 +32,13 @@ pub enum Target {
     LightZ,
     /// light_id's own D32 depth attachment, `LIGHT_MAP_SIZE`².
     LightDepth,
+    /// peel: per light-map texel, how many crossings of peel instances its light ray has (more
+    /// than the lists hold means it overflowed); R32UI, the light maps' size.
+    PeelCounts,
+    /// peel: per light-map texel, up to `passes::peel::PEEL_K` crossings (light-space depth,
+    /// instance + 1 with the entering flag in bit 31), unsorted; RG32UI, tiles of
+    /// `PEEL_TILE` texels per light-map texel.
+    PeelLists,
     /// translucency: world thickness of material the light crossed to reach the pixel's
     /// translucent surface, +inf elsewhere; R32F.
     Thickness,
@@ -55,6 +62,8 @@ impl Target {
             Target::LightZ => "light_z",
             Target::LightDepth => "light_depth",
             Target::Thickness => "thickness",
+            Target::PeelCounts => "peel_counts",
+            Target::PeelLists => "peel_lists",
             Target::GameDepth => "game depth",
             Target::GameColor => "game colour",
         }
@@ -64,7 +73,8 @@ impl Target {
         match self {
             Target::Depth | Target::LightDepth => vk::Format::D32_SFLOAT,
             Target::Hdr | Target::Normal => vk::Format::R16G16B16A16_SFLOAT,
-            Target::Ids | Target::LightIds => vk::Format::R32G32_UINT,
+            Target::Ids | Target::LightIds | Target::PeelLists => vk::Format::R32G32_UINT,
+            Target::PeelCounts => vk::Format::R32_UINT,
             Target::Distance | Target::Energy | Target::LightZ | Target::Thickness => vk::Format::R32_SFLOAT,
             Target::Ldr => vk::Format::R8G8B8A8_UNORM,
             // The game's images carry their own format (`Targets::import`).
@@ -76,8 +86,8 @@ impl Target {
     pub fn texel_bytes(self) -> u64 {
         match self {
             Target::Depth | Target::Distance | Target::Ldr | Target::Energy => 4,
-            Target::LightZ | Target::LightDepth | Target::Thickness => 4,
-            Target::Hdr | Target::Normal | Target::Ids | Target::LightIds => 8,
+            Target::LightZ | Target::LightDepth | Target::Thickness | Target::PeelCounts => 4,
+            Target::Hdr | Target::Normal | Target::Ids | Target::LightIds | Target::PeelLists => 8,
             Target::GameDepth | Target::GameColor => 0,
         }
     }
@@ -89,6 +99,7 @@ impl Target {
             Target::Thickness | Target::LightIds | Target::LightZ | Target::LightDepth => {
                 "an instance with a translucent material"
             }
+            Target::PeelCounts | Target::PeelLists => "an instance with a thickness = \"peel\" material",
             Target::GameDepth | Target::GameColor => "a game's image handed to record_frame",
             _ => "a frame recorded first",
         }
@@ -112,6 +123,9 @@ impl Target {
                 base | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED
             }
             Target::Ldr | Target::Energy | Target::Thickness => base | vk::ImageUsageFlags::STORAGE,
+            // TRANSFER_DST: the peel pass clears its counters with vkCmdClearColorImage.
+            Target::PeelCounts => base | vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
+            Target::PeelLists => base | vk::ImageUsageFlags::STORAGE,
             Target::GameDepth | Target::GameColor => vk::ImageUsageFlags::empty(),
             _ => base | vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
         }

@@ -448,6 +448,9 @@ fn translucent_material_fields() {
     let want = DVec3::new(-(0.5f64.ln()), -(0.25f64.ln()), -(0.9f64.ln())) / 2.0;
     assert!((sigma - want).length() < 1e-15);
     assert_eq!((voxel_res, thickness), (4, ThicknessMode::Tsm));
+    let s = scene("kind = \"translucent\"\nsigma = [1, 1, 1]\nthickness = \"peel\"").unwrap();
+    let MaterialKind::Translucent { thickness, .. } = s.materials[0].kind else { panic!() };
+    assert_eq!(thickness, ThicknessMode::Peel);
     // The forms and fields that are refused.
     let refused = [
         ("kind = \"translucent\"", "needs an extinction"),

@@ -65,7 +65,7 @@ fn view_presents_resizes_screenshots_and_quits_cleanly() {
     let shot = dir.join("shot.png");
     let script = format!(
         "frames=2;key=1;key=2;key=3;frames=1;key=1;key=2;key=3;key=r;key=t;frames=1;key=r;key=t;\
-         frames=1;resize=320x200;frames=2;screenshot={};resize_events=off;resize=240x160;frames=1;\
+         frames=1;key=t;frames=1;resize=320x200;frames=2;screenshot={};resize_events=off;resize=240x160;frames=1;\
          quit",
         shot.display()
     );

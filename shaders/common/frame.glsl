@@ -29,6 +29,7 @@ struct InstanceData {
 #define MATERIAL_TRANSLUCENT 1u
 #define THICKNESS_LUT 0u
 #define THICKNESS_TSM 1u
+#define THICKNESS_PEEL 2u
 
 struct MaterialData {
     vec4 albedo;         // rgb

@@ -130,5 +130,17 @@ pub fn run(args: ProfileArgs) -> anyhow::Result<ExitCode> {
     }
     set.commit()?;
     print!("{}", report.table());
+    // What the passes counted on the device (metaballs.dropped, peel.overflowed_texels, ...).
+    let mut counters: Vec<(&str, u64)> = Vec::new();
+    for (name, value) in frames.iter().flat_map(|f| f.counters.iter()) {
+        match counters.iter_mut().find(|(n, _)| n == name) {
+            Some((_, v)) => *v = (*v).max(*value),
+            None => counters.push((name, *value)),
+        }
+    }
+    if !counters.is_empty() {
+        let shown: Vec<String> = counters.iter().map(|(n, v)| format!("{n} {v}")).collect();
+        println!("counters (max over the frames): {}", shown.join(", "));
+    }
     Ok(ExitCode::SUCCESS)
 }

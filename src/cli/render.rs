@@ -77,6 +77,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let passes: Vec<String> =
         frame.stats.passes.iter().map(|p| format!("{} {:.3} ms", p.name, p.gpu_ms)).collect();
     println!("wrote {} ({width}x{height}); gpu: {}", args.output.display(), passes.join(", "));
+    // What the passes counted on the device (metaballs.dropped, peel.overflowed_texels, ...).
+    let counters: Vec<String> = frame.stats.counters.iter().map(|(n, v)| format!("{n} {v}")).collect();
+    if !counters.is_empty() {
+        println!("counters: {}", counters.join(", "));
+    }
     let counts = runtime.validation_counts();
     if counts.errors > 0 {
         bail!("validation reported {} errors and {} warnings", counts.errors, counts.warnings);

@@ -7,6 +7,7 @@ pub mod metaballs;
 pub mod metaballs_compare;
 pub mod metaballs_f32;
 pub mod metaballs_trace;
+pub mod peel;
 pub mod raycast;
 pub mod thickness;
 pub mod thickness_lut;

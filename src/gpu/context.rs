@@ -83,6 +83,10 @@ pub struct GpuContext {
     pub limits: vk::PhysicalDeviceLimits,
     /// Valid bits of `queue_family`'s timestamps.
     pub timestamp_valid_bits: u32,
+    /// `fragmentStoresAndAtomics` is enabled (optional; the peel pass needs it). hadou's own
+    /// device enables it whenever the device has it: features are fixed at device creation,
+    /// before any scene is known, and enabling it costs nothing where it is unused.
+    pub fragment_stores_and_atomics: bool,
     /// Debug-utils entry points (naming, labels, messenger); present when the extension is.
     pub debug_instance: Option<ash::ext::debug_utils::Instance>,
     /// Debug-utils device entry points (object names, labels); present with `debug_instance`.
@@ -104,6 +108,8 @@ struct Candidate {
     kind: vk::PhysicalDeviceType,
     queue_family: u32,
     timestamp_valid_bits: u32,
+    /// The optional `fragmentStoresAndAtomics` (the peel pass): enabled when present.
+    fragment_stores_and_atomics: bool,
 }
 
 impl GpuContext {
@@ -191,6 +197,7 @@ impl GpuContext {
             info,
             limits: props.limits,
             timestamp_valid_bits: candidate.timestamp_valid_bits,
+            fragment_stores_and_atomics: candidate.fragment_stores_and_atomics,
             debug_instance,
             debug_device,
             messenger,
@@ -446,8 +453,16 @@ fn choose_device(
             .and_then(|found| check_present(instance, physical, found.0, surface).map(|_| found));
         match checked {
             Ok((queue_family, timestamp_valid_bits)) => {
-                let c =
-                    Candidate { physical, name, kind: props.device_type, queue_family, timestamp_valid_bits };
+                // SAFETY: plain query.
+                let features = unsafe { instance.get_physical_device_features(physical) };
+                let c = Candidate {
+                    physical,
+                    name,
+                    kind: props.device_type,
+                    queue_family,
+                    timestamp_valid_bits,
+                    fragment_stores_and_atomics: features.fragment_stores_and_atomics == vk::TRUE,
+                };
                 if best.as_ref().is_none_or(|b| kind_rank(c.kind) < kind_rank(b.kind)) {
                     best = Some(c);
                 }
@@ -529,7 +544,11 @@ fn create_device(instance: &ash::Instance, c: &Candidate, swapchain: bool) -> Gp
         .maintenance4(true);
     // Timestamps are reset from the host, so reading them never needs a command buffer or a wait.
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default().host_query_reset(true);
-    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13).push_next(&mut f12);
+    // Optional, for the peel pass only: on whenever the device has it (see GpuContext).
+    let core =
+        vk::PhysicalDeviceFeatures::default().fragment_stores_and_atomics(c.fragment_stores_and_atomics);
+    let mut f2 =
+        vk::PhysicalDeviceFeatures2::default().features(core).push_next(&mut f13).push_next(&mut f12);
     let extensions: Vec<*const c_char> =
         if swapchain { vec![ash::khr::swapchain::NAME.as_ptr()] } else { vec![] };
     let info = vk::DeviceCreateInfo::default()

@@ -87,6 +87,35 @@ impl Recorder<'_> {
         cmd_barriers(self.device(), self.cmd, &[], &[b]);
     }
 
+    /// Clears a whole single-mip colour image in GENERAL layout (a storage image) to `value`.
+    pub fn clear_general_image(&self, image: &ImageHandles, value: vk::ClearColorValue) {
+        let range = vk::ImageSubresourceRange::default()
+            .aspect_mask(vk::ImageAspectFlags::COLOR)
+            .level_count(1)
+            .layer_count(1);
+        unsafe {
+            self.device().cmd_clear_color_image(
+                self.cmd,
+                image.raw,
+                vk::ImageLayout::GENERAL,
+                &value,
+                &[range],
+            )
+        };
+    }
+
+    /// Makes a clear's writes visible to the fragment shaders' storage reads and writes after it.
+    pub fn clear_to_fragment_barrier(&self) {
+        use super::barriers::{cmd_barriers, memory_barrier};
+        let b = memory_barrier(
+            vk::PipelineStageFlags2::CLEAR,
+            vk::AccessFlags2::TRANSFER_WRITE,
+            vk::PipelineStageFlags2::FRAGMENT_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+        );
+        cmd_barriers(self.device(), self.cmd, &[], &[b]);
+    }
+
     /// Dispatches enough `group`-sized workgroups to cover width × height.
     pub fn dispatch_2d(&self, width: u32, height: u32, group: (u32, u32)) {
         unsafe { self.device().cmd_dispatch(self.cmd, width.div_ceil(group.0), height.div_ceil(group.1), 1) };

@@ -53,6 +53,8 @@ pub const MATERIAL_LAMBERT: u32 = 0;
 pub const MATERIAL_TRANSLUCENT: u32 = 1;
 pub const THICKNESS_LUT: u32 = 0;
 pub const THICKNESS_TSM: u32 = 1;
+/// `MaterialData::kind.y` of a translucent material with `thickness = "peel"`.
+pub const THICKNESS_PEEL: u32 = 2;
 
 const _: () = {
     assert!(std::mem::size_of::<GpuLight>() == 32);
@@ -135,6 +137,7 @@ pub fn material_records(scene: &Scene) -> Vec<MaterialData> {
                 let mode = match thickness {
                     ThicknessMode::Lut => THICKNESS_LUT,
                     ThicknessMode::Tsm => THICKNESS_TSM,
+                    ThicknessMode::Peel => THICKNESS_PEEL,
                 };
                 MaterialData { albedo, kind: [MATERIAL_TRANSLUCENT, mode, 0, 0], sigma: vec4_f32(sigma, 0.0) }
             }

@@ -155,7 +155,7 @@ impl Pass for LightIdPass {
                 rec.push_constants(pipeline, bytemuck::bytes_of(&self.view));
                 for d in draws {
                     let mesh = &pass.scene_gpu.meshes[d.mesh];
-                    rec.draw_mesh(&mesh.vertices, &mesh.indices, mesh.index_count, d.first, d.count);
+                    rec.draw_mesh(mesh.vertex_buffer(), &mesh.indices, mesh.index_count, d.first, d.count);
                 }
             }
         }

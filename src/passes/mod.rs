@@ -13,6 +13,7 @@ pub mod energy_wave;
 pub mod gpu_structs;
 pub mod light_id;
 pub mod metaballs;
+pub mod peel;
 pub mod raster;
 pub(crate) mod registry;
 

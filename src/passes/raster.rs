@@ -111,7 +111,7 @@ impl Pass for RasterPass {
             for draw in &pass.scene_gpu.draws {
                 let mesh = &pass.scene_gpu.meshes[draw.mesh];
                 rec.draw_mesh(
-                    &mesh.vertices,
+                    mesh.vertex_buffer(),
                     &mesh.indices,
                     mesh.index_count,
                     draw.first_instance,

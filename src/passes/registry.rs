@@ -5,7 +5,7 @@
 //! after it, whose images they bind (on lavapipe a dispatch waits only for the render passes
 //! that wrote what it binds, so after light_id it would overlap light_id's rasterizing and its
 //! timestamps would straddle the wrong work); light_id (the light's view of translucent
-//! instances), translucency (reads what raster and metaballs wrote), the energy wave last, adding
+//! instances), peel (the peel instances' crossing lists), translucency (reads what raster and metaballs wrote), the energy wave last, adding
 //! on top. The output pass (tonemap, or composite into a game's colour) is chosen per frame by the
 //! renderer.
 
@@ -15,6 +15,7 @@ use std::sync::Arc;
 use super::energy_wave::EnergyWavePass;
 use super::light_id::LightIdPass;
 use super::metaballs::MetaballsPass;
+use super::peel::PeelPass;
 use super::raster::RasterPass;
 use super::translucency::{self, TranslucencyPass, TranslucentData};
 use super::Pass;
@@ -95,12 +96,20 @@ pub const PASSES: &[Entry] = &[
         },
     },
     Entry {
+        name: "peel",
+        needed: super::peel::needed,
+        variant: no_variant,
+        build: |b| Ok(boxed(PeelPass::new(b.ctx, b.compiler, b.scene)?)),
+    },
+    Entry {
         name: "translucency",
         needed: translucency::needed,
-        variant: no_variant,
+        // With or without the peel lists.
+        variant: super::peel::variant,
         build: |b| {
             let data = translucent_data(b)?;
-            Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, data)?))
+            let peel = super::peel::needed(b.scene);
+            Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, data, peel)?))
         },
     },
     Entry {

@@ -22,6 +22,9 @@
 //! neighbours that does (P at the silhouette seen from the light). With
 //! tsm = max(z(P) − z(entry), 0):
 //! - `thickness = "tsm"`: d = tsm (translucent shadow maps: cavities and gaps count as material).
+//! - `thickness = "peel"` (built with WITH_PEEL when the scene has it): d = the inside intervals of
+//!   P's instance on the crossing list of P's texel t (the `peel` pass), up to z(P); an overflowed
+//!   list takes the TSM path below (src/passes/peel.rs).
 //! - `thickness = "lut"`: the light's entry point a = P − l·tsm lies on P's own light ray; with
 //!   b = P, both taken to object space by M⁻¹, d = |M(b − a)| − (1 − f(i, j))·|M(c_j − c_i)|,
 //!   clamped to [0, tsm] (`effects::translucency::lut_thickness`): the path less the gaps the
@@ -508,6 +511,8 @@ pub struct TranslucencyPass {
     rect: Option<PixelRect>,
     extent: vk::Extent2D,
     data: Arc<TranslucentData>,
+    /// Built with WITH_PEEL: reads the peel pass's lists (bindings 14, 15).
+    peel: bool,
 }
 
 impl TranslucencyPass {
@@ -515,12 +520,14 @@ impl TranslucencyPass {
         ctx: &GpuContext,
         compiler: &mut ShaderCompiler,
         data: Arc<TranslucentData>,
+        peel: bool,
     ) -> GpuResult<Self> {
-        let spirv = compiler.compile("translucency.comp", &[])?;
+        let with_peel: &[(&str, &str)] = if peel { &[("WITH_PEEL", "1")] } else { &[] };
+        let spirv = compiler.compile("translucency.comp", with_peel)?;
         let fill_spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
         let pipeline = create_compute_pipeline(ctx, "translucency", &spirv, 0)?;
         let fill = create_compute_pipeline(ctx, "translucency fill", &fill_spirv, 0)?;
-        Ok(TranslucencyPass { pipeline, fill, rect: None, extent: vk::Extent2D::default(), data })
+        Ok(TranslucencyPass { pipeline, fill, rect: None, extent: vk::Extent2D::default(), data, peel })
     }
 }
 
@@ -548,6 +555,9 @@ impl Pass for TranslucencyPass {
     }
 
     fn images(&self) -> Vec<ImageUse> {
+        let peel =
+            [Target::PeelCounts, Target::PeelLists].map(|t| ImageUse::new(t, ImageAccess::COMPUTE_READ));
+        let peel = peel.into_iter().filter(|_| self.peel);
         vec![
             ImageUse::new(Target::Ids, ImageAccess::COMPUTE_READ),
             ImageUse::new(Target::Distance, ImageAccess::COMPUTE_READ),
@@ -557,6 +567,9 @@ impl Pass for TranslucencyPass {
             ImageUse::new(Target::LightZ, ImageAccess::COMPUTE_READ),
             ImageUse::new(Target::Thickness, ImageAccess::COMPUTE_WRITE),
         ]
+        .into_iter()
+        .chain(peel)
+        .collect()
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
@@ -580,7 +593,7 @@ impl Pass for TranslucencyPass {
             lut: [data.lut_image.extent.width, 0, 0, 0],
             rect: self.rect.map_or([0; 4], |r| [r.x0, r.y0, r.x1, r.y1]),
         };
-        Ok(vec![
+        let mut bindings = vec![
             Binding::Bound(Bound::Uniform(frame.upload(&[params])?)),
             Binding::Image(Target::Ids),
             Binding::Image(Target::Distance),
@@ -595,7 +608,11 @@ impl Pass for TranslucencyPass {
             Binding::Bound(Bound::Storage(frame.materials)),
             Binding::Bound(Bound::UniformTexel(data.centres.view)),
             Binding::Image(Target::Normal),
-        ])
+        ];
+        if self.peel {
+            bindings.extend([Binding::Image(Target::PeelCounts), Binding::Image(Target::PeelLists)]);
+        }
+        Ok(bindings)
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {

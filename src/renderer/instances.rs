@@ -52,6 +52,14 @@ impl Renderer {
             }
             _ => None,
         };
+        let deforms = scene.meshes[mesh_index].wobble.is_some() || loaded.gpu.is_deformed(mesh_index);
+        if table.is_some() && deforms {
+            return Err(invalid(
+                format!("instance of mesh \"{mesh}\" with material \"{material}\""),
+                "a material without a thickness table (thickness = \"peel\" or \"tsm\"): the mesh deforms \
+                 (set_mesh_positions or wobble), a table would be of one shape",
+            ));
+        }
         if let Some(key) = table.filter(|&k| !self.table_known(k)) {
             // Tables for the passes to find (not bake) before the instance is in the scene; its
             // own is baked in the background (src/renderer/bakes.rs).

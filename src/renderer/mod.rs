@@ -20,6 +20,7 @@
 //! (`latest_timings`).
 
 pub mod bakes;
+mod deform;
 mod inputs;
 pub mod instances;
 pub(crate) mod readback;
@@ -30,6 +31,7 @@ mod update;
 pub mod view_projection;
 pub mod world;
 
+pub use deform::vertex_normals;
 pub use inputs::{DepthConvention, ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
 pub use readback::AovReadback;
 pub use timings::FrameTimings;
@@ -91,6 +93,8 @@ struct Loaded {
     bakes: bakes::Bakes,
     /// Instance transforms or materials changed since their tables were built.
     tables_dirty: bool,
+    /// Per mesh with a `wobble`: its loaded positions, and the scene time last applied.
+    wobble: deform::WobbleState,
 }
 
 impl Loaded {
@@ -236,7 +240,11 @@ impl Renderer {
             light_ids,
             bakes: Default::default(),
             tables_dirty: false,
+            wobble: deform::WobbleState::default(),
         });
+        if let Some(l) = &mut self.loaded {
+            l.wobble = deform::WobbleState::new(&l.scene);
+        }
         Ok(())
     }
 

@@ -87,6 +87,8 @@ impl Renderer {
         self.ensure_edges(inputs)?;
         // A run-time bake that finished goes in before the frame's passes are prepared.
         self.poll_bakes(false)?;
+        // `[[mesh]] wobble`: the meshes' shapes at this frame's time.
+        self.apply_wobble(inputs.time);
         let (frame, slot) = self.begin_frame()?;
         let result = self.record_in_slot(cmd, inputs, frame, slot);
         if result.is_err() {
@@ -179,6 +181,8 @@ impl Renderer {
         let (ctx, memory) = (&self.ctx, &self.memory);
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         let s = &mut self.slots[slot];
+        // Deformed meshes: this slot's vertex buffers (its previous frame has finished).
+        loaded.gpu.begin_slot(ctx, memory, &loaded.scene, slot)?;
         // A run-time bake's new LUT image, filled before any pass reads it (bakes.rs).
         loaded.bakes.record_copies(ctx, cmd);
         if loaded.tables_dirty {

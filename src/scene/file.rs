@@ -20,6 +20,7 @@ use super::file_schema::{CameraDef, InstanceDef, LightDef, MaterialDef, OpDef, R
 use super::file_wave::waves;
 use super::model::{
     DirectionalLight, Instance, Material, MaterialKind, MetaballGroup, RenderSettings, Scene, SceneMesh,
+    ThicknessMode,
 };
 use super::transform::{Transform, TransformOp};
 
@@ -362,6 +363,16 @@ fn instances(
             let material_span = d.material.as_ref().map_or(o.span.clone(), Spanned::span);
             super::file_material::check_instance_mesh(&o, material_span, m, &meshes[mesh])?;
             closed[mesh] = true;
+        }
+        let lut = matches!(m.kind, MaterialKind::Translucent { thickness: ThicknessMode::Lut, .. });
+        if lut && meshes[mesh].wobble.is_some() {
+            let material_span = d.material.as_ref().map_or(o.span.clone(), Spanned::span);
+            let message = format!(
+                "{} `material`: material \"{}\" reads a thickness table baked from the loaded shape, but \
+                 mesh \"{}\" wobbles: use thickness = \"peel\" (or \"tsm\") for a deforming mesh",
+                o.label, m.name, meshes[mesh].name
+            );
+            return Err(o.ctx.err(material_span, message));
         }
         let (ops, transform) = transform(&o, d.transform.as_ref())?;
         out.push(Instance {

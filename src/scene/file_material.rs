@@ -16,7 +16,7 @@ use super::model::{
 };
 
 const KINDS: &[&str] = &["lambert", "translucent"];
-const THICKNESS_MODES: &[&str] = &["lut", "tsm"];
+const THICKNESS_MODES: &[&str] = &["lut", "tsm", "peel"];
 /// Attenuation colours: the fraction of light left after `attenuation_distance`, strictly between
 /// 0 (σ infinite) and 1 (σ zero).
 const OPEN_UNIT: Rule = Rule { ok: |v| v > 0.0 && v < 1.0, bound: "in (0, 1)" };
@@ -61,6 +61,7 @@ fn translucent(o: &Owner, def: &MaterialDef) -> Result<MaterialKind, SceneError>
         Some(v) => match v.get_ref().as_str() {
             "lut" => ThicknessMode::Lut,
             "tsm" => ThicknessMode::Tsm,
+            "peel" => ThicknessMode::Peel,
             other => {
                 return Err(o.fail(v.span(), "thickness", &one_of(THICKNESS_MODES), format!("\"{other}\"")))
             }

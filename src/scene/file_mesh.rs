@@ -12,6 +12,7 @@ use super::file_schema::{MeshDef, Tables};
 use super::mesh::{MeshError, MeshSpec};
 use super::model::SceneMesh;
 use super::procedural::{MAX_LENGTH, MAX_SEGMENTS, MIN_LENGTH};
+use super::wobble::{Wobble, MAX_WOBBLE};
 
 /// Each kind with the fields it accepts (besides `name` and `kind`).
 const KINDS: &[(&str, &[&str])] = &[
@@ -21,6 +22,7 @@ const KINDS: &[(&str, &[&str])] = &[
     ("torus", &["major_radius", "minor_radius", "segments", "sides"]),
     ("tetrahedron", &["size"]),
     ("cavity_cube", &["size", "cavity_radius", "segments", "rings"]),
+    ("hollow_ball", &["radius", "cavity_radius", "segments", "rings"]),
     ("bottle", &["radius", "height", "wall", "fill", "segments"]),
     ("obj", &["path"]),
 ];
@@ -48,14 +50,25 @@ fn mesh(owner: Owner, name: &str, def: &MeshDef) -> Result<SceneMesh, SceneError
     check_fields_belong(&owner, def, kind)?;
     let spec = spec(&owner, def, kind)?;
     let mesh = spec.build().map_err(|e| build_error(&owner, def, kind, e))?;
-    Ok(SceneMesh { name: name.to_owned(), spec, mesh })
+    let wobble = wobble(&owner, def)?;
+    Ok(SceneMesh { name: name.to_owned(), spec, mesh, wobble })
+}
+
+/// `wobble` (fraction of the mesh's longest box side, ≤ `MAX_WOBBLE`) and `wobble_hz`, for any kind.
+fn wobble(o: &Owner, d: &MeshDef) -> Result<Option<Wobble>, SceneError> {
+    const AMPLITUDE: Rule = Rule { ok: |v| (0.0..=MAX_WOBBLE).contains(&v), bound: "in [0, 0.1]" };
+    const HZ: Rule = Rule { ok: |v| (0.0..=1000.0).contains(&v), bound: "in [0, 1000]" };
+    let amplitude = o.num("wobble", d.wobble.as_ref(), 0.0, AMPLITUDE)?;
+    let hz = o.num("wobble_hz", d.wobble_hz.as_ref(), 0.5, HZ)?;
+    Ok((amplitude > 0.0).then_some(Wobble { amplitude, hz }))
 }
 
 /// Refuses a key that is not a field of this kind (another kind's field or no field at all),
 /// pointing at the key and listing the kind's fields.
 fn check_fields_belong(owner: &Owner, def: &MeshDef, kind: &str) -> Result<(), SceneError> {
     let allowed = KINDS.iter().find(|(k, _)| *k == kind).map_or(&[][..], |(_, f)| f);
-    let expected: Vec<String> = ["name", "kind"].iter().chain(allowed).map(|f| format!("`{f}`")).collect();
+    let fields = ["name", "kind"].iter().chain(allowed).chain(&["wobble", "wobble_hz"]);
+    let expected: Vec<String> = fields.map(|f| format!("`{f}`")).collect();
     let expected = expected.join(", ");
     if let Some(key) = def.unknown.first() {
         let message =
@@ -121,6 +134,12 @@ fn spec(o: &Owner, d: &MeshDef, kind: &str) -> Result<MeshSpec, SceneError> {
             cavity_radius: length("cavity_radius", d.cavity_radius.as_ref(), 0.6)?,
             segments: segments(32)?,
             rings: rings(16)?,
+        },
+        "hollow_ball" => MeshSpec::HollowBall {
+            radius: radius(1.0)?,
+            cavity_radius: length("cavity_radius", d.cavity_radius.as_ref(), 0.2)?,
+            segments: segments(48)?,
+            rings: rings(24)?,
         },
         "bottle" => MeshSpec::Bottle {
             // The seed's proportions (assets/scenes/translucency.toml): at 56³ its LUT is 7.2 MB

@@ -81,6 +81,9 @@ pub(super) struct MeshDef {
     pub wall: Option<Spanned<Num>>,
     pub fill: Option<Spanned<Num>>,
     pub path: Option<Spanned<String>>,
+    // Any kind:
+    pub wobble: Option<Spanned<Num>>,
+    pub wobble_hz: Option<Spanned<Num>>,
     /// Keys that are no mesh field, with their spans.
     pub unknown: Vec<Spanned<String>>,
 }
@@ -417,6 +420,8 @@ impl<'de> Visitor<'de> for MeshVisitor {
                 "wall" => m.wall = Some(map.next_value()?),
                 "fill" => m.fill = Some(map.next_value()?),
                 "path" => m.path = Some(map.next_value()?),
+                "wobble" => m.wobble = Some(map.next_value()?),
+                "wobble_hz" => m.wobble_hz = Some(map.next_value()?),
                 _ => {
                     map.next_value::<IgnoredAny>()?;
                     m.unknown.push(key);

@@ -68,6 +68,17 @@ pub enum MeshSpec {
         /// The cavity's latitude bands, ≥ 2.
         rings: u32,
     },
+    /// Ball of `radius` with two spherical cavities of `cavity_radius` at (0, ±radius/2, 0).
+    HollowBall {
+        /// Radius of the ball.
+        radius: f64,
+        /// Radius of each cavity, in [radius/1000, radius/4).
+        cavity_radius: f64,
+        /// Vertices per latitude ring of each sphere, ≥ 3.
+        segments: u32,
+        /// Latitude bands of each sphere, ≥ 2.
+        rings: u32,
+    },
     /// Hollow bottle (closed outer and inner walls) whose lower part holds a closed liquid volume.
     Bottle {
         /// Outer radius of the body.
@@ -141,6 +152,9 @@ impl MeshSpec {
             MeshSpec::Tetrahedron { size } => procedural::tetrahedron(*size),
             MeshSpec::CavityCube { size, cavity_radius, segments, rings } => {
                 procedural::cavity_cube(*size, *cavity_radius, *segments, *rings)
+            }
+            MeshSpec::HollowBall { radius, cavity_radius, segments, rings } => {
+                procedural::hollow_ball(*radius, *cavity_radius, *segments, *rings)
             }
             MeshSpec::Bottle { radius, height, wall, fill, segments } => {
                 procedural::bottle(*radius, *height, *wall, *fill, *segments)

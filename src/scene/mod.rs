@@ -19,6 +19,7 @@ pub mod obj;
 pub mod procedural;
 pub mod transform;
 pub mod wave_track;
+pub mod wobble;
 
 pub use error::SceneError;
 pub use file::{load_scene, parse_scene};

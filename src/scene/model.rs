@@ -67,6 +67,8 @@ pub struct SceneMesh {
     pub spec: MeshSpec,
     /// `spec` built.
     pub mesh: Mesh,
+    /// `wobble`/`wobble_hz`: the mesh deforms with scene time (`scene::wobble`); None when still.
+    pub wobble: Option<super::wobble::Wobble>,
 }
 
 /// A `[[material]]` (or the built-in `"default"`).
@@ -116,6 +118,10 @@ pub enum ThicknessMode {
     Lut,
     /// Translucent shadow maps: distance from the light's entry point, cavities counted.
     Tsm,
+    /// No bake: each frame the instance's surfaces are rasterized from the light into per-texel
+    /// depth lists (the `peel` pass) and the inside intervals of the instance between the light
+    /// and the pixel are summed; cavities excluded, follows meshes deformed at run time.
+    Peel,
 }
 
 /// An `[[instance]]`: one drawn copy of a mesh.

@@ -143,6 +143,37 @@ pub fn cavity_cube(size: f64, cavity_radius: f64, segments: u32, rings: u32) -> 
     Ok(b.mesh)
 }
 
+/// Ball of `radius` (a UV sphere as `uv_sphere`) with two spherical cavities of `cavity_radius`
+/// (< radius/4, ≥ radius/1000) centred at (0, ±radius/2, 0): inward-facing UV spheres as in
+/// `cavity_cube`, so a light path along y crosses both cavities (six crossings). The cavities stay
+/// a quarter radius from the outer shell and from each other. Volume: the outer tessellated sphere
+/// minus the two inner ones.
+pub fn hollow_ball(radius: f64, cavity_radius: f64, segments: u32, rings: u32) -> Result<Mesh, MeshError> {
+    let big = check_length("hollow_ball", "radius", radius)?;
+    let r = check_length("hollow_ball", "cavity_radius", cavity_radius)?;
+    if r >= big / 4.0 {
+        return Err(invalid("hollow_ball", "cavity_radius", &format!("< radius/4 (= {})", big / 4.0), r));
+    }
+    if r < big * MIN_FEATURE_FRACTION {
+        let limit = big * MIN_FEATURE_FRACTION;
+        return Err(invalid("hollow_ball", "cavity_radius", &format!("≥ radius/1000 (= {limit})"), r));
+    }
+    let segments = check_count("hollow_ball", "segments", segments, 3)?;
+    let rings = check_count("hollow_ball", "rings", rings, 2)?;
+    let mut b = Builder::default();
+    b.revolve(&sphere_profile(big, rings), false, segments);
+    for centre in [-0.5 * big, 0.5 * big] {
+        // Reversed and shifted along the axis: faces and normals point into the cavity.
+        let inward: Vec<ProfilePoint> = sphere_profile(r, rings)
+            .iter()
+            .rev()
+            .map(|p| ProfilePoint { y: p.y + centre, normal: -p.normal, ..*p })
+            .collect();
+        b.revolve(&inward, false, segments);
+    }
+    Ok(b.mesh)
+}
+
 /// The bottle's profile in the (r, y) half-plane, polylines from the axis upward.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BottleProfile {

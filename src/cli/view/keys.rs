@@ -28,7 +28,7 @@ pub const KEYS: &[(KeyCode, &str, Action, &str)] = &[
     (KeyCode::Digit1, "1", Action::ToggleEnergyWave, "energy wave pass on / off"),
     (KeyCode::Digit2, "2", Action::ToggleTranslucency, "translucency pass on / off"),
     (KeyCode::Digit3, "3", Action::ToggleMetaballs, "metaballs pass on / off"),
-    (KeyCode::KeyT, "t", Action::SwitchThickness, "translucent thickness: LUT <-> TSM"),
+    (KeyCode::KeyT, "t", Action::SwitchThickness, "translucent thickness: LUT -> TSM -> peel"),
     (KeyCode::KeyR, "r", Action::SwitchWaveMethod, "energy wave: analytic <-> raymarch"),
     (KeyCode::KeyC, "c", Action::SwitchCameraMode, "camera: orbit <-> fly"),
     (KeyCode::Home, "home", Action::ResetCamera, "camera back to the scene's"),
@@ -83,7 +83,7 @@ Keys:
   Space               pause / resume time
   .                   step time by one frame (1/60 s) and pause
   1 / 2 / 3           energy wave / translucency / metaballs pass on / off
-  T                   translucent thickness: LUT <-> TSM
+  T                   translucent thickness: LUT -> TSM -> peel
   R                   energy wave: analytic <-> raymarch
   F12 or P            screenshot to screenshot-<n>.png (current directory)
   Esc                 quit

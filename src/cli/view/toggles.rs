@@ -27,11 +27,14 @@ impl Default for Toggles {
 }
 
 impl Toggles {
-    /// T: switches thickness between LUT and TSM, starting from what the file uses.
+    /// T: cycles thickness LUT → TSM → peel → LUT, starting from what the file uses.
     pub fn switch_thickness(&mut self, file: &Scene) {
         let now = self.thickness.or_else(|| file_thickness(file)).unwrap_or(ThicknessMode::Lut);
-        self.thickness =
-            Some(if now == ThicknessMode::Lut { ThicknessMode::Tsm } else { ThicknessMode::Lut });
+        self.thickness = Some(match now {
+            ThicknessMode::Lut => ThicknessMode::Tsm,
+            ThicknessMode::Tsm => ThicknessMode::Peel,
+            ThicknessMode::Peel => ThicknessMode::Lut,
+        });
     }
 
     /// R: switches the energy wave between analytic and raymarch, starting from the file.
@@ -94,6 +97,7 @@ impl Toggles {
             (true, None) => "none",
             (true, Some(ThicknessMode::Lut)) => "lut",
             (true, Some(ThicknessMode::Tsm)) => "tsm",
+            (true, Some(ThicknessMode::Peel)) => "peel",
         };
         let meta = match (self.metaballs, file.metaballs.is_empty()) {
             (false, _) => "off",
@@ -139,7 +143,7 @@ mod tests {
     }
 
     #[test]
-    fn switches_flip_from_the_file_and_back() {
+    fn switches_cycle_from_the_file_and_back() {
         let file = showcase();
         let mut t = Toggles::default();
         t.switch_thickness(&file);
@@ -155,6 +159,9 @@ mod tests {
         t.switch_wave_method(&file);
         let s = t.apply(&file);
         assert_eq!(s.waves[0].method, WaveMethod::Analytic);
-        assert_eq!(s.materials, file.materials);
+        assert_eq!(t.summary(&file), "wave:analytic trans:peel meta:on");
+        // LUT → TSM → peel → LUT.
+        t.switch_thickness(&file);
+        assert_eq!(t.apply(&file).materials, file.materials);
     }
 }

@@ -24,6 +24,9 @@ pub struct EnabledFeatures {
     pub maintenance4: bool,
     /// Vulkan 1.2 `hostQueryReset`: hadou resets its timestamp pools from the host.
     pub host_query_reset: bool,
+    /// Vulkan 1.0 `fragmentStoresAndAtomics`: optional, needed only by scenes with a
+    /// `thickness = "peel"` material (the peel pass's fragment shader appends to its lists).
+    pub fragment_stores_and_atomics: bool,
 }
 
 impl EnabledFeatures {
@@ -34,6 +37,7 @@ impl EnabledFeatures {
         synchronization2: true,
         maintenance4: true,
         host_query_reset: true,
+        fragment_stores_and_atomics: false,
     };
 }
 
@@ -132,6 +136,7 @@ impl GpuContext {
             info,
             limits: props.limits,
             timestamp_valid_bits: family.timestamp_valid_bits,
+            fragment_stores_and_atomics: raw.enabled.fragment_stores_and_atomics,
             debug_instance,
             debug_device,
             messenger: vk::DebugUtilsMessengerEXT::null(),

@@ -105,7 +105,7 @@ impl<'a> Builder<'a> {
             name.push_str(&format!(" \"{s}\""));
         }
         let spec = MeshSpec::Gltf { path: self.path.to_path_buf(), mesh: mesh.index(), primitive: p.index() };
-        self.meshes.push(SceneMesh { name, spec, mesh: built });
+        self.meshes.push(SceneMesh { name, spec, mesh: built, wobble: None });
         Ok(Some((self.meshes.len() - 1, closed)))
     }
 
