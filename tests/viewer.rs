@@ -248,6 +248,85 @@ fn view_hot_reload_keeps_the_last_good_state() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Hot reload follows the files a scene reads, not only the scene file: an OBJ mesh saved with
+/// other vertices is drawn anew (the screenshot equals `hadou render` of the edited files, tolerance
+/// zero as above, and differs from the first).
+#[test]
+fn view_hot_reload_follows_the_obj_a_scene_reads() {
+    let x = Xvfb::start();
+    let dir = tmp_dir("reload-obj");
+    let scene = dir.join("scene.toml");
+    let obj = dir.join("shape.obj");
+    let wedge = std::fs::read_to_string(common::asset("assets/meshes/wedge.obj")).unwrap();
+    std::fs::write(&obj, &wedge).unwrap();
+    std::fs::write(
+        &scene,
+        "[camera]\nposition = [2, 1.5, 4]\nlook_at = [0, 0, 0]\nfov_y_deg = 45\n\
+         [[light]]\ndirection = [-1, -2, -1]\n\
+         [[mesh]]\nname = \"shape\"\nkind = \"obj\"\npath = \"shape.obj\"\n\
+         [[instance]]\nmesh = \"shape\"\n",
+    )
+    .unwrap();
+    // Every vertex scaled by 1.5: the same faces, a bigger wedge.
+    let bigger: String = wedge
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(rest) => {
+                let v: Vec<String> =
+                    rest.split_whitespace().map(|c| format!("{}", c.parse::<f64>().unwrap() * 1.5)).collect();
+                format!("v {}\n", v.join(" "))
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    let shot = |n: u32| dir.join(format!("shot{n}.png"));
+    let script = format!(
+        "frames=1;screenshot={};await_reload;frames=1;screenshot={};quit",
+        shot(0).display(),
+        shot(1).display()
+    );
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
+    cmd.args(["view", scene.to_str().unwrap(), "--size", "96x64", "--paused", "--script", &script])
+        .current_dir(common::root())
+        .env("HADOU_VALIDATION", "1")
+        .env("DISPLAY", &x.display)
+        .env_remove("HADOU_VIEW_SCRIPT")
+        .env_remove("HADOU_SHADER_DIR")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    let mut child = cmd.spawn().expect("run hadou view");
+    let stderr = child.stderr.take().unwrap();
+    let mut log = Vec::new();
+    for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+        if line.contains("script: waiting for a reload") {
+            replace_file(&obj, &bigger);
+        }
+        log.push(line);
+    }
+    let status = child.wait().unwrap();
+    drop(x);
+    let log = log.join("\n");
+    assert!(status.success() && !log.contains("validation"), "{log}");
+    assert!(log.contains("reloaded"), "the OBJ's save reloaded the scene:\n{log}");
+    let render = |name: &str| {
+        let png = dir.join(format!("{name}.png"));
+        let out = hadou(
+            &["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "96x64"],
+            &[],
+            Duration::from_secs(300),
+        );
+        assert!(out.status.success(), "{}", text(&out));
+        image::open(&png).unwrap().to_rgba8()
+    };
+    let edited = render("edited");
+    std::fs::write(&obj, &wedge).unwrap();
+    let original = render("original");
+    assert_ne!(original, edited, "the edit must change the picture for this test to mean anything");
+    assert!(image::open(shot(0)).unwrap().to_rgba8() == original, "screenshot 0 is not the first wedge");
+    assert!(image::open(shot(1)).unwrap().to_rgba8() == edited, "screenshot 1 is not the edited wedge");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 fn copy_dir(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();
     for entry in std::fs::read_dir(from).unwrap() {

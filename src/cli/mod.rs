@@ -100,7 +100,7 @@ fn load(scene: &Path, size: Option<&str>) -> anyhow::Result<(hadou::scene::Scene
 
 /// The files a scene command reads: the scene, its OBJ meshes, its glTF files and their buffer
 /// files (outputs may not replace them).
-fn scene_inputs(path: &Path, scene: &hadou::scene::Scene) -> Vec<PathBuf> {
+pub(crate) fn scene_inputs(path: &Path, scene: &hadou::scene::Scene) -> Vec<PathBuf> {
     use hadou::scene::mesh::MeshSpec;
     let mut inputs = vec![path.to_path_buf()];
     let mut gltf_files: Vec<&Path> = Vec::new();

@@ -39,6 +39,11 @@ pub struct App {
     cursor: Option<(f64, f64)>,
     /// None for a built-in scene (no file to watch).
     scene_watch: Option<Watch>,
+    /// The files `scene_watch` watches: the scene and what it reads (OBJ, glTF and its buffers),
+    /// watched again when a reload changes them.
+    watched: Vec<PathBuf>,
+    /// Wakes the event loop: the next watch is made with it.
+    wake: Wake,
     shader_watch: Option<Watch>,
     times: PassTimes,
     shown_title: String,
@@ -76,8 +81,11 @@ impl App {
         let shader_watch = std::env::var_os("HADOU_SHADER_DIR")
             .map(|d| Watch::shader_dir(PathBuf::from(d).as_ref(), wake.clone()));
         let builtin = hadou::builtin::name_of(&scene_path).is_some();
+        let watched = if builtin { Vec::new() } else { crate::cli::scene_inputs(&scene_path, &scene) };
         App {
-            scene_watch: (!builtin).then(|| Watch::files(std::slice::from_ref(&scene_path), wake)),
+            scene_watch: (!builtin).then(|| Watch::files(&watched, wake.clone())),
+            watched,
+            wake,
             scene_path,
             size,
             control: CameraControl::new(&scene.camera),
@@ -214,6 +222,12 @@ impl App {
             Replaced::Yes => {
                 self.broken = false;
                 self.toggle_error = None;
+                // The scene may now read other files (a new OBJ path): watch those.
+                let inputs = crate::cli::scene_inputs(&self.scene_path, self.file.get());
+                if self.scene_watch.is_some() && inputs != self.watched {
+                    self.scene_watch = Some(Watch::files(&inputs, self.wake.clone()));
+                    self.watched = inputs;
+                }
                 let after = since_save
                     .map_or(String::new(), |d| format!(", read {} ms after its save", d.as_millis()));
                 eprintln!("reloaded {}{after}", self.scene_path.display());
