@@ -336,6 +336,49 @@ fn ten_thousand_balls_in_one_tile() {
     assert!(worst <= 1e-4, "worst {worst:.3e}");
 }
 
+/// Every `stride`-th pixel each way of a depth AOV against the f64 reference of `groups`: hits
+/// the reference has, those the GPU missed, band pixels and the worst relative depth error. A GPU
+/// hit where the reference misses fails at once.
+#[derive(Default)]
+struct Tally {
+    ref_hits: u64,
+    missed: u64,
+    band: u64,
+    worst: f64,
+}
+
+fn tally(
+    scene: &Scene,
+    groups: &[MetaballGroupParams],
+    depth: &[f32],
+    size: (u32, u32),
+    stride: usize,
+    label: &str,
+) -> Tally {
+    let (w, h) = size;
+    let cam = &scene.camera;
+    let mut t = Tally::default();
+    for y in (0..h).step_by(stride) {
+        for x in (0..w).step_by(stride) {
+            let i = (y * w + x) as usize;
+            let (o, d) = cam.pixel_ray(x, y, w, h);
+            let r = reference(groups, o, d, near_along(scene, d), cam.far);
+            if r.band {
+                t.band += 1;
+                continue;
+            }
+            t.ref_hits += r.hit.is_some() as u64;
+            match (r.hit, depth[i].is_finite()) {
+                (Some(_), false) => t.missed += 1,
+                (Some((ref_t, _)), true) => t.worst = t.worst.max((depth[i] as f64 - ref_t).abs() / ref_t),
+                (None, true) => panic!("{label} ({x}, {y}): the GPU hits {}, the reference misses", depth[i]),
+                (None, false) => {}
+            }
+        }
+    }
+    t
+}
+
 fn one_group_scene(camera: &str, near: f64, balls: &str, wave: bool) -> Scene {
     let wave = if wave {
         "[[wave]]\norigin = [0, 0, 0]\ndirection = [1, 0, 0]\na = 1\nb = 0.5\ncore = 0.05\nlength = 3\n"
@@ -505,29 +548,8 @@ fn more_than_32_supports_on_a_ray() {
         let stride = if balls.len() > 100 { 4 } else { 1 };
         let frame = render(&scene, w, h, 0.0, &[Aov::Depth]);
         let depth = &frame.aov(Aov::Depth).unwrap().data;
-        let groups = groups_at(&scene, 0.0);
-        let cam = &scene.camera;
-        let (mut ref_hits, mut missed, mut band, mut worst) = (0u64, 0u64, 0, 0f64);
-        for y in (0..h).step_by(stride) {
-            for x in (0..w).step_by(stride) {
-                let i = (y * w + x) as usize;
-                let (o, d) = cam.pixel_ray(x, y, w, h);
-                let r = reference(&groups, o, d, near_along(&scene, d), cam.far);
-                if r.band {
-                    band += 1;
-                    continue;
-                }
-                ref_hits += r.hit.is_some() as u64;
-                match (r.hit, depth[i].is_finite()) {
-                    (Some(_), false) => missed += 1,
-                    (Some((t, _)), true) => worst = worst.max((depth[i] as f64 - t).abs() / t),
-                    (None, true) => {
-                        panic!("{label} ({x}, {y}): the GPU hits {}, the reference misses", depth[i])
-                    }
-                    (None, false) => {}
-                }
-            }
-        }
+        let Tally { ref_hits, missed, band, worst } =
+            tally(&scene, &groups_at(&scene, 0.0), depth, (w, h), stride, label);
         let (dropped, streamed) = (frame.stats.counter(DROPPED), frame.stats.counter(STREAMED));
         println!(
             "{label}: reference hits {ref_hits}, missed {missed}, dropped {dropped}, streamed {streamed}, band \
@@ -656,26 +678,7 @@ fn no_silent_miss_past_the_loop_limit() {
     let (w, h) = (16u32, 16u32);
     let frame = render(&scene, w, h, 0.0, &[Aov::Depth]);
     let depth = &frame.aov(Aov::Depth).unwrap().data;
-    let cam = &scene.camera;
-    let (mut ref_hits, mut missed, mut band, mut worst) = (0u64, 0u64, 0, 0f64);
-    for y in 0..h {
-        for x in 0..w {
-            let i = (y * w + x) as usize;
-            let (o, d) = cam.pixel_ray(x, y, w, h);
-            let r = reference(&single, o, d, near_along(&scene, d), cam.far);
-            if r.band {
-                band += 1;
-                continue;
-            }
-            ref_hits += r.hit.is_some() as u64;
-            match (r.hit, depth[i].is_finite()) {
-                (Some(_), false) => missed += 1,
-                (Some((t, _)), true) => worst = worst.max((depth[i] as f64 - t).abs() / t),
-                (None, true) => panic!("({x}, {y}): the GPU hits {}, the reference misses", depth[i]),
-                (None, false) => {}
-            }
-        }
-    }
+    let Tally { ref_hits, missed, band, worst } = tally(&scene, &single, depth, (w, h), 1, "concentric");
     let dropped = frame.stats.counter(DROPPED);
     println!("{N} concentric balls: reference hits {ref_hits}, missed {missed}, dropped {dropped}, band {band}, worst {worst:.2e}");
     assert!(ref_hits > 50);
