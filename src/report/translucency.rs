@@ -11,7 +11,8 @@ use crate::effects::bake_cache::BakeCache;
 use crate::effects::raycast::{MeshBvh, SceneCaster};
 use crate::effects::thickness::{exact_thickness, tsm_thickness};
 use crate::effects::thickness_lut::{bake, BakeOptions};
-use crate::effects::translucency::{exit_weight, translucent_colour};
+use crate::effects::translucency::{exit_weight, light_map_size, translucent_colour};
+use crate::passes::peel;
 use crate::profile::Summary;
 use crate::scene::{MaterialKind, Scene, ThicknessMode};
 use crate::{Aov, Error, FrameRequest, Runtime};
@@ -125,6 +126,8 @@ pub fn abs_stats(values: impl IntoIterator<Item = f64>) -> (f64, f64, f64) {
 /// One variant's frame: pass times and the AOVs the errors need.
 struct Rendered {
     light_id_ms: f64,
+    /// The peel pass (bake-free variant), NaN where it did not run.
+    peel_ms: f64,
     translucency_ms: f64,
     thickness: Vec<f32>,
     depth: Vec<f32>,
@@ -142,13 +145,14 @@ fn render(
     let (w, h) = opts.effect_size;
     let mut req = FrameRequest::new(w, h);
     req.color = false;
-    let (mut light_id, mut pass) = (Vec::new(), Vec::new());
+    let (mut light_id, mut peel, mut pass) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..opts.warmup + opts.frames {
         let stats = runtime.render(&req)?.stats;
         if i >= opts.warmup {
             for p in &stats.passes {
                 match p.name.as_str() {
                     "light_id" => light_id.push(p.gpu_ms),
+                    "peel" => peel.push(p.gpu_ms),
                     "translucency" => pass.push(p.gpu_ms),
                     _ => {}
                 }
@@ -164,6 +168,7 @@ fn render(
     let p50 = |v: &[f64]| Summary::of(v).map_or(f64::NAN, |s| s.p50);
     Ok(Rendered {
         light_id_ms: p50(&light_id),
+        peel_ms: p50(&peel),
         translucency_ms: p50(&pass),
         thickness: get(Aov::Thickness, 1),
         depth: get(Aov::Depth, 1),
@@ -257,9 +262,11 @@ pub fn section(
     let mut columns = vec![
         "variant",
         "voxel res",
-        "LUT bytes",
+        "light map",
+        "memory bytes",
         "bake s",
         "light_id ms",
+        "peel ms",
         "translucency ms",
         "pixels",
         "thickness err mean (voxels)",
@@ -273,43 +280,55 @@ pub fn section(
         "colour max",
     ];
     columns.extend(FRACTION_COLUMNS);
-    let mut table = Table::new("translucency", "Translucency: thickness LUT vs TSM", &columns);
+    let mut table = Table::new("translucency", "Translucency: thickness LUT vs peel vs TSM", &columns);
     let mut plot = Plot {
         id: "translucency".into(),
         title: format!(
             "Translucency, {}×{}: pass time against p95 thickness error",
             opts.effect_size.0, opts.effect_size.1
         ),
-        x_label: "light_id + translucency ms (p50)".into(),
+        x_label: "light_id + peel + translucency ms (p50)".into(),
         y_label: "p95 |thickness error| (world units)".into(),
-        series: vec!["LUT".into(), "TSM".into()],
+        series: vec!["LUT".into(), "TSM".into(), "peel".into()],
         points: Vec::new(),
     };
-    let mut variants: Vec<(String, Option<u32>)> =
-        opts.voxel_res.iter().map(|&r| (format!("lut {r}"), Some(r))).collect();
-    variants.push(("tsm".into(), None));
+    let mut variants: Vec<(ThicknessMode, Option<u32>)> =
+        opts.voxel_res.iter().map(|&r| (ThicknessMode::Lut, Some(r))).collect();
+    variants.extend(opts.peel_res.iter().map(|&r| (ThicknessMode::Peel, Some(r))));
+    variants.push((ThicknessMode::Tsm, None));
     let pixels = opts.effect_size.0 as f64 * opts.effect_size.1 as f64;
-    for (label, res) in variants {
+    for (mode, res) in variants {
+        let scene = with_thickness(res.map_or(base.clone(), |r| with_voxel_res(base.clone(), r)), mode);
+        let map = light_map_size(&scene);
+        let label = match (mode, res) {
+            (ThicknessMode::Lut, Some(r)) => format!("lut {r}"),
+            (ThicknessMode::Peel, Some(r)) => format!("peel {r} ({map}²)"),
+            _ => "tsm".to_string(),
+        };
         steps.next(&format!("translucency: {label}"));
-        let (scene, bake) = match res {
-            Some(r) => {
-                let scene = with_thickness(with_voxel_res(base.clone(), r), ThicknessMode::Lut);
-                let bake = bake_all(&scene, limit)?;
-                (scene, Some(bake))
-            }
-            None => (with_thickness(base.clone(), ThicknessMode::Tsm), None),
+        // (bake seconds, bytes): the LUT's tables, or the peel pass's per-frame lists (no bake).
+        let memory = match mode {
+            ThicknessMode::Lut => Some(bake_all(&scene, limit)?),
+            ThicknessMode::Peel => Some((0.0, peel::image_bytes(map) as usize)),
+            ThicknessMode::Tsm => None,
         };
         let r = render(runtime, &scene, opts, aovs.clone())?;
         let e = errors(&scene, opts, &r, &surface)?;
         let coverage = e.pixels as f64 / pixels;
         let num = Cell::Num;
+        let ms = |v: f64| if v.is_nan() { Cell::Missing } else { num(v, Fmt::Fixed(3)) };
         let mut row = vec![
             Cell::text(&label),
             res.map_or(Cell::Missing, |r| num(r as f64, Fmt::Int)),
-            bake.map_or(Cell::Missing, |b| num(b.1 as f64, Fmt::Int)),
-            bake.map_or(Cell::Missing, |b| num(b.0, Fmt::Fixed(2))),
-            num(r.light_id_ms, Fmt::Fixed(3)),
-            num(r.translucency_ms, Fmt::Fixed(3)),
+            num(map as f64, Fmt::Int),
+            memory.map_or(Cell::Missing, |b| num(b.1 as f64, Fmt::Int)),
+            match (mode, memory) {
+                (ThicknessMode::Lut, Some(b)) => num(b.0, Fmt::Fixed(2)),
+                _ => Cell::Missing,
+            },
+            ms(r.light_id_ms),
+            ms(r.peel_ms),
+            ms(r.translucency_ms),
             num(e.pixels as f64, Fmt::Int),
             num(e.voxels.0, Fmt::Fixed(3)),
             num(e.voxels.1, Fmt::Fixed(3)),
@@ -328,11 +347,16 @@ pub fn section(
             ceilings,
         ));
         table.push(row);
+        let peel_ms = if r.peel_ms.is_nan() { 0.0 } else { r.peel_ms };
         plot.points.push(PlotPoint {
             label: label.clone(),
-            x: r.light_id_ms + r.translucency_ms,
+            x: r.light_id_ms + peel_ms + r.translucency_ms,
             y: e.world.1,
-            series: usize::from(res.is_none()),
+            series: match mode {
+                ThicknessMode::Lut => 0,
+                ThicknessMode::Tsm => 1,
+                ThicknessMode::Peel => 2,
+            },
         });
     }
     let text = format!(
@@ -344,7 +368,10 @@ pub fn section(
          channel of |HDR − f64 colour| (the lambert render's surface term plus the transmitted light with the \
          exact thickness, `effects::translucency::translucent_colour`), in linear HDR units; it includes \
          RGBA16F rounding (2⁻¹⁰ relative). Bake s: wall seconds of baking every table of the row (all cores), \
-         before the frames. The TSM row has no table.",
+         before the frames. Peel rows (`thickness = \"peel\"`, no bake): the voxel resolution only sizes the \
+         light map (texels of ¼ voxel), and their memory is the pass's crossing lists and counts \
+         (`passes::peel::image_bytes`), allocated for every frame; the light_id maps (the light map's \
+         size, all rows) are not counted. The TSM row has neither.",
         path.display(),
         opts.effect_size.0,
         opts.effect_size.1
