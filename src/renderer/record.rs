@@ -179,8 +179,6 @@ impl Renderer {
         let (ctx, memory) = (&self.ctx, &self.memory);
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         let s = &mut self.slots[slot];
-        // A run-time bake's new LUT image, filled before any pass reads it (bakes.rs).
-        loaded.bakes.record_copies(ctx, cmd);
         if loaded.tables_dirty {
             loaded.gpu.refresh_instances(&loaded.scene);
             loaded.gpu.refresh_materials(&loaded.scene);

@@ -174,7 +174,7 @@ fn render(
 
 /// Bakes every LUT the scene uses (timed, the sum over its meshes) and stores them in the bake
 /// cache when there is one, so loading the scene does not bake again. Returns (seconds, bytes).
-fn bake_all(scene: &Scene, max_texture_dim: u32) -> Result<(f64, usize), Error> {
+fn bake_all(scene: &Scene) -> Result<(f64, usize), Error> {
     let mut keys: Vec<(usize, u32)> = Vec::new();
     for inst in &scene.instances {
         if let MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Lut, .. } =
@@ -185,7 +185,7 @@ fn bake_all(scene: &Scene, max_texture_dim: u32) -> Result<(f64, usize), Error> 
             }
         }
     }
-    let options = BakeOptions { max_texture_dim, ..BakeOptions::default() };
+    let options = BakeOptions::default();
     let cache = BakeCache::from_env();
     let (mut seconds, mut bytes) = (0.0, 0);
     for (mesh, res) in keys {
@@ -196,7 +196,7 @@ fn bake_all(scene: &Scene, max_texture_dim: u32) -> Result<(f64, usize), Error> 
         seconds += start.elapsed().as_secs_f64();
         bytes += lut.bytes();
         if let Some(cache) = &cache {
-            if let Err(e) = cache.store(&m.mesh, &lut, &options) {
+            if let Err(e) = cache.store(&m.mesh, &lut) {
                 log::warn!("bake cache not written: {e}");
             }
         }
@@ -247,7 +247,6 @@ pub fn section(
 ) -> Result<Section, ReportError> {
     let path = opts.scene("translucency.toml");
     let base = opts.load_scene("translucency.toml")?;
-    let limit = runtime.context().limits.max_image_dimension2_d;
     let aovs = vec![Aov::Thickness, Aov::Depth, Aov::Hdr, Aov::Normal];
     // The surface term alone: the same scene with every material lambert.
     steps.next("translucency: surface reference");
@@ -294,7 +293,7 @@ pub fn section(
         let (scene, bake) = match res {
             Some(r) => {
                 let scene = with_thickness(with_voxel_res(base.clone(), r), ThicknessMode::Lut);
-                let bake = bake_all(&scene, limit)?;
+                let bake = bake_all(&scene)?;
                 (scene, Some(bake))
             }
             None => (with_thickness(base.clone(), ThicknessMode::Tsm), None),
