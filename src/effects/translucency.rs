@@ -109,7 +109,7 @@ pub fn lut_thickness(lut: &ThicknessLut, m: &Transform, a: DVec3, b: DVec3) -> O
         return None;
     }
     let path = (m.transform_point(b) - m.transform_point(a)).length();
-    if !(path > 0.0) {
+    if path.is_nan() || path <= 0.0 {
         return Some(0.0);
     }
     Some(path * lut.inside_fraction(a, b))

@@ -14,7 +14,7 @@ impl MeshBvh {
     /// The distance from `p` to the nearest triangle when it is below `max`, else `None` (also for
     /// a non-finite point or a mesh without triangles).
     pub fn distance_within(&self, p: DVec3, max: f64) -> Option<f64> {
-        if !p.is_finite() || self.nodes.is_empty() || !(max > 0.0) {
+        if !p.is_finite() || self.nodes.is_empty() || max.is_nan() || max <= 0.0 {
             return None;
         }
         let mut best2 = max * max;
@@ -86,7 +86,7 @@ pub(crate) fn closest_on_triangle(p: DVec3, [a, b, c]: [DVec3; 3]) -> DVec3 {
         return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
     }
     let denom = va + vb + vc;
-    if !(denom.abs() > 0.0) {
+    if denom == 0.0 || denom.is_nan() {
         // Degenerate (collinear corners) and p projects inside: the nearest of the three edges.
         return [(a, b), (b, c), (c, a)]
             .map(|(s, e)| closest_on_segment(p, s, e))
@@ -101,7 +101,7 @@ pub(crate) fn closest_on_triangle(p: DVec3, [a, b, c]: [DVec3; 3]) -> DVec3 {
 fn closest_on_segment(p: DVec3, s: DVec3, e: DVec3) -> DVec3 {
     let d = e - s;
     let len2 = d.length_squared();
-    if !(len2 > 0.0) {
+    if len2 <= 0.0 || len2.is_nan() {
         return s;
     }
     s + d * ((p - s).dot(d) / len2).clamp(0.0, 1.0)

@@ -100,7 +100,7 @@ impl ThicknessLut {
         }
         let h = self.voxel_size;
         let voxels = (b - a).length() / h;
-        if !(voxels > 0.0) {
+        if voxels.is_nan() || voxels <= 0.0 {
             return 1.0;
         }
         let at = |t: f64| self.field_at(a + (b - a) * t);
