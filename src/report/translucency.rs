@@ -207,6 +207,8 @@ fn bake_all(scene: &Scene) -> Result<(f64, usize), Error> {
 /// Errors of one variant against the f64 references.
 struct Errors {
     pixels: usize,
+    /// Mean length of the pixels' light paths (the TSM distance), in voxels of their instance.
+    path_voxels: f64,
     /// |d − d*| in voxels of each pixel's instance (mean, p95, max), then in world units.
     voxels: (f64, f64, f64),
     world: (f64, f64, f64),
@@ -231,8 +233,10 @@ fn errors(scene: &Scene, opts: &ReportOptions, r: &Rendered, surface: &[f32]) ->
             translucent_colour(px(surface), light.color * light.intensity, mat.albedo, sigma, s.exact, w);
         (px(&r.hdr) - cpu).abs().max_element()
     });
+    let paths: f64 = samples.iter().map(|s| s.tsm / voxel(s)).filter(|v| v.is_finite()).sum();
     Ok(Errors {
         pixels: samples.len(),
+        path_voxels: paths / samples.len().max(1) as f64,
         voxels: abs_stats(samples.iter().map(|s| (s.gpu - s.exact) / voxel(s))),
         world: abs_stats(samples.iter().map(|s| s.gpu - s.exact)),
         colour: abs_stats(colour.collect::<Vec<_>>()),
@@ -321,7 +325,8 @@ pub fn section(
             num(e.colour.2, Fmt::Sci(2)),
         ];
         row.extend(costs::fraction_cells(
-            Some(costs::translucency(coverage)),
+            // Two field samples a voxel of path for the LUT (MAX_STEP_VOXELS = ½), none for TSM.
+            Some(costs::translucency(coverage, res.map_or(0.0, |_| 2.0 * e.path_voxels + 2.0))),
             pixels,
             r.translucency_ms,
             ceilings,
@@ -342,8 +347,9 @@ pub fn section(
          silhouette pixels where the f64 ray hits another surface are left out. Colour error: the largest \
          channel of |HDR − f64 colour| (the lambert render's surface term plus the transmitted light with the \
          exact thickness, `effects::translucency::translucent_colour`), in linear HDR units; it includes \
-         RGBA16F rounding (2⁻¹⁰ relative). Bake s: wall seconds of baking every table of the row (all cores), \
-         before the frames. The TSM row has no table.",
+         RGBA16F rounding (2⁻¹⁰ relative). LUT bytes: the row's thickness fields (2 bytes a grid corner, 1 \
+         a cell). Bake s: wall seconds of baking every table of the row (all cores), before the frames. \
+         The TSM row has no table.",
         path.display(),
         opts.effect_size.0,
         opts.effect_size.1
