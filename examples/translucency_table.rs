@@ -9,7 +9,8 @@ fn main() {
     opts.frames = 10;
     let mut show = |label: &str, _: usize, _: usize| eprintln!("{label}");
     let mut steps = hadou::report::Steps::new(opts.step_count(), &mut show);
-    let (_, ceilings) = hadou::report::ceilings::section(&mut runtime, &opts, &mut steps).expect("ceilings");
-    let section = hadou::report::translucency::section(&mut runtime, &opts, &ceilings, &mut steps).expect("translucency");
+    let (_, ceilings) = hadou::report::ceilings::section(&runtime, &opts, &mut steps).expect("ceilings");
+    let section = hadou::report::translucency::section(&mut runtime, &opts, &ceilings, &mut steps)
+        .expect("translucency");
     println!("{}", section.markdown(2, "."));
 }
