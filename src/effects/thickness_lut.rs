@@ -11,9 +11,9 @@
 //! clamped to ±`CLAMP_VOXELS`·h: only the sign matters farther away. Quantized as 16-bit SNORM:
 //! q = round(φ / (C·h) · 32767), so a stored value is within `QUANTIZATION_BOUND_VOXELS`·h =
 //! ½·C·h/32767 ≈ 6e-5·h of φ. Why 16 bits: 8 bits (C·h/254 = 0.016·h per value) would move every
-//! crossing by up to that, for 1 byte a corner less; the field of the seed's 56³ bottle is 0.4 MB
-//! at 16 bits (58·59·59 corners), against 7.2 MB for the pair table it replaced — small enough
-//! that the finer step is free.
+//! crossing by up to that, for 1 byte a corner less; the three seed objects at 56³ take 0.9 MB
+//! together at 16 bits (the bottle 0.1 MB: 25·59·25 corners), against 185 MB for the pair table
+//! they replaced — small enough that the finer step is free.
 //!
 //! # How it is read (the shader and `march` do the same)
 //!

@@ -16,8 +16,8 @@
 //!
 //! The shaded point P = camera + u·distance (the pixel ray as `Camera::pixel_ray` builds it, the
 //! raster's `distance`). Projected into the light's view (`effects::translucency::LightView`) it
-//! falls in texel t of the light_id maps, which hold the instance and the surface voxel of the
-//! first translucent surface the light reaches there, and that surface's light-space distance
+//! falls in texel t of the light_id maps, which hold the instance of the first translucent
+//! surface the light reaches there, and that surface's light-space distance
 //! z(entry). The texel used is t itself when it holds P's instance, else the nearest of its 8
 //! neighbours that does (P at the silhouette seen from the light). With
 //! tsm = max(z(P) − z(entry), 0):
