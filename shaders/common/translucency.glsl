@@ -65,11 +65,11 @@ const float LUT_MAX_STEP_VOXELS = 0.5;
 const float LUT_FIELD_LIPSCHITZ = 2.0;
 const int LUT_MAX_MARCH_STEPS = 1024;
 
-// The stored value of corner c (x fastest), sign-extended from its 16-bit half.
+// The stored value of corner c (x fastest), sign-extended from its byte.
 float lut_corner(LutRecord r, uvec3 c) {
     uint k = c.x + (r.dims.x + 1u) * (c.y + (r.dims.y + 1u) * c.z);
-    uint w = field_word(r.dims.w + (k >> 1u));
-    return float(bitfieldExtract(int(w), int((k & 1u) * 16u), 16));
+    uint w = field_word(r.dims.w + (k >> 2u));
+    return float(bitfieldExtract(int(w), int((k & 3u) * 8u), 8));
 }
 
 // tau of the cell holding object point p (ThicknessLut::tau_at): bytes after the field's words.
@@ -79,7 +79,7 @@ float lut_tau(LutRecord r, vec3 p) {
     uvec3 c = uvec3(min(max(g, vec3(0.0)), vec3(r.dims.xyz - 1u)));
     uint corners = (r.dims.x + 1u) * (r.dims.y + 1u) * (r.dims.z + 1u);
     uint k = c.x + r.dims.x * (c.y + r.dims.y * c.z);
-    uint w = field_word(r.dims.w + ((corners + 1u) >> 1u) + (k >> 2u));
+    uint w = field_word(r.dims.w + ((corners + 3u) >> 2u) + (k >> 2u));
     return float(bitfieldExtract(w, int((k & 3u) * 8u), 8)) * r.scale.y;
 }
 

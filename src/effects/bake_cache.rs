@@ -20,7 +20,7 @@
 //! | 76 | payload checksum u64 (FNV-1a 64 of the payload) |
 //! | 84 | header checksum u64 (FNV-1a 64 of bytes 0..84) |
 //!
-//! Payload: the field, one i16 per corner (x fastest), 2·Π(dims + 1) bytes; then τ, one byte per
+//! Payload: the field, one i8 per corner (x fastest), Π(dims + 1) bytes; then τ, one byte per
 //! cell (x fastest), Π dims bytes.
 //!
 //! **Safety.** Files are written to a temporary name in the same folder and renamed into place, so
@@ -43,7 +43,7 @@ use crate::scene::mesh::Mesh;
 
 pub const MAGIC: [u8; 8] = *b"HADOULUT";
 /// Bump when the file layout or the meaning of any stored value changes.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 const HEADER_LEN: usize = 92;
 
 /// FNV-1a 64.
@@ -230,7 +230,7 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 
 /// Serializes `lut` (see the module documentation for the layout).
 pub fn encode(lut: &ThicknessLut, hash: u64) -> Vec<u8> {
-    let mut payload: Vec<u8> = lut.field.iter().flat_map(|q| q.to_le_bytes()).collect();
+    let mut payload: Vec<u8> = lut.field.iter().map(|&q| q as u8).collect();
     payload.extend_from_slice(&lut.tau);
     let mut out = Vec::with_capacity(HEADER_LEN + payload.len());
     out.extend_from_slice(&MAGIC);
@@ -353,7 +353,7 @@ fn decode_header(bytes: &[u8], expect: &Expect) -> Result<Header, String> {
     check("voxel size", voxel_size, want_h)?;
     let corners: u64 = dims.iter().map(|&d| d as u64 + 1).product();
     let cells: u64 = dims.iter().map(|&d| d as u64).product();
-    check("payload length", payload_len, corners * 2 + cells)?;
+    check("payload length", payload_len, corners + cells)?;
     Ok(Header { dims, origin, voxel_size, payload_len, payload_sum })
 }
 
@@ -364,8 +364,8 @@ fn decode_payload(header: &Header, payload: &[u8], expect: &Expect) -> Result<Th
         return Err("payload checksum does not match (corrupt file)".into());
     }
     let corners: usize = dims.iter().map(|&d| d as usize + 1).product();
-    let (field_bytes, tau) = payload.split_at(corners * 2);
-    let field: Vec<i16> = field_bytes.chunks_exact(2).map(|b| i16::from_le_bytes([b[0], b[1]])).collect();
+    let (field_bytes, tau) = payload.split_at(corners);
+    let field: Vec<i8> = field_bytes.iter().map(|&b| b as i8).collect();
     if let Some(k) = field.iter().position(|&q| (q as f64).abs() > FIELD_LEVELS) {
         return Err(format!("corner {k} holds {}, outside ±{FIELD_LEVELS}", field[k]));
     }

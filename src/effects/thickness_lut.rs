@@ -8,12 +8,23 @@
 //! `dims + 1` corners per axis): negative inside the solid (winding number > 0, the row casts of
 //! `voxelize::row_windings`), positive outside — sealed cavities and the air in a bottle are
 //! outside. |φ| is the exact distance to the triangles in f64 (`MeshBvh::distance_within`),
-//! clamped to ±`CLAMP_VOXELS`·h: only the sign matters farther away. Quantized as 16-bit SNORM:
-//! q = round(φ / (C·h) · 32767), so a stored value is within `QUANTIZATION_BOUND_VOXELS`·h =
-//! ½·C·h/32767 ≈ 6e-5·h of φ. Why 16 bits: 8 bits (C·h/254 = 0.016·h per value) would move every
-//! crossing by up to that, for 1 byte a corner less; the three seed objects at 56³ take 0.9 MB
-//! together at 16 bits (the bottle 0.1 MB: 25·59·25 corners), against 185 MB for the pair table
-//! they replaced — small enough that the finer step is free.
+//! clamped to ±`CLAMP_VOXELS`·h: only the sign matters farther away. Quantized as 8-bit SNORM:
+//! q = round(φ / (C·h) · 127), so a stored value is within `QUANTIZATION_BOUND_VOXELS`·h =
+//! ½·C·h/127 ≈ 0.016·h of φ. Why 8 bits and not 16, by measurement (20 000 random chords per row,
+//! `report::lut_paths`, the same bake quantized both ways; p95 / p99 of |Δd| in voxels):
+//!
+//! | mesh, res | R16 | R8 |
+//! |---|---|---|
+//! | bottle 32 | 2.490 / 5.011 | 2.500 / 5.019 |
+//! | bottle 56 | 0.233 / 1.515 | 0.231 / 1.534 |
+//! | hollow ball 32 | 0.183 / 0.448 | 0.180 / 0.444 |
+//! | hollow ball 56 | 0.099 / 0.236 | 0.101 / 0.244 |
+//! | cavity cube 32 | 0.075 / 0.164 | 0.076 / 0.173 |
+//! | cavity cube 56 | 0.042 / 0.098 | 0.045 / 0.104 |
+//!
+//! The reconstruction error (up to √3/2·h, `march`) dwarfs 0.016·h, and 8 bits halve the bytes:
+//! the three seed objects at 56³ take 0.5 MB together (the bottle 70 KB: 25·59·25 corners plus a
+//! τ byte per cell), against 185 MB for the pair table they replaced.
 //!
 //! # How it is read (the shader and `march` do the same)
 //!
@@ -62,8 +73,8 @@ use crate::scene::mesh::{Mesh, MeshError};
 /// 1.8 voxels) so every corner that can change a decoded crossing holds its true distance, and
 /// the larger it is, the longer the steps `march` can take far from the surface.
 pub const CLAMP_VOXELS: f64 = 4.0;
-/// Quantization levels of a stored value (16-bit SNORM).
-pub const FIELD_LEVELS: f64 = 32767.0;
+/// Quantization levels of a stored value (8-bit SNORM).
+pub const FIELD_LEVELS: f64 = 127.0;
 /// |stored − exact| ≤ this many voxel edges.
 pub const QUANTIZATION_BOUND_VOXELS: f64 = 0.5 * CLAMP_VOXELS / FIELD_LEVELS;
 /// Added to the measured surface error for τ: the error between the lattice points.
@@ -75,7 +86,7 @@ pub const TAU_MAX_STEPS: u8 = 63;
 /// Lattice spacing of the surface samples τ is measured on, in voxel edges.
 pub const SURFACE_SAMPLE_VOXELS: f64 = 0.25;
 /// Format name of the stored field, for logs and docs.
-pub const FIELD_FORMAT: &str = "R16_SNORM (two per 32-bit texel of a uniform texel buffer)";
+pub const FIELD_FORMAT: &str = "R8_SNORM (four per 32-bit texel of a uniform texel buffer)";
 
 /// What the bake can fail with. Each message names the limit involved.
 #[derive(Debug, thiserror::Error)]
@@ -117,8 +128,8 @@ pub struct ThicknessLut {
     pub origin: DVec3,
     /// Voxel edge h, object units.
     pub voxel_size: f64,
-    /// q per corner, x fastest (`voxelize::corner_linear`): φ ≈ q / 32767 · C·h.
-    pub field: Vec<i16>,
+    /// q per corner, x fastest (`voxelize::corner_linear`): φ ≈ q / 127 · C·h.
+    pub field: Vec<i8>,
     /// τ per cell in steps of h/64, x fastest (see the module documentation).
     pub tau: Vec<u8>,
 }
@@ -129,9 +140,9 @@ impl ThicknessLut {
         self.dims.map(|d| d + 1)
     }
 
-    /// Bytes of the stored field and τ (2 a corner, 1 a cell).
+    /// Bytes of the stored field and τ (1 a corner, 1 a cell).
     pub fn bytes(&self) -> usize {
-        self.field.len() * 2 + self.tau.len()
+        self.field.len() + self.tau.len()
     }
 
     /// τ of the cell holding object point `p` (clamped to the grid, NaN to 0), object units.
@@ -149,7 +160,7 @@ impl ThicknessLut {
         self.tau.iter().copied().max().unwrap_or(0) as f64 * self.voxel_size / TAU_STEPS
     }
 
-    /// The field's value per unit of q, object units: C·h / 32767.
+    /// The field's value per unit of q, object units: C·h / 127.
     pub fn scale(&self) -> f64 {
         CLAMP_VOXELS * self.voxel_size / FIELD_LEVELS
     }
@@ -159,20 +170,17 @@ impl ThicknessLut {
         self.field[corner_linear(self.dims, [x, y, z])] as f64 * self.scale()
     }
 
-    /// The field and τ as the GPU reads them: two corners a 32-bit word (the even one in the low
-    /// half), then four cells' τ a word (the first in the lowest byte).
+    /// The field and τ as the GPU reads them: four corners a 32-bit word (corner k in byte k mod 4,
+    /// the lowest first), then four cells' τ a word likewise.
     pub fn words(&self) -> Vec<u32> {
-        let half = |c: &[i16], k: usize| c.get(k).copied().unwrap_or(0) as u16 as u32;
-        let byte = |c: &[u8], k: usize| c.get(k).copied().unwrap_or(0) as u32;
-        let field = self.field.chunks(2).map(|c| half(c, 0) | half(c, 1) << 16);
-        let tau =
-            self.tau.chunks(4).map(|c| byte(c, 0) | byte(c, 1) << 8 | byte(c, 2) << 16 | byte(c, 3) << 24);
-        field.chain(tau).collect()
+        let word = |c: &[u8]| c.iter().enumerate().fold(0u32, |w, (k, &b)| w | (b as u32) << (8 * k));
+        let field: Vec<u8> = self.field.iter().map(|&q| q as u8).collect();
+        field.chunks(4).map(word).chain(self.tau.chunks(4).map(word)).collect()
     }
 }
 
-fn quantize(phi: f64, clamp: f64) -> i16 {
-    ((phi / clamp).clamp(-1.0, 1.0) * FIELD_LEVELS).round() as i16
+fn quantize(phi: f64, clamp: f64) -> i8 {
+    ((phi / clamp).clamp(-1.0, 1.0) * FIELD_LEVELS).round() as i8
 }
 
 fn thread_count(requested: usize) -> usize {
@@ -196,7 +204,7 @@ pub fn bake(
     let bvh = MeshBvh::new(mesh)?;
     let [nx, ny, nz] = dims.map(|d| d as usize + 1);
     let slice = nx * ny;
-    let mut field = vec![0i16; slice * nz];
+    let mut field = vec![0i8; slice * nz];
     let clamp = CLAMP_VOXELS * h;
     let threads = thread_count(options.threads).min(nz);
     let near = AtomicUsize::new(0);
@@ -362,13 +370,13 @@ mod tests {
         .unwrap();
         assert!(hollow.field_at(DVec3::ZERO) > 0.5 * hollow.voxel_size);
         assert!(hollow.field_at(DVec3::new(0.8, 0.0, 0.0)) < 0.0);
-        // Two values a word, even corner low; then τ, four a word.
+        // Four corners a word, corner 0 lowest; then τ, four a word.
         let words = lut.words();
-        assert_eq!(words.len(), lut.field.len().div_ceil(2) + lut.tau.len().div_ceil(4));
+        assert_eq!(words.len(), lut.field.len().div_ceil(4) + lut.tau.len().div_ceil(4));
         assert_eq!(lut.tau.len(), 12 * 12 * 12);
-        assert_eq!(words[lut.field.len().div_ceil(2)] & 0xff, lut.tau[0] as u32);
-        assert_eq!(words[0] & 0xffff, lut.field[0] as u16 as u32);
-        assert_eq!(words[0] >> 16, lut.field[1] as u16 as u32);
+        assert_eq!(words[lut.field.len().div_ceil(4)] & 0xff, lut.tau[0] as u32);
+        assert_eq!(words[0] & 0xff, lut.field[0] as u8 as u32);
+        assert_eq!(words[0] >> 24, lut.field[3] as u8 as u32);
     }
 
     #[test]

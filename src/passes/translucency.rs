@@ -40,12 +40,12 @@
 //! Every (mesh, voxel_res) drawn by an instance whose material is translucent with
 //! `thickness = "lut"` is baked through `BakeCache` (`effects::bake_cache`) and packed into:
 //! - **fields**, a uniform texel buffer of R32_UINT: every table's field (`ThicknessLut::words`:
-//!   two 16-bit SNORM corners a word, the even one in the low half), one after the other, each
-//!   starting on a word. Corner k of table m is half (k & 1) of word `first_m + k/2`, decoded in
+//!   four 8-bit SNORM corners a word, the lowest byte first), one after the other, each
+//!   starting on a word. Corner k of table m is byte (k & 3) of word `first_m + k/4`, decoded in
 //!   the shader by integer sign extension (exact) times `scale.x`. Why not a 3D image with a
 //!   linear sampler: there is no descriptor indexing on lavapipe (one image for all meshes would be
 //!   an atlas with borders), and a sampler's filtering weights are only required to have 8
-//!   fractional bits (a 1/256-voxel step in where a crossing lands, coarser than R16's
+//!   fractional bits (a 1/256-voxel step in where a crossing lands, of the order of R8's
 //!   quantization) — 8 texel fetches and the interpolation in f32 are exact to f32 rounding.
 //!   Then its τ per cell, four bytes a word (`TAU_STEPS`). A total above
 //!   maxTexelBufferElements words is refused, naming the limit.
@@ -54,7 +54,7 @@
 //! - **`TranslucentInstance`** per scene instance, scene order (144 bytes): M and M⁻¹ (from the f64
 //!   transform), the table index (`NO_LUT` for TSM or opaque instances), a translucent flag.
 //!
-//! For assets/scenes/translucency.toml: 2 bytes a corner, 1.2 MB for the three fields (ring
+//! For assets/scenes/translucency.toml: 1 byte a corner and 1 a cell, 0.6 MB for the three fields (ring
 //! 60³, hollow cube 25³, bottle 56³; `hadou report`), plus the light_id maps (12 bytes a texel,
 //! `light_map_size`).
 
@@ -88,7 +88,7 @@ pub struct LutRecord {
     pub origin: [f32; 4],
     /// xyz: grid voxels (corners: + 1); w: its first word in the fields buffer.
     pub dims: [u32; 4],
-    /// x: object units per unit of a stored value (C·h/32767); y: object units per τ step (h/64).
+    /// x: object units per unit of a stored value (C·h/127); y: object units per τ step (h/64).
     pub scale: [f32; 4],
 }
 
@@ -167,7 +167,7 @@ impl LightViewData {
 pub struct LutSummary {
     pub mesh: String,
     pub res: u32,
-    /// Bytes of its field (2 a corner).
+    /// Bytes of its field and τ (1 a corner, 1 a cell).
     pub field_bytes: u64,
 }
 
@@ -413,7 +413,7 @@ impl TranslucentData {
         let records = texels("translucency lut records", bytemuck::cast_slice(&packed.records), quad)?;
         let field_bytes: u64 = packed.tables.iter().map(|s| s.field_bytes).sum();
         log::info!(
-            "translucency: {} thickness fields, {field_bytes} bytes ({} words of R16_SNORM pairs)",
+            "translucency: {} thickness fields, {field_bytes} bytes ({} words of R8_SNORM quads and τ)",
             packed.tables.len(),
             packed.fields.len()
         );

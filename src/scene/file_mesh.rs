@@ -124,7 +124,7 @@ fn spec(o: &Owner, d: &MeshDef, kind: &str) -> Result<MeshSpec, SceneError> {
         },
         "bottle" => MeshSpec::Bottle {
             // The seed's proportions (assets/scenes/translucency.toml): at 56³ its thickness field
-            // is 0.1 MB and bakes in ~0.1 s; a fatter bottle (r = 0.5) has about 2.5× the bytes.
+            // is 70 KB and bakes in ~0.1 s; a fatter bottle (r = 0.5) has about 2.5× the bytes.
             radius: radius(0.3)?,
             height: length("height", d.height.as_ref(), 1.6)?,
             wall: length("wall", d.wall.as_ref(), 0.04)?,
