@@ -41,12 +41,13 @@
 //! sampled on a lattice of at most h/4 over every triangle, corners included) in the cell and its
 //! 26 neighbours, plus `GAP_MARGIN_VOXELS`·h; stored as a byte in steps of h/64 (`TAU_STEPS`),
 //! rounded up, at most 63/64·h (`TAU_MAX_STEPS`; where the reconstruction is worse than half a
-//! voxel, a convex end can then show a sliver of gap). The path's ends are surface points whose φ̃ is anything in ±(that error): without
-//! τ, a sliver of "gap" at an end, long for a grazing path, would be cut out of a convex solid;
-//! the factor 2 is the convexity argument of `march`. Why per cell: one global τ is set by the
-//! mesh's worst place — the bottle's 0.03-voxel gap between liquid and glass, which no grid
-//! resolves, makes it a whole voxel — and a low run in a τ zone is dropped, so a global τ of a
-//! voxel drops the bottle's air wherever the air is thinner than a voxel deep along the path.
+//! voxel, a convex end can then show a sliver of gap). The path's ends are surface points whose
+//! φ̃ is anything in ±(that error): without τ, a sliver of "gap" at an end, long for a grazing
+//! path, would be cut out of a convex solid; the factor 2 is the convexity argument of `march`.
+//! Why per cell: one global τ is set by the mesh's worst place — the bottle's 0.03-voxel gap
+//! between liquid and glass, which no grid resolves, makes it a whole voxel — and a low run in a
+//! τ zone is dropped, so a global τ of a voxel drops the bottle's air wherever the air is thinner
+//! than a voxel deep along the path (measured: the bottle's p95 on the GPU, 3.85 → 0.30 voxels).
 //!
 //! # Speed
 //!
