@@ -27,7 +27,10 @@ fn main() {
 
 /// Writes `$OUT_DIR/shaders.rs`: `(path under shaders/, include_str!(..))` for every shader file.
 fn embed_shaders() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    // Read at run time: `env!` would bake in the tree the build script was compiled for, and a
+    // target folder copied from another checkout would then embed that checkout's shaders.
+    let manifest = std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR");
+    let root = std::path::Path::new(&manifest).join("shaders");
     println!("cargo:rerun-if-changed={}", root.display());
     let mut files = Vec::new();
     let mut dirs = vec![root.clone()];
