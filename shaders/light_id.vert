@@ -13,14 +13,12 @@ layout(set = 0, binding = 0, std430) readonly buffer Instances { InstanceData in
 layout(push_constant) uniform Push { LightViewData view; } push;
 
 layout(location = 0) out vec3 v_world;
-layout(location = 1) out vec3 v_object;
-layout(location = 2) flat out uint v_instance;
+layout(location = 1) flat out uint v_instance;
 
 void main() {
     InstanceData inst = instances[gl_InstanceIndex];
     vec4 world = inst.model * vec4(in_position, 1.0);
     v_world = world.xyz;
-    v_object = in_position;
     v_instance = inst.ids.x;
     vec3 l = light_project(push.view, world.xyz);
     // Depth in [0, 1]: 0 where the light enters the fitted sphere (LESS keeps the first surface).

@@ -5,9 +5,9 @@
 // faces the light reaches directly, whose light the raster's Lambert term already counts).
 //   TSM: d = z(P) - z(entry), the light-space distances of the shaded point P and of the first
 //        surface the light reaches on the same instance (cavities and gaps count as material).
-//   LUT: d = f(i, j) · |P - entry|: f the baked inside fraction between the surface voxel i at P
-//        and the surface voxel j where the light enters (from the light_id map); entry lies on
-//        P's own light ray, so |M(b - a)| = z(P) - z(entry).
+//   LUT: d = |P - entry| times the inside fraction the instance's thickness field decodes along
+//        entry -> P in object space (lut_inside_fraction); entry lies on P's own light ray, so
+//        |M(b - a)| = z(P) - z(entry).
 // Fallbacks are documented in src/passes/translucency.rs. CPU twin: src/effects/translucency.rs.
 // Dispatched over `rect` only (the pixels that can show a translucent instance: lavapipe runs the
 // whole shader for every 8-lane group, taken branches or not); with FILL_ONLY defined, the variant
@@ -17,16 +17,13 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// The nearest grids, LutRecords, TranslucentInstances and surface-voxel centres as texel buffers:
-// inside a branch, on lavapipe, a storage-buffer load is a loop over the lanes (src/gpu/texel_buffer.rs).
-layout(set = 0, binding = 8) uniform usamplerBuffer grid_texels;
-layout(set = 0, binding = 9) uniform usamplerBuffer lut_texels;
-layout(set = 0, binding = 10) uniform usamplerBuffer translucent_texels;
-layout(set = 0, binding = 12) uniform usamplerBuffer centre_texels;
-uint grid_word(uint i) { return texelFetch(grid_texels, int(i)).x; }
-vec4 centre_at(uint i) { return uintBitsToFloat(texelFetch(centre_texels, int(i))); }
-#define HADOU_TRANSLUCENCY_GRID
-#define HADOU_TRANSLUCENCY_CENTRES
+// The fields, LutRecords and TranslucentInstances as texel buffers: inside a branch, on lavapipe,
+// a storage-buffer load is a loop over the lanes (src/gpu/texel_buffer.rs).
+layout(set = 0, binding = 7) uniform usamplerBuffer field_texels;
+layout(set = 0, binding = 8) uniform usamplerBuffer lut_texels;
+layout(set = 0, binding = 9) uniform usamplerBuffer translucent_texels;
+uint field_word(uint i) { return texelFetch(field_texels, int(i)).x; }
+#define HADOU_TRANSLUCENCY_FIELD
 #include "common/translucency.glsl"
 
 // Keep in sync with TranslucencyParams in src/passes/translucency.rs.
@@ -38,7 +35,7 @@ struct TranslucencyParams {
     vec4 radiance;  // rgb: the first light's colour × intensity; w: 1 when the scene has a light
     LightViewData view;
     uvec4 dims;     // frame width, height, light map size, scene instances
-    uvec4 lut;      // x: LUT image width in texels
+    uvec4 lut;      // unused
     uvec4 rect;     // the pixels [x, z) × [y, w) that can show a translucent instance (dispatch origin)
 };
 
@@ -46,27 +43,19 @@ layout(set = 0, binding = 0, std140) uniform ParamsBlock { TranslucencyParams pa
 layout(set = 0, binding = 1, rg32ui) uniform readonly uimage2D ids_image;
 layout(set = 0, binding = 2, r32f) uniform readonly image2D distance_image;
 layout(set = 0, binding = 3, rgba16f) uniform image2D hdr;
-layout(set = 0, binding = 4, rg32ui) uniform readonly uimage2D light_ids;
+layout(set = 0, binding = 4, r32ui) uniform readonly uimage2D light_ids;
 layout(set = 0, binding = 5, r32f) uniform readonly image2D light_z;
 layout(set = 0, binding = 6, r32f) uniform writeonly image2D thickness_image;
-layout(set = 0, binding = 7) uniform sampler2D lut_image;
-layout(set = 0, binding = 11, std430) readonly buffer Materials { MaterialData materials[]; };
-layout(set = 0, binding = 13, rgba16f) uniform readonly image2D normal_image;
+layout(set = 0, binding = 10, std430) readonly buffer Materials { MaterialData materials[]; };
+layout(set = 0, binding = 11, rgba16f) uniform readonly image2D normal_image;
 
 const float HALF_MAX = 65504.0;
 
 #ifdef WITH_PEEL
-layout(set = 0, binding = 14, r32ui) uniform readonly uimage2D peel_counts;
-layout(set = 0, binding = 15, rg32ui) uniform readonly uimage2D peel_lists;
+layout(set = 0, binding = 12, r32ui) uniform readonly uimage2D peel_counts;
+layout(set = 0, binding = 13, rg32ui) uniform readonly uimage2D peel_lists;
 #include "common/translucency_peel.glsl"
 #endif
-
-// The stored fraction f(i, j) of a table.
-float lut_fraction(LutRecord r, uint i, uint j) {
-    uint k = r.offsets.y + lut_pair_index(i, j, r.dims.w);
-    uint w = params.lut.x;
-    return texelFetch(lut_image, ivec2(int(k % w), int(k / w)), 0).r;
-}
 
 // The texel of the light map nearest to `centre` that holds `instance` (the centre first, then its
 // 4 and then its diagonal neighbours), or (-1, -1).
@@ -104,22 +93,11 @@ float thickness_at(vec3 P, uint instance, uint mode) {
     TranslucentInstance ti = translucent_instance_at(translucent_texels, instance);
     if (mode == THICKNESS_TSM || ti.info.x == NO_LUT || !(tsm > 0.0)) return tsm;
     // effects::translucency::lut_thickness: the path from the light's entry a (on P's own light
-    // ray) to b = P, less the gaps the table knows between the surface voxels at its ends.
+    // ray) to b = P, less the gaps the field decodes between them.
     LutRecord r = lut_record_at(lut_texels, ti.info.x);
-    vec3 l = params.view.dir.xyz;
     vec3 b = (ti.inverse_model * vec4(P, 1.0)).xyz;
-    vec3 a = (ti.inverse_model * vec4(P - l * tsm, 1.0)).xyz;
-    float len = length(a - b);
-    if (!(len > 0.0)) return tsm;
-    vec3 inward = (a - b) / len;
-    mat3 model = mat3(ti.model);
-    // The light map's voxel is the lookup at the texel's entry point: the entry end's first candidate.
-    uint j0 = imageLoad(light_ids, t).y;
-    uint i = path_end_voxel(r, model, b, inward, 0.5 * len, l, NO_LUT);
-    uint j = path_end_voxel(r, model, a, -inward, 0.5 * len, l, j0 < r.dims.w ? j0 : NO_LUT);
-    float f = lut_fraction(r, i, j);
-    vec3 span = model * (centre_at(r.offsets.z + j).xyz - centre_at(r.offsets.z + i).xyz);
-    return clamp(tsm - (1.0 - f) * length(span), 0.0, tsm);
+    vec3 a = (ti.inverse_model * vec4(P - params.view.dir.xyz * tsm, 1.0)).xyz;
+    return tsm * lut_inside_fraction(r, a, b);
 }
 
 #ifdef FILL_ONLY

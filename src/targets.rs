@@ -24,13 +24,13 @@ pub enum Target {
     Ldr,
     /// Σ over waves of the line integral H along each view ray; R32F. Only with waves.
     Energy,
-    /// light_id: per texel of the light's view, (instance id + 1, surface-voxel id) of the first
-    /// translucent surface the light reaches, (0, 0) where none; RG32UI, `LIGHT_MAP_SIZE`².
+    /// light_id: per texel of the light's view, the instance id + 1 of the first translucent
+    /// surface the light reaches, 0 where none; R32UI, `light_map_size`².
     LightIds,
     /// light_id: light-space distance of that surface along the light (TSM's depth); R32F,
-    /// `LIGHT_MAP_SIZE`².
+    /// `light_map_size`².
     LightZ,
-    /// light_id's own D32 depth attachment, `LIGHT_MAP_SIZE`².
+    /// light_id's own D32 depth attachment, `light_map_size`².
     LightDepth,
     /// peel: per light-map texel, how many crossings of peel instances its light ray has (more
     /// than the lists hold means it overflowed); R32UI, the light maps' size.
@@ -73,8 +73,8 @@ impl Target {
         match self {
             Target::Depth | Target::LightDepth => vk::Format::D32_SFLOAT,
             Target::Hdr | Target::Normal => vk::Format::R16G16B16A16_SFLOAT,
-            Target::Ids | Target::LightIds | Target::PeelLists => vk::Format::R32G32_UINT,
-            Target::PeelCounts => vk::Format::R32_UINT,
+            Target::Ids | Target::PeelLists => vk::Format::R32G32_UINT,
+            Target::LightIds | Target::PeelCounts => vk::Format::R32_UINT,
             Target::Distance | Target::Energy | Target::LightZ | Target::Thickness => vk::Format::R32_SFLOAT,
             Target::Ldr => vk::Format::R8G8B8A8_UNORM,
             // The game's images carry their own format (`Targets::import`).
@@ -86,8 +86,12 @@ impl Target {
     pub fn texel_bytes(self) -> u64 {
         match self {
             Target::Depth | Target::Distance | Target::Ldr | Target::Energy => 4,
-            Target::LightZ | Target::LightDepth | Target::Thickness | Target::PeelCounts => 4,
-            Target::Hdr | Target::Normal | Target::Ids | Target::LightIds | Target::PeelLists => 8,
+            Target::LightIds
+            | Target::LightZ
+            | Target::LightDepth
+            | Target::Thickness
+            | Target::PeelCounts => 4,
+            Target::Hdr | Target::Normal | Target::Ids | Target::PeelLists => 8,
             Target::GameDepth | Target::GameColor => 0,
         }
     }

@@ -3,26 +3,18 @@
 //!
 //! # The error bound these tests use
 //!
-//! The LUT stores f(i, j), the inside fraction of the segment between the centres c_i, c_j of two
-//! surface voxels, computed exactly on the mesh and quantized to 8 bits (|error| ≤ q = 0.5/255).
-//! Between two centres the stored value is therefore exact up to q: the cube, sphere and cavity
-//! tests check exactly that, with no other tolerance.
+//! The LUT is the mesh's signed distance at the voxel grid's corners, decoded along the light path
+//! (`effects::thickness_lut`, its `march` module documents the argument). With the exact ends a
+//! (the light's entry, the last crossing toward the light) and b (the shaded point):
 //!
-//! Used for two points a, b on the surface (the shaded point and the light's entry point), the
-//! thickness f(i, j)·|M(c_j − c_i)| is that of a nearby segment: each end moved from a to c_i and
-//! from b to c_j, by at most e = the largest distance from a surface point to the centre of the
-//! surface voxel it maps to (`surface_voxel_at`). The point's own voxel centre is within √3/2·h,
-//! and the surface voxel nearest to that centre is the voxel itself or a face, edge or corner
-//! neighbour (≤ √3·h) wherever the solid is at least a voxel thick, so e ≤ (√3/2 + √3)·h ≈ 2.6·h.
-//! When both segments lie inside the solid (any convex solid) or cross its surfaces
-//! transversally, moving the ends by e changes the inside length by at most e each, so
+//!   |d_LUT − d_exact| ≤ |M(b − a)| · |{t ∈ [0, 1] : dist(a + t(b − a), ∂S) ≤ δ}|,
 //!
-//!   |d_LUT − d_exact| ≤ 2·e·s + q·|M(c_j − c_i)|,   s = the largest stretch of M.
-//!
-//! A segment grazing a surface is the exception: there a small move of its ends can add or remove
-//! a long stretch of material (the seed's discretization error; `examples/bake_measure.rs` reports how
-//! often). A wrong answer that counts the cavity (TSM) is off by the cavity chord (0.96 for the
-//! instance below), outside the bound 2·2.6·h·1.5 = 0.62 at 25³; the tests assert that too.
+//! δ = `ThicknessLut::error_band` (the reconstruction bound √3/2·h, the ½-voxel step and the gap
+//! threshold τ): only points of the path within δ of the surface can be misclassified. The tests
+//! measure that set on a lattice of h/16 along the path, counting a lattice interval when one of
+//! its ends is within δ + h/32 of the surface (the distance is 1-Lipschitz), which can only make
+//! the measured set larger. Independently of the bound, the 95th percentile of the error must be
+//! at most one voxel of the instance (issue 13), cavities and grazing light included.
 
 use hadou::testing::Rng;
 use std::path::PathBuf;
@@ -32,9 +24,8 @@ use glam::DVec3;
 use hadou::effects::bake_cache::{mesh_hash, BakeCache, CacheOutcome};
 use hadou::effects::raycast::MeshBvh;
 use hadou::effects::thickness::{exact_thickness, transmittance, tsm_thickness};
-use hadou::effects::thickness_lut::{
-    bake, pair_index, texel_of, BakeError, BakeOptions, ThicknessLut, QUANTIZATION_BOUND,
-};
+use hadou::effects::thickness_lut::{bake, BakeError, BakeOptions, ThicknessLut};
+use hadou::effects::translucency::lut_thickness;
 use hadou::effects::voxelize::{VoxelizeError, MAX_VOXEL_RES};
 use hadou::scene::mesh::Mesh;
 use hadou::scene::procedural;
@@ -46,15 +37,12 @@ fn root() -> PathBuf {
 }
 
 fn options() -> BakeOptions {
-    BakeOptions { threads: 2, ..BakeOptions::default() }
+    BakeOptions { threads: 2 }
 }
 
 fn baked(mesh: &Mesh, res: u32) -> ThicknessLut {
     bake(mesh, res, &options(), &|_, _| {}).unwrap_or_else(|e| panic!("{e}")).0
 }
-
-/// The per-end bound e of the module documentation, in voxels.
-const END_OFFSET_VOXELS: f64 = 0.866_025_403_784_438_6 + 1.732_050_807_568_877_2;
 
 /// A uniformly distributed point on the mesh surface (area-weighted triangle, uniform inside)
 /// and the unit normal of the triangle it lies on.
@@ -82,221 +70,223 @@ fn cumulative_areas(mesh: &Mesh) -> Vec<f64> {
         .collect()
 }
 
-fn all_pairs(lut: &ThicknessLut) -> impl Iterator<Item = (u32, u32)> + '_ {
-    let n = lut.surface_count() as u32;
-    (0..n).flat_map(move |i| (i..n).map(move |j| (i, j)))
+fn unit(rng: &mut Rng) -> DVec3 {
+    let z = 2.0 * rng.next() - 1.0;
+    let phi = std::f64::consts::TAU * rng.next();
+    DVec3::new((1.0 - z * z).sqrt() * phi.cos(), z, (1.0 - z * z).sqrt() * phi.sin())
 }
 
-// ---------------------------------------------------------------------------------------------
-// Known answers between voxel centres
-
-/// A box is convex and every surface-voxel centre is inside it: every segment is inside, f = 1
-/// exactly (255 after quantization, no tolerance at all).
-#[test]
-fn solid_cube_fraction_is_one_for_every_pair() {
-    let lut = baked(&procedural::cube(2.0).unwrap(), 12);
-    assert_eq!(lut.surface_count(), 12 * 12 * 12 - 10 * 10 * 10);
-    for (i, j) in all_pairs(&lut) {
-        assert_eq!(lut.fraction(i, j), 1.0, "pair ({i}, {j})");
-    }
-    // The same check fails on a cube with a cavity: the bound is not vacuous.
-    let hollow = baked(&procedural::cavity_cube(2.0, 0.6, 32, 16).unwrap(), 12);
-    assert!(all_pairs(&hollow).any(|(i, j)| hollow.fraction(i, j) < 0.9));
+/// The measure in t of the points of a → b within `delta` of the surface (see the module
+/// documentation: a lattice of h/16, counted generously).
+fn band_measure(bvh: &MeshBvh, a: DVec3, b: DVec3, delta: f64, h: f64) -> f64 {
+    let step = h / 16.0;
+    let n = ((b - a).length() / step).ceil().max(1.0) as usize;
+    let near: Vec<bool> = (0..=n)
+        .map(|k| bvh.distance_within(a + (b - a) * (k as f64 / n as f64), delta + step / 2.0).is_some())
+        .collect();
+    near.windows(2).filter(|w| w[0] || w[1]).count() as f64 / n as f64
 }
 
-/// A tessellated sphere is convex too: the segment between two surface-voxel centres (both inside
-/// the polyhedron) lies inside it, f = 1 exactly, whatever the voxel-centre offsets.
-#[test]
-fn sphere_segments_between_surface_voxels_are_inside() {
-    let lut = baked(&procedural::uv_sphere(1.0, 48, 24).unwrap(), 20);
-    assert!(lut.surface_count() > 500);
-    for (i, j) in all_pairs(&lut) {
-        assert_eq!(lut.fraction(i, j), 1.0, "pair ({i}, {j})");
-    }
+/// Whether surface point `p` (normal `n`) can be seen from outside the solid: one of 16 rays from
+/// just off the surface escapes without crossing it (cavity walls never do; the U's inner faces
+/// do, upward). A renderer shades only such points.
+fn seen_from_outside(bvh: &MeshBvh, rng: &mut Rng, p: DVec3, n: DVec3) -> bool {
+    let (lo, hi) = bvh.bounds();
+    let start = p + n * 1e-6 * (hi - lo).length();
+    (0..16).any(|_| {
+        let u = unit(rng);
+        let u = if u.dot(n) < 0.0 { -u } else { u };
+        bvh.crossings(start, u).iter().all(|c| c.t <= 0.0)
+    })
 }
 
-/// Pairs on opposite faces of the cavity cube along z: the centres are at z = ±(1 − h/2), so the
-/// segment has length L = 2 − h and crosses the whole cavity chord c: f = (L − c)/L. The
-/// tessellated cavity lies between the spheres of radius r·cos(π/segments)·cos(π/(2·rings)) and
-/// r, which bounds c; the stored value may differ by q more.
+/// The world voxel edge of an instance: h·∛|det M| (`report::translucency::world_voxel`).
+fn world_voxel(lut: &ThicknessLut, m: &Transform) -> f64 {
+    lut.voxel_size * m.matrix.determinant().abs().cbrt()
+}
+
 #[test]
-fn cavity_cube_along_axes_through_the_cavity() {
-    let (size, r, segments, rings) = (2.0, 0.6, 64, 32);
-    let mesh = procedural::cavity_cube(size, r, segments, rings).unwrap();
-    let lut = baked(&mesh, 25);
-    let h = lut.voxel_size;
-    assert!((h - 0.08).abs() < 1e-12);
-    let r_in = r
-        * (std::f64::consts::PI / segments as f64).cos()
-        * (std::f64::consts::PI / (2 * rings) as f64).cos();
-    let chord = |radius: f64, rho2: f64| 2.0 * (radius * radius - rho2).max(0.0).sqrt();
-    let [nx, ny, nz] = lut.dims;
-    let mut checked = 0;
-    let mut through_cavity = 0;
-    for y in 1..ny - 1 {
-        for x in 1..nx - 1 {
-            let (Some(i), Some(j)) = (id_at(&lut, [x, y, 1]), id_at(&lut, [x, y, nz - 2])) else { continue };
-            let (ci, cj) = (lut.centre(i), lut.centre(j));
-            let length = cj.z - ci.z;
-            assert!((length - (size - h)).abs() < 1e-12);
-            let rho2 = ci.x * ci.x + ci.y * ci.y;
-            let (lo, hi) = ((length - chord(r, rho2)) / length, (length - chord(r_in, rho2)) / length);
-            let f = lut.fraction(i, j);
-            assert!(
-                f >= lo - QUANTIZATION_BOUND - 1e-12 && f <= hi + QUANTIZATION_BOUND + 1e-12,
-                "({x}, {y}): f = {f}, expected in [{lo}, {hi}] ± {QUANTIZATION_BOUND}"
-            );
-            // TSM's answer (the segment full of material) is outside the bound wherever the line
-            // meets the cavity by more than the tolerance.
-            if chord(r_in, rho2) > 2.0 * QUANTIZATION_BOUND * length {
-                assert!(1.0 > hi + QUANTIZATION_BOUND);
-                through_cavity += 1;
-            }
-            checked += 1;
+fn a_convex_solid_gives_the_whole_path() {
+    let m = Transform::from_ops(&[
+        TransformOp::Scale(DVec3::new(1.3, 0.6, -0.9)),
+        TransformOp::Rotate { angle_deg: 35.0, axis: DVec3::new(0.2, 1.0, 0.4) },
+    ])
+    .unwrap();
+    for (mesh, res) in
+        [(procedural::cube(2.0).unwrap(), 12), (procedural::uv_sphere(1.0, 48, 24).unwrap(), 20)]
+    {
+        let lut = baked(&mesh, res);
+        let areas = cumulative_areas(&mesh);
+        let mut rng = Rng(11);
+        for _ in 0..2000 {
+            let (a, _) = surface_point_on(&mut rng, &mesh, &areas);
+            let (b, _) = surface_point_on(&mut rng, &mesh, &areas);
+            let path = (m.transform_point(b) - m.transform_point(a)).length();
+            let d = lut_thickness(&lut, &m, a, b).unwrap();
+            assert!((d - path).abs() <= 1e-12 * path, "{a} → {b}: {d} vs {path}");
         }
     }
-    assert_eq!(checked, 25 * 25);
-    assert!(through_cavity > 100, "{through_cavity}");
 }
 
-fn id_at(lut: &ThicknessLut, [x, y, z]: [u32; 3]) -> Option<u32> {
-    let id = lut.id_grid[(x + lut.dims[0] * (y + lut.dims[1] * z)) as usize];
-    (id != u32::MAX).then_some(id)
+/// The issue's hollow shapes: a ball with three spherical cavities, a box with a box cavity, a U
+/// with two inner concave corners.
+fn hollow_shapes() -> Vec<(&'static str, Mesh)> {
+    let cavities = [
+        (DVec3::new(0.4, 0.0, 0.0), 0.3),
+        (DVec3::new(-0.35, 0.3, 0.1), 0.25),
+        (DVec3::new(0.0, -0.45, -0.2), 0.2),
+    ];
+    vec![
+        ("ball with 3 cavities", procedural::ball_with_cavities(1.0, &cavities, 48, 24).unwrap()),
+        (
+            "box with a box cavity",
+            procedural::box_with_box_cavity(
+                DVec3::new(1.0, 0.8, 0.6),
+                DVec3::new(0.5, 0.4, 0.3),
+                DVec3::new(0.1, 0.05, 0.0),
+            )
+            .unwrap(),
+        ),
+        ("U shape", procedural::u_shape(2.0, 1.6, 1.0, 0.5).unwrap()),
+    ]
 }
 
-// ---------------------------------------------------------------------------------------------
-// Exact and TSM thickness, and the LUT's world thickness against them
+fn hollow_transforms() -> Vec<(&'static str, Transform)> {
+    let t = |ops: &[TransformOp]| Transform::from_ops(ops).unwrap();
+    let rot = |a: f64, axis: [f64; 3]| TransformOp::Rotate { angle_deg: a, axis: DVec3::from_array(axis) };
+    let scale = |s: [f64; 3]| TransformOp::Scale(DVec3::from_array(s));
+    vec![
+        ("rotated", t(&[rot(37.0, [0.3, 1.0, 0.2])])),
+        ("non-uniform", t(&[scale([1.6, 0.7, 1.1]), rot(-22.0, [1.0, 0.2, 0.5])])),
+        ("mirrored", t(&[scale([-1.2, 0.9, 1.4]), rot(63.0, [0.1, 0.4, 1.0])])),
+    ]
+}
 
-/// Back-lit through the cavity: the exact thickness leaves the cavity out, TSM counts it (about
-/// the cavity's diameter more), and the LUT under a rotated, non-uniformly scaled instance
-/// transform agrees with the exact one within 2·e·s + q·L and not with TSM.
+/// The light paths of the module documentation on the hollow shapes, at res 32 and 64, under
+/// rotated, non-uniformly scaled and mirrored instances: random shaded points on the surface seen
+/// from outside (a cavity's wall is never shaded); a
+/// quarter of the light directions grazing (within 6° of the surface's tangent plane at the
+/// shaded point), a quarter uniform, half aimed at a random point of the middle of the shape's box
+/// (where the cavities and the U's gap are). Every path within its bound; p95 of the error ≤ 1
+/// voxel per case, over all paths and over those that cross a gap (a cavity, the U's air).
 #[test]
-fn cavity_cube_back_lit_through_the_cavity() {
-    let (r, res) = (0.6, 25);
-    let mesh = procedural::cavity_cube(2.0, r, 64, 32).unwrap();
-    let bvh = MeshBvh::new(&mesh).unwrap();
-    let lut = baked(&mesh, res);
-    let stretch = DVec3::new(1.0, 1.5, 0.8);
-    let m = Transform::from_ops(&[
-        TransformOp::Scale(stretch),
-        TransformOp::Rotate { angle_deg: 30.0, axis: DVec3::new(0.0, 1.0, 0.2) },
-        TransformOp::Translate(DVec3::new(0.5, 1.0, -2.0)),
-    ])
-    .unwrap();
-    let s_max = stretch.max_element();
-    // The shaded point: the centre of the front face (object z = 1), nudged off the mesh seams;
-    // the light comes from behind, along the instance's −z axis.
-    let front = DVec3::new(0.013, 0.011, 1.0);
-    let p = m.transform_point(front);
-    let toward_light = m.matrix.transform_vector3(DVec3::NEG_Z).normalize();
-    let exact = exact_thickness(&bvh, &m, p, toward_light);
-    let tsm = tsm_thickness(&bvh, &m, p, toward_light);
-    // World depth of the cube along that line: 2 object units stretched by 0.8 in z.
-    let depth = 2.0 * 0.8;
-    assert!((tsm - depth).abs() < 1e-9, "tsm {tsm}");
-    let cavity = depth * (2.0 * r) / 2.0;
-    assert!((tsm - exact - cavity).abs() < 0.01 * cavity, "exact {exact}, tsm {tsm}, cavity chord {cavity}");
-    // The LUT: the shaded point and the light's entry point (where TSM's distance ends).
-    let entry = p + toward_light * tsm;
-    let (a, b) = (m.inverse.transform_point3(p), m.inverse.transform_point3(entry));
-    let lut_d = lut.world_thickness(&m, a, b).unwrap();
-    let (i, j) = (lut.surface_voxel_at(a).unwrap(), lut.surface_voxel_at(b).unwrap());
-    let seg = (m.transform_point(lut.centre(j)) - m.transform_point(lut.centre(i))).length();
-    let bound = 2.0 * END_OFFSET_VOXELS * lut.voxel_size * s_max + QUANTIZATION_BOUND * seg;
-    assert!((lut_d - exact).abs() <= bound, "LUT {lut_d} vs exact {exact} (bound {bound})");
-    assert!((lut_d - tsm).abs() > bound, "TSM {tsm} would pass the bound {bound}: the test proves nothing");
-    // I_out = I_in·exp(−σ·d): TSM darkens what passes through the cavity.
-    let sigma = DVec3::new(2.0, 1.0, 0.5);
-    assert!(transmittance(sigma, exact).x > 2.0 * transmittance(sigma, tsm).x);
-}
-
-/// Random pairs of surface points under a non-uniform transform. On convex solids (a sphere, a
-/// box) both segments lie inside, so the bound of the module documentation holds for every pair.
-/// On the torus and the bottle it holds where the segment crosses the surfaces transversally; a
-/// segment grazing a surface can gain or lose much more when its ends move (the seed's own
-/// discretization error, the scatter on the bottle's liquid surface in its figure 13), so there
-/// the test asks it of 90 % of the pairs. Every end lands within e of its voxel centre.
-#[test]
-fn lut_thickness_within_the_derived_bound_for_random_pairs() {
-    let stretch = DVec3::new(1.3, 0.7, 1.0);
-    let m = Transform::from_ops(&[
-        TransformOp::Scale(stretch),
-        TransformOp::Rotate { angle_deg: -40.0, axis: DVec3::new(1.0, 1.0, 0.0) },
-    ])
-    .unwrap();
-    for (name, mesh, res, convex) in [
-        ("sphere", procedural::uv_sphere(1.0, 32, 16).unwrap(), 20, true),
-        ("cube", procedural::cube(1.0).unwrap(), 16, true),
-        ("torus", procedural::torus(1.0, 0.35, 32, 16).unwrap(), 24, false),
-        ("bottle", procedural::bottle(0.3, 1.6, 0.06, 0.5, 24).unwrap(), 28, false),
-    ] {
-        let lut = baked(&mesh, res);
+fn hollow_shapes_within_the_bound_and_a_voxel_at_p95() {
+    let mut failures = Vec::new();
+    for (name, mesh) in hollow_shapes() {
         let bvh = MeshBvh::new(&mesh).unwrap();
         let areas = cumulative_areas(&mesh);
-        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-        let h = lut.voxel_size;
-        let mut worst_end: f64 = 0.0;
-        let (mut within, mut total) = (0, 0);
-        for _ in 0..2000 {
-            let ((a, na), (b, nb)) =
-                (surface_point_on(&mut rng, &mesh, &areas), surface_point_on(&mut rng, &mesh, &areas));
-            let (i, j) = (lut.surface_voxel_at(a).unwrap(), lut.surface_voxel_at(b).unwrap());
-            worst_end = worst_end.max(lut.centre(i).distance(a)).max(lut.centre(j).distance(b));
-            if convex && na.dot(nb) > 1.0 - 1e-9 {
-                // Both on one face: the segment lies in the surface (grazing), not inside.
-                continue;
-            }
-            let exact = bvh.inside_fraction(a, b) * (m.transform_point(b) - m.transform_point(a)).length();
-            let lut_d = lut.world_thickness(&m, a, b).unwrap();
-            let seg = (m.transform_point(lut.centre(j)) - m.transform_point(lut.centre(i))).length();
-            let bound = 2.0 * END_OFFSET_VOXELS * h * stretch.max_element() + QUANTIZATION_BOUND * seg + 1e-9;
-            if convex {
-                // Scaling the fraction by the actual segment instead is exact here (f = 1).
-                let between = lut.world_thickness_between(&m, a, b).unwrap();
-                assert!(
-                    (between - exact).abs() <= QUANTIZATION_BOUND * exact + 1e-9,
-                    "{name}: {between} vs {exact}"
+        for res in [32, 64] {
+            let lut = baked(&mesh, res);
+            let (h, delta) = (lut.voxel_size, lut.error_band());
+            let (lo_box, hi_box) = bvh.bounds();
+            for (label, m) in hollow_transforms() {
+                let hw = world_voxel(&lut, &m);
+                let mut rng = Rng(res as u64 * 7 + name.len() as u64);
+                let (mut errors, mut gap_errors, mut worst) = (Vec::new(), Vec::new(), 0.0f64);
+                while errors.len() < 800 {
+                    let (b, n) = surface_point_on(&mut rng, &mesh, &areas);
+                    if !seen_from_outside(&bvh, &mut rng, b, n) {
+                        continue;
+                    }
+                    // The object-space direction toward the light.
+                    let toward = match errors.len() % 4 {
+                        0 => {
+                            let tangent = unit(&mut rng).reject_from(n).normalize_or_zero();
+                            (tangent - n * (0.1 * rng.next())).normalize_or_zero()
+                        }
+                        1 => {
+                            let u = unit(&mut rng);
+                            if u.dot(n) > 0.0 {
+                                -u
+                            } else {
+                                u
+                            }
+                        }
+                        _ => {
+                            let r = DVec3::new(rng.next(), rng.next(), rng.next()) * 0.6 + 0.2;
+                            (lo_box + (hi_box - lo_box) * r - b).normalize_or_zero()
+                        }
+                    };
+                    let light_world = m.matrix.transform_vector3(toward).normalize_or_zero();
+                    if light_world == DVec3::ZERO {
+                        continue;
+                    }
+                    let Some(last) = bvh.crossings(b, toward).last().copied().filter(|c| c.t > 1e-9) else {
+                        continue;
+                    };
+                    let a = b + toward * last.t;
+                    let exact = exact_thickness(&bvh, &m, m.transform_point(b), light_world);
+                    let d = lut_thickness(&lut, &m, a, b).unwrap();
+                    let err = (d - exact).abs();
+                    let path = (m.transform_point(b) - m.transform_point(a)).length();
+                    if bvh.crossings(b, toward).iter().filter(|c| c.t > 1e-9).count() > 1 {
+                        gap_errors.push(err / hw);
+                    }
+                    // The band holds at least δ of the path at each end (both are surface points).
+                    let lo = path * (2.0 * delta).min(last.t * toward.length()) / (last.t * toward.length());
+                    // Cheap where the error is below that; also every 8th path, to see the margin.
+                    if err > lo || errors.len() % 8 == 0 {
+                        let bound = path * band_measure(&bvh, a, b, delta, h) + 1e-9 * path;
+                        assert!(
+                            err <= bound,
+                            "{name} res {res} {label}: {a} → {b}: LUT {d}, exact {exact}, bound {bound}"
+                        );
+                        worst = worst.max(err / bound);
+                    }
+                    errors.push(err / hw);
+                }
+                let p95_max = |v: &mut Vec<f64>| {
+                    v.sort_by(f64::total_cmp);
+                    (v[v.len() * 95 / 100], v[v.len() - 1])
+                };
+                assert!(gap_errors.len() >= 100, "{name} res {res} {label}: {} gap paths", gap_errors.len());
+                let ((p95, max), (gp95, gmax)) = (p95_max(&mut errors), p95_max(&mut gap_errors));
+                println!(
+                    "{name:>22} res {res} {label:>11}: |error| p95 {p95:.3}, max {max:.2} voxels; {} paths across a gap: p95 {gp95:.3}, max {gmax:.2}; worst error / bound {worst:.2}",
+                    gap_errors.len()
                 );
+                if p95 > 1.0 || gp95 > 1.0 {
+                    failures.push(format!(
+                        "{name} res {res} {label}: p95 {p95:.3}, across a gap {gp95:.3} voxels"
+                    ));
+                }
             }
-            let ok = (lut_d - exact).abs() <= bound;
-            assert!(ok || !convex, "{name}: {a} → {b}: LUT {lut_d}, exact {exact}, bound {bound}");
-            within += usize::from(ok);
-            total += 1;
         }
-        assert!(within * 10 >= total * 9, "{name}: only {within} of {total} pairs within the bound");
-        assert!(worst_end <= END_OFFSET_VOXELS * h, "{name}: an end moved {} voxels", worst_end / h);
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// Every documented resolution works for a cube (the largest surface for its box): 4 and 128
+/// bake, with the field's bytes and a thickness through it exact.
+#[test]
+fn a_cube_bakes_at_every_documented_resolution() {
+    let cube = procedural::cube(2.0).unwrap();
+    for res in [4, 128] {
+        let start = std::time::Instant::now();
+        let lut = baked(&cube, res);
+        // 1 byte a corner, 1 a cell (τ); res + 2 cells a side with the padding.
+        let (corners, cells) = ((res as usize + 3).pow(3), (res as usize + 2).pow(3));
+        assert_eq!(lut.bytes(), corners + cells, "res {res}");
+        let (a, b) = (DVec3::new(0.3, -0.2, -1.0), DVec3::new(-0.1, 0.4, 1.0));
+        assert_eq!(lut.inside_fraction(a, b), 1.0, "res {res}");
+        println!("cube at {res}³: {} bytes, {:.2} s", lut.bytes(), start.elapsed().as_secs_f64());
     }
 }
 
-// ---------------------------------------------------------------------------------------------
-// Layout and lookups the shader mirrors
-
+/// The exact reference on the cavity cube: the TSM thickness counts the cavity, the exact one
+/// does not, and their difference is the chord.
 #[test]
-fn stored_texels_follow_the_documented_layout() {
-    let lut = baked(&procedural::torus(1.0, 0.35, 16, 8).unwrap(), 12);
-    let n = lut.surface_count() as u32;
-    let pairs = n as u64 * (n as u64 + 1) / 2;
-    assert_eq!(lut.width as u64, pairs.min(4096));
-    assert_eq!(lut.height as u64, pairs.div_ceil(lut.width as u64));
-    assert_eq!(lut.bytes(), (lut.width * lut.height) as usize);
-    let bvh = MeshBvh::new(&procedural::torus(1.0, 0.35, 16, 8).unwrap()).unwrap();
-    for (i, j) in all_pairs(&lut).step_by(97) {
-        let k = i as u64 * n as u64 - (i as u64 * (i as u64).saturating_sub(1)) / 2 + (j - i) as u64;
-        assert_eq!(pair_index(i, j, n), k);
-        let (x, y) = texel_of(k, lut.width);
-        let texel = lut.data[(y * lut.width + x) as usize] as f64 / 255.0;
-        assert_eq!(texel, lut.fraction(j, i));
-        if i != j {
-            let exact = bvh.inside_fraction(lut.centre(i), lut.centre(j));
-            assert!((texel - exact).abs() <= QUANTIZATION_BOUND + 1e-12);
-        }
-    }
-    // Padding texels are zero; every id in the lookups is in range.
-    assert!(lut.data[pairs as usize..].iter().all(|&b| b == 0));
-    assert!(lut.nearest_grid.iter().all(|&id| id < n));
-    assert!(lut.vertex_voxel.iter().all(|&id| id < n));
-    assert_eq!(lut.id_grid.iter().filter(|&&id| id != u32::MAX).count(), n as usize);
-    assert_eq!(lut.surface_centres_f32().len(), n as usize);
+fn cavity_cube_references_differ_by_the_chord() {
+    let mesh = procedural::cavity_cube(2.0, 0.6, 48, 24).unwrap();
+    let bvh = MeshBvh::new(&mesh).unwrap();
+    let m = Transform::from_ops(&[TransformOp::Scale(DVec3::new(1.5, 1.0, 1.0))]).unwrap();
+    let p = m.transform_point(DVec3::new(0.013, 0.011, 1.0));
+    let exact = exact_thickness(&bvh, &m, p, DVec3::NEG_Z);
+    let tsm = tsm_thickness(&bvh, &m, p, DVec3::NEG_Z);
+    assert!((tsm - 2.0).abs() < 1e-12);
+    assert!((tsm - exact - 1.2).abs() < 0.01, "{tsm} {exact}");
+    let t = transmittance(DVec3::ONE, exact);
+    assert!((t.x - (-exact).exp()).abs() < 1e-15);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -317,7 +307,7 @@ fn cache_hits_and_rebuilds_damaged_files() {
     let (res, opts) = (16, options());
     let quiet = |_: usize, _: usize| {};
     let first = cache.get_or_bake(&mesh, res, &opts, &quiet).unwrap();
-    let path = cache.path_for(&mesh, res, &opts);
+    let path = cache.path_for(&mesh, res);
     assert_eq!(first.outcome, CacheOutcome::Miss(path.clone()));
     assert!(first.stats.is_some());
     let second = cache.get_or_bake(&mesh, res, &opts, &quiet).unwrap();
@@ -352,7 +342,7 @@ fn cache_hits_and_rebuilds_damaged_files() {
         ("another mesh's file", {
             let other_cache = BakeCache::new(dir.join("other"));
             other_cache.get_or_bake(&other, res, &opts, &quiet).unwrap();
-            std::fs::read(other_cache.path_for(&other, res, &opts)).unwrap()
+            std::fs::read(other_cache.path_for(&other, res)).unwrap()
         }),
     ];
     for (what, bytes) in damage {
@@ -371,7 +361,7 @@ fn cache_hits_and_rebuilds_damaged_files() {
         assert_eq!(again.outcome, CacheOutcome::Hit(path.clone()), "{what}");
     }
     // A different resolution or mesh is a different file.
-    assert_ne!(cache.path_for(&mesh, res + 1, &opts), path);
+    assert_ne!(cache.path_for(&mesh, res + 1), path);
     assert_ne!(mesh_hash(&mesh), mesh_hash(&other));
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -414,13 +404,6 @@ fn bad_meshes_and_resolutions_are_refused() {
         let e = err(&cube, res, options());
         assert!(e.to_string().contains(&format!("1..={MAX_VOXEL_RES}")), "{e}");
     }
-    // A table larger than the texture limit names the limit and the size it needed.
-    let opts = BakeOptions { max_texture_dim: 256, ..options() };
-    let e = err(&procedural::uv_sphere(1.0, 32, 16).unwrap(), 24, opts);
-    let BakeError::TooLarge { width, height, limit, .. } = e else { panic!("{e}") };
-    assert_eq!(limit, 256);
-    let message = err(&procedural::uv_sphere(1.0, 32, 16).unwrap(), 24, opts).to_string();
-    assert!(message.contains("256×256 limit") && message.contains(&format!("{width}×{height}")), "{message}");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -526,10 +509,7 @@ fn bake_command_bakes_caches_and_writes() {
     let first = run(&["bake", "assets/meshes/wedge.obj", "--res", "10", "--out", out_file.to_str().unwrap()]);
     assert!(first.status.success(), "{}", text(&first));
     let stdout = String::from_utf8_lossy(&first.stdout).to_string();
-    assert!(
-        stdout.contains("surface voxels") && stdout.contains("bytes") && stdout.contains("baked"),
-        "{stdout}"
-    );
+    assert!(stdout.contains("field") && stdout.contains("bytes") && stdout.contains("baked"), "{stdout}");
     // stderr is a pipe here: no progress bar (tests/installed.rs shows one drawn on a terminal).
     assert!(!String::from_utf8_lossy(&first.stderr).contains("baking"), "a progress bar in a pipe");
     assert!(out_file.exists());
@@ -539,12 +519,10 @@ fn bake_command_bakes_caches_and_writes() {
     let scene = run(&["bake", "assets/scenes/showcase.toml", "--res", "8"]);
     assert!(scene.status.success(), "{}", text(&scene));
     assert!(String::from_utf8_lossy(&scene.stdout).contains("mesh \"hollow\" res 8"), "{}", text(&scene));
-    // Refusals: nothing translucent, a bad resolution, a table over the texture limit.
+    // Refusals: nothing translucent, a bad resolution.
     let none = run(&["bake", "assets/scenes/single_cube.toml"]);
     assert!(!none.status.success() && text(&none).contains("nothing to bake"), "{}", text(&none));
     let zero = run(&["bake", "assets/meshes/wedge.obj", "--res", "0"]);
     assert!(!zero.status.success() && text(&zero).contains("1..="), "{}", text(&zero));
-    let big = run(&["bake", "assets/meshes/wedge.obj", "--res", "40", "--max-texture-dim", "64"]);
-    assert!(!big.status.success() && text(&big).contains("64×64 limit"), "{}", text(&big));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,6 +1,6 @@
-//! `hadou bake MESH.obj|SCENE.toml [--res N] [--out FILE] [--threads N] [--max-texture-dim N]
-//! [--force]`: bakes thickness LUTs (seed 003) through the on-disk cache, with a progress line on
-//! stderr and one summary line per table on stdout.
+//! `hadou bake MESH.obj|SCENE.toml [--res N] [--out FILE] [--threads N] [--force]`: bakes
+//! thickness fields (seed 003's LUT) through the on-disk cache, with a progress bar on stderr (one
+//! step per z-slice of grid corners) and one summary line per field on stdout.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -8,9 +8,7 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::Args;
 use hadou::effects::bake_cache::{self, BakeCache, CacheOutcome};
-use hadou::effects::thickness_lut::{
-    self, BakeOptions, BakeStats, ThicknessLut, DEFAULT_MAX_TEXTURE_DIM, LUT_FORMAT,
-};
+use hadou::effects::thickness_lut::{self, BakeOptions, BakeStats, ThicknessLut, FIELD_FORMAT};
 use hadou::scene::mesh::Mesh;
 use hadou::scene::{MaterialKind, ThicknessMode};
 
@@ -28,9 +26,6 @@ pub struct BakeArgs {
     /// Worker threads (default: all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// The largest 2D texture side the table may use.
-    #[arg(long, default_value_t = DEFAULT_MAX_TEXTURE_DIM)]
-    max_texture_dim: u32,
     /// Bake even when the cache holds the table (and replace it).
     #[arg(long)]
     force: bool,
@@ -95,8 +90,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         }
         super::check_outputs(&[out], &inputs)?;
     }
-    let options =
-        BakeOptions { threads: args.threads, max_texture_dim: args.max_texture_dim, exact_only: false };
+    let options = BakeOptions { threads: args.threads };
     let cache = BakeCache::from_env();
     if cache.is_none() {
         log::warn!("no cache folder (set HADOU_CACHE_DIR, XDG_CACHE_HOME or HOME): baking without a cache");
@@ -106,7 +100,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         let show = |done: usize, total: usize| {
             if progress.length() != Some(total as u64) {
                 progress.set_length(total as u64);
-                progress.set_message(format!("of {total} pairs"));
+                progress.set_message(format!("of {total} slices"));
             }
             progress.set_position(done as u64);
         };
@@ -129,7 +123,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
                 let (lut, stats) = thickness_lut::bake(&job.mesh, job.res, &options, &show)
                     .with_context(|| format!("{} at resolution {}", job.label, job.res))?;
                 let how = match &cache {
-                    Some(cache) => match cache.store(&job.mesh, &lut, &options) {
+                    Some(cache) => match cache.store(&job.mesh, &lut) {
                         Ok(p) => format!("baked (--force), cached in {}", p.display()),
                         Err(e) => format!("baked (--force); cache not written: {e}"),
                     },
@@ -145,7 +139,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         }
         print_summary(job, &lut, stats.as_ref(), start.elapsed().as_secs_f64(), &how);
         if let Some(out) = &args.out {
-            write_out(out, &job.mesh, &lut, &options)?;
+            write_out(out, &job.mesh, &lut)?;
             println!("  written to {}", out.display());
         }
     }
@@ -153,21 +147,23 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
 }
 
 fn print_summary(job: &Job, lut: &ThicknessLut, stats: Option<&BakeStats>, seconds: f64, how: &str) {
-    let exact = stats.map_or(String::new(), |s| {
-        format!(", {} threads, {} of {} pairs by the full-line exact path", s.threads, s.exact_pairs, s.pairs)
+    let detail = stats.map_or(String::new(), |s| {
+        format!(
+            ", {} threads, {} of {} corners near the surface, field {:.2} s, τ {:.2} s",
+            s.threads, s.near_corners, s.corners, s.field_seconds, s.threshold_seconds
+        )
     });
+    let [x, y, z] = lut.corner_dims();
     println!(
-        "{} res {}: {} surface voxels, LUT {} bytes ({}×{} {LUT_FORMAT}), {seconds:.2} s{exact}; {how}",
+        "{} res {}: field {x}×{y}×{z} {FIELD_FORMAT}, {} bytes, largest gap threshold {:.3} voxel, {seconds:.2} s{detail}; {how}",
         job.label,
         job.res,
-        lut.surface_count(),
         lut.bytes(),
-        lut.width,
-        lut.height,
+        lut.gap_threshold() / lut.voxel_size,
     );
 }
 
-fn write_out(out: &Path, mesh: &Mesh, lut: &ThicknessLut, options: &BakeOptions) -> anyhow::Result<()> {
-    let bytes = bake_cache::encode(lut, bake_cache::mesh_hash(mesh), options.max_texture_dim);
+fn write_out(out: &Path, mesh: &Mesh, lut: &ThicknessLut) -> anyhow::Result<()> {
+    let bytes = bake_cache::encode(lut, bake_cache::mesh_hash(mesh));
     Ok(hadou::output::write_atomically(out, &bytes)?)
 }

@@ -4,9 +4,9 @@
 //!
 //! **Key.** `mesh_hash`: FNV-1a 64 over the f32 position bits, the indices, their counts and
 //! `FORMAT_VERSION` (normals do not change the solid, so they are not hashed). One file per
-//! (mesh, resolution, texture limit): `lut-{hash:016x}-r{res}-m{max_texture_dim}.hlut`.
+//! (mesh, resolution): `lut-{hash:016x}-r{res}.hlut`.
 //!
-//! **File.** A 112-byte little-endian header, then the payload:
+//! **File.** A 92-byte little-endian header, then the payload:
 //!
 //! | offset | field |
 //! |---|---|
@@ -14,18 +14,14 @@
 //! | 8 | format version u32 (`FORMAT_VERSION`) |
 //! | 12 | res u32 |
 //! | 16 | mesh hash u64 |
-//! | 24 | dims 3×u32 |
-//! | 36 | surface voxel count u32 |
-//! | 40 | vertex count u32 |
-//! | 44 | texture width u32, height u32 |
-//! | 52 | max_texture_dim u32 |
-//! | 56 | origin 3×f64, voxel size f64 |
-//! | 88 | payload length u64 |
-//! | 96 | payload checksum u64 (FNV-1a 64 of the payload) |
-//! | 104 | header checksum u64 (FNV-1a 64 of bytes 0..104) |
+//! | 24 | dims 3×u32 (voxels; corners are dims + 1 per axis) |
+//! | 36 | origin 3×f64, voxel size f64 |
+//! | 68 | payload length u64 |
+//! | 76 | payload checksum u64 (FNV-1a 64 of the payload) |
+//! | 84 | header checksum u64 (FNV-1a 64 of bytes 0..84) |
 //!
-//! Payload: surface voxels (3×u32 each), vertex voxels (u32 each), nearest grid (u32 per voxel),
-//! then the table (width·height bytes). The id grid is rebuilt from the surface voxels.
+//! Payload: the field, one i8 per corner (x fastest), Π(dims + 1) bytes; then τ, one byte per
+//! cell (x fastest), Π dims bytes.
 //!
 //! **Safety.** Files are written to a temporary name in the same folder and renamed into place, so
 //! a reader never sees half a file. On load, anything that does not match — a short file, a wrong
@@ -39,14 +35,16 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::thickness_lut::{bake, BakeError, BakeOptions, BakeStats, LutLayout, ThicknessLut};
+use super::thickness_lut::{
+    bake, BakeError, BakeOptions, BakeStats, ThicknessLut, FIELD_LEVELS, TAU_MAX_STEPS,
+};
 use super::voxelize::grid_layout;
 use crate::scene::mesh::Mesh;
 
 pub const MAGIC: [u8; 8] = *b"HADOULUT";
 /// Bump when the file layout or the meaning of any stored value changes.
-pub const FORMAT_VERSION: u32 = 1;
-const HEADER_LEN: usize = 112;
+pub const FORMAT_VERSION: u32 = 3;
+const HEADER_LEN: usize = 92;
 
 /// FNV-1a 64.
 #[derive(Clone, Copy, Debug)]
@@ -150,13 +148,13 @@ impl BakeCache {
     }
 
     /// The file a bake of `mesh` at `res` lives in.
-    pub fn path_for(&self, mesh: &Mesh, res: u32, options: &BakeOptions) -> PathBuf {
-        self.dir.join(file_name(mesh_hash(mesh), res, options.max_texture_dim))
+    pub fn path_for(&self, mesh: &Mesh, res: u32) -> PathBuf {
+        self.dir.join(file_name(mesh_hash(mesh), res))
     }
 
     /// The cached table of `mesh` at `res`, or why there is none usable. `Ok(None)`: no file.
-    pub fn load(&self, mesh: &Mesh, res: u32, options: &BakeOptions) -> Result<Option<ThicknessLut>, String> {
-        let path = self.path_for(mesh, res, options);
+    pub fn load(&self, mesh: &Mesh, res: u32) -> Result<Option<ThicknessLut>, String> {
+        let path = self.path_for(mesh, res);
         let meta = match std::fs::metadata(&path) {
             Ok(meta) => meta,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -166,17 +164,17 @@ impl BakeCache {
         if !meta.is_file() {
             return Err("not a regular file".into());
         }
-        let expect = Expect { hash: mesh_hash(mesh), res, max_dim: options.max_texture_dim, mesh };
+        let expect = Expect { hash: mesh_hash(mesh), res, mesh };
         read_bounded(&path, &expect).map(Some)
     }
 
     /// Writes `lut` (a bake of `mesh`) atomically: a temporary file, then a rename.
-    pub fn store(&self, mesh: &Mesh, lut: &ThicknessLut, options: &BakeOptions) -> std::io::Result<PathBuf> {
+    pub fn store(&self, mesh: &Mesh, lut: &ThicknessLut) -> std::io::Result<PathBuf> {
         std::fs::create_dir_all(&self.dir)?;
-        let path = self.path_for(mesh, lut.res, options);
+        let path = self.path_for(mesh, lut.res);
         let name = path.file_name().unwrap_or_default().to_string_lossy();
         crate::output::remove_stale_temps(&self.dir, &name);
-        let bytes = encode(lut, mesh_hash(mesh), options.max_texture_dim);
+        let bytes = encode(lut, mesh_hash(mesh));
         write_atomic(&path, &bytes)?;
         Ok(path)
     }
@@ -190,8 +188,8 @@ impl BakeCache {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<CachedBake, BakeError> {
         let start = Instant::now();
-        let path = self.path_for(mesh, res, options);
-        let refused = match self.load(mesh, res, options) {
+        let path = self.path_for(mesh, res);
+        let refused = match self.load(mesh, res) {
             Ok(Some(lut)) => {
                 let seconds = start.elapsed().as_secs_f64();
                 return Ok(CachedBake { lut, outcome: CacheOutcome::Hit(path), stats: None, seconds });
@@ -203,7 +201,7 @@ impl BakeCache {
             }
         };
         let (lut, stats) = bake(mesh, res, options, progress)?;
-        if let Err(e) = self.store(mesh, &lut, options) {
+        if let Err(e) = self.store(mesh, &lut) {
             log::warn!("thickness LUT cache {}: cannot write it: {e}", path.display());
         }
         let outcome = match refused {
@@ -214,8 +212,8 @@ impl BakeCache {
     }
 }
 
-fn file_name(hash: u64, res: u32, max_dim: u32) -> String {
-    format!("lut-{hash:016x}-r{res}-m{max_dim}.hlut")
+fn file_name(hash: u64, res: u32) -> String {
+    format!("lut-{hash:016x}-r{res}.hlut")
 }
 
 fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
@@ -231,21 +229,9 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 }
 
 /// Serializes `lut` (see the module documentation for the layout).
-pub fn encode(lut: &ThicknessLut, hash: u64, max_dim: u32) -> Vec<u8> {
-    let mut payload = Vec::with_capacity(
-        lut.surface_voxels.len() * 12
-            + (lut.vertex_voxel.len() + lut.nearest_grid.len()) * 4
-            + lut.data.len(),
-    );
-    for v in &lut.surface_voxels {
-        for c in v {
-            payload.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    for id in lut.vertex_voxel.iter().chain(&lut.nearest_grid) {
-        payload.extend_from_slice(&id.to_le_bytes());
-    }
-    payload.extend_from_slice(&lut.data);
+pub fn encode(lut: &ThicknessLut, hash: u64) -> Vec<u8> {
+    let mut payload: Vec<u8> = lut.field.iter().map(|&q| q as u8).collect();
+    payload.extend_from_slice(&lut.tau);
     let mut out = Vec::with_capacity(HEADER_LEN + payload.len());
     out.extend_from_slice(&MAGIC);
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
@@ -253,11 +239,6 @@ pub fn encode(lut: &ThicknessLut, hash: u64, max_dim: u32) -> Vec<u8> {
     out.extend_from_slice(&hash.to_le_bytes());
     for d in lut.dims {
         out.extend_from_slice(&d.to_le_bytes());
-    }
-    for count in
-        [lut.surface_voxels.len() as u32, lut.vertex_voxel.len() as u32, lut.width, lut.height, max_dim]
-    {
-        out.extend_from_slice(&count.to_le_bytes());
     }
     for f in [lut.origin.x, lut.origin.y, lut.origin.z, lut.voxel_size] {
         out.extend_from_slice(&f.to_le_bytes());
@@ -275,7 +256,6 @@ pub fn encode(lut: &ThicknessLut, hash: u64, max_dim: u32) -> Vec<u8> {
 struct Expect<'a> {
     hash: u64,
     res: u32,
-    max_dim: u32,
     mesh: &'a Mesh,
 }
 
@@ -341,10 +321,6 @@ fn decode(bytes: &[u8], expect: &Expect) -> Result<ThicknessLut, String> {
 #[derive(Clone, Copy)]
 struct Header {
     dims: [u32; 3],
-    n: usize,
-    vertices: usize,
-    width: u32,
-    height: u32,
     origin: DVec3,
     voxel_size: f64,
     payload_len: u64,
@@ -365,75 +341,38 @@ fn decode_header(bytes: &[u8], expect: &Expect) -> Result<Header, String> {
     check("resolution", r.u32()?, expect.res)?;
     check("mesh hash", r.u64()?, expect.hash)?;
     let dims = [r.u32()?, r.u32()?, r.u32()?];
-    let n = r.u32()? as usize;
-    let vertices = r.u32()? as usize;
-    let (width, height, max_dim) = (r.u32()?, r.u32()?, r.u32()?);
     let origin = DVec3::new(r.f64()?, r.f64()?, r.f64()?);
     let voxel_size = r.f64()?;
     let payload_len = r.u64()?;
     let payload_sum = r.u64()?;
     r.u64()?; // header checksum, checked above
-    check("texture limit", max_dim, expect.max_dim)?;
-    check("vertex count", vertices, expect.mesh.positions.len())?;
-    // The grid is a function of the mesh and res: it must be the one a bake would make now.
+              // The grid is a function of the mesh and res: it must be the one a bake would make now.
     let (want_dims, want_origin, want_h) = grid_layout(expect.mesh, expect.res).map_err(|e| e.to_string())?;
     check("grid dims", dims, want_dims)?;
     check("grid origin", origin, want_origin)?;
     check("voxel size", voxel_size, want_h)?;
-    let layout =
-        LutLayout::new(n, max_dim).map_err(|_| format!("{n} surface voxels exceed the texture limit"))?;
-    check("texture size", (width, height), (layout.width, layout.height))?;
-    let voxels: usize = dims.iter().map(|&d| d as usize).product();
-    let want_len = n as u64 * 12 + (vertices as u64 + voxels as u64) * 4 + layout.bytes() as u64;
-    check("payload length", payload_len, want_len)?;
-    Ok(Header { dims, n, vertices, width, height, origin, voxel_size, payload_len, payload_sum })
+    let corners: u64 = dims.iter().map(|&d| d as u64 + 1).product();
+    let cells: u64 = dims.iter().map(|&d| d as u64).product();
+    check("payload length", payload_len, corners + cells)?;
+    Ok(Header { dims, origin, voxel_size, payload_len, payload_sum })
 }
 
 fn decode_payload(header: &Header, payload: &[u8], expect: &Expect) -> Result<ThicknessLut, String> {
-    let Header { dims, n, vertices, width, height, origin, voxel_size, payload_len, payload_sum } = *header;
-    let voxels: usize = dims.iter().map(|&d| d as usize).product();
+    let Header { dims, origin, voxel_size, payload_len, payload_sum } = *header;
     check("file length", payload.len() as u64, payload_len)?;
     if fnv(payload) != payload_sum {
         return Err("payload checksum does not match (corrupt file)".into());
     }
-    let mut p = Reader { bytes: payload, at: 0 };
-    let mut surface_voxels = Vec::with_capacity(n);
-    let mut id_grid = vec![u32::MAX; voxels];
-    for id in 0..n {
-        let v = [p.u32()?, p.u32()?, p.u32()?];
-        if (0..3).any(|a| v[a] >= dims[a]) {
-            return Err(format!("surface voxel {id} {v:?} is outside the {dims:?} grid"));
-        }
-        let slot = &mut id_grid[super::voxelize::linear(dims, v)];
-        if *slot != u32::MAX {
-            return Err(format!("surface voxel {id} {v:?} is listed twice"));
-        }
-        *slot = id as u32;
-        surface_voxels.push(v);
+    let corners: usize = dims.iter().map(|&d| d as usize + 1).product();
+    let (field_bytes, tau) = payload.split_at(corners);
+    let field: Vec<i8> = field_bytes.iter().map(|&b| b as i8).collect();
+    if let Some(k) = field.iter().position(|&q| (q as f64).abs() > FIELD_LEVELS) {
+        return Err(format!("corner {k} holds {}, outside ±{FIELD_LEVELS}", field[k]));
     }
-    let mut ids = |count: usize, what: &str| -> Result<Vec<u32>, String> {
-        let out = (0..count).map(|_| p.u32()).collect::<Result<Vec<u32>, String>>()?;
-        match out.iter().position(|&id| id as usize >= n) {
-            Some(k) => Err(format!("{what} {k} names surface voxel {}, but there are {n}", out[k])),
-            None => Ok(out),
-        }
-    };
-    let vertex_voxel = ids(vertices, "vertex")?;
-    let nearest_grid = ids(voxels, "grid voxel")?;
-    let data = payload[p.at..].to_vec();
-    Ok(ThicknessLut {
-        res: expect.res,
-        dims,
-        origin,
-        voxel_size,
-        surface_voxels,
-        vertex_voxel,
-        id_grid,
-        nearest_grid,
-        width,
-        height,
-        data,
-    })
+    if let Some(k) = tau.iter().position(|&t| t > TAU_MAX_STEPS) {
+        return Err(format!("cell {k} has τ {} steps, above {TAU_MAX_STEPS}", tau[k]));
+    }
+    Ok(ThicknessLut { res: expect.res, dims, origin, voxel_size, field, tau: tau.to_vec() })
 }
 
 #[cfg(test)]
@@ -465,11 +404,11 @@ mod tests {
     #[test]
     fn round_trip_and_every_corruption_is_refused() {
         let mesh = procedural::cube(1.0).unwrap();
-        let options = BakeOptions { threads: 1, ..BakeOptions::default() };
+        let options = BakeOptions { threads: 1 };
         let (lut, _) = bake(&mesh, 6, &options, &|_, _| {}).unwrap();
         let hash = mesh_hash(&mesh);
-        let bytes = encode(&lut, hash, options.max_texture_dim);
-        let expect = Expect { hash, res: 6, max_dim: options.max_texture_dim, mesh: &mesh };
+        let bytes = encode(&lut, hash);
+        let expect = Expect { hash, res: 6, mesh: &mesh };
         assert_eq!(decode(&bytes, &expect).unwrap(), lut);
         // Every truncation and every single flipped bit anywhere in the header, and a sample of
         // the payload, is refused.
@@ -482,8 +421,7 @@ mod tests {
             assert!(decode(&bad, &expect).is_err(), "flipped byte {at}");
         }
         let other = procedural::cube(2.0).unwrap();
-        let wrong =
-            Expect { hash: mesh_hash(&other), res: 6, max_dim: options.max_texture_dim, mesh: &other };
+        let wrong = Expect { hash: mesh_hash(&other), res: 6, mesh: &other };
         assert!(decode(&bytes, &wrong).unwrap_err().contains("mesh hash"));
         let wrong_res = Expect { res: 7, ..expect };
         assert!(decode(&bytes, &wrong_res).unwrap_err().contains("resolution"));
@@ -497,10 +435,10 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         let cache = BakeCache::new(&dir);
         let mesh = procedural::cube(1.0).unwrap();
-        let options = BakeOptions { threads: 1, ..BakeOptions::default() };
-        let path = cache.path_for(&mesh, 6, &options);
+        let options = BakeOptions { threads: 1 };
+        let path = cache.path_for(&mesh, 6);
         let (lut, _) = bake(&mesh, 6, &options, &|_, _| {}).unwrap();
-        let good = encode(&lut, mesh_hash(&mesh), options.max_texture_dim);
+        let good = encode(&lut, mesh_hash(&mesh));
         std::fs::create_dir_all(&dir).unwrap();
         let fifo = || assert!(std::process::Command::new("mkfifo").arg(&path).status().unwrap().success());
         let zero = || std::os::unix::fs::symlink("/dev/zero", &path).unwrap();

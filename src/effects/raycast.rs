@@ -13,6 +13,8 @@
 //! even number of times, entering and leaving in turn (see `crossings_in` for equal-t ordering).
 //! Without the tie-break the tests below fail (edge and vertex hits count twice).
 
+mod closest;
+
 use glam::DVec3;
 
 use crate::scene::mesh::{Mesh, MeshError};
@@ -165,6 +167,11 @@ impl MeshBvh {
     pub fn triangle_normal(&self, t: usize) -> DVec3 {
         let [a, b, c] = self.corners(t);
         (b - a).cross(c - a).normalize_or_zero()
+    }
+
+    /// The corners of triangle `t` (f64 copies of the mesh's positions).
+    pub fn triangle_corners(&self, t: usize) -> [DVec3; 3] {
+        self.corners(t)
     }
 
     fn corners(&self, t: usize) -> [DVec3; 3] {

@@ -1,7 +1,6 @@
 //! translucency (seed 003) on the CPU in f64: the light's view the `light_id` pass renders from,
 //! and the colour the `translucency` pass adds. Twin of shaders/light_id.vert/.frag and
-//! shaders/translucency.comp (the thickness itself is `effects::thickness` and
-//! `ThicknessLut::world_thickness_between`).
+//! shaders/translucency.comp (the thickness itself is `effects::thickness` and `lut_thickness`).
 //!
 //! **Light view.** An orthographic view along the scene's first directional light l, fitted to the
 //! bounding sphere (centre C, radius R) of every translucent instance: the sphere around the centre
@@ -26,7 +25,7 @@ use glam::{DVec2, DVec3};
 use super::thickness::transmittance;
 use super::thickness_lut::ThicknessLut;
 use crate::scene::transform::Transform;
-use crate::scene::{MaterialKind, Scene};
+use crate::scene::{MaterialKind, Scene, ThicknessMode};
 
 /// Relative padding of the fitted sphere's radius.
 pub const SPHERE_PAD: f64 = 1e-3;
@@ -94,77 +93,79 @@ impl LightView {
     }
 }
 
-/// Where the lookups for an end of a light path are made, in voxel edges along the path into the
-/// material (each clamped to half the path, so the two ends never swap sides).
-pub const END_SHIFTS: [f64; 4] = [0.0, 0.5, 1.0, 1.5];
-
-/// The surface voxel for the end `p` (object space) of a light path of an instance with transform
-/// `m`: the nearest-grid lookups (`ThicknessLut::surface_voxel_at`) at p moved `END_SHIFTS` voxels
-/// along `inward` (the object-space unit direction into the material, along the path; at most
-/// `half` object units), keeping the one whose centre lies nearest, in world space, to the path's
-/// line through p along the world unit direction `dir` (the first one on a tie). The plain lookup
-/// at p picks the surface voxel nearest p's voxel centre, up to ~1.3 voxels beside the path; the
-/// table's segment between two such centres then crosses cavity rims and thin walls the path does
-/// not (or the reverse). Looking a little deeper along the path finds centres beside it.
-pub fn path_end_voxel(
-    lut: &ThicknessLut,
-    m: &Transform,
-    p: DVec3,
-    inward: DVec3,
-    half: f64,
-    dir: DVec3,
-) -> Option<u32> {
-    let mut best: Option<(f64, u32)> = None;
-    for k in END_SHIFTS {
-        let id = lut.surface_voxel_at(p + inward * (k * lut.voxel_size).min(half))?;
-        let w = m.matrix.transform_vector3(lut.centre(id) - p);
-        let off = w - dir * w.dot(dir);
-        let d2 = off.dot(off);
-        if best.is_none_or(|(b, _)| d2 < b) {
-            best = Some((d2, id));
-        }
-    }
-    best.map(|(_, id)| id)
-}
-
 /// The LUT thickness between the light's entry point `a` and the shaded point `b` (object space)
-/// of an instance with transform `m`, as the translucency shader computes it: the path's world
-/// length minus the gaps the table knows, (1 − f(i, j))·|M(c_j − c_i)|, clamped to [0, |M(b − a)|],
-/// with i, j the `path_end_voxel`s of b and a. The ends lie on the surface, so what the centre
-/// segment does not cover near them is material: unlike f·|M(b − a)| (`world_thickness_between`),
-/// a thin wall keeps its part between the surface and the voxel centre. `None` for a non-finite
-/// point; 0 for a = b.
+/// of an instance with transform `m`, as the translucency shader computes it: |M(b − a)| times the
+/// inside fraction the field decodes along the segment (`ThicknessLut::inside_fraction`; exact
+/// scaling for an affine M). `None` for a non-finite point; 0 for a = b.
+///
+/// Error bound per pixel (`effects::thickness_lut` march docs): with a* the light's true entry on
+/// P's ray, |d − d*| ≤ |a − a*|_world + |M(b − a)|·|{t : dist(p(t), ∂S) ≤ δ}|. The first term is
+/// the light map's: a comes from the depth rasterized at a texel centre up to 1.5 texels (the
+/// 3×3 search) beside P's ray, so |a − a*| ≤ 1.5·√2·texel·tan θ on a planar entry face at angle
+/// θ to the light (the slope), more across its silhouette; `light_map_size` keeps the texel at a
+/// quarter voxel.
 pub fn lut_thickness(lut: &ThicknessLut, m: &Transform, a: DVec3, b: DVec3) -> Option<f64> {
     if !(a.is_finite() && b.is_finite()) {
         return None;
     }
     let path = (m.transform_point(b) - m.transform_point(a)).length();
-    let Some(inward) = (a - b).try_normalize().filter(|_| path > 0.0) else { return Some(0.0) };
-    let (half, dir) = (0.5 * (a - b).length(), (m.transform_point(a) - m.transform_point(b)) / path);
-    let i = path_end_voxel(lut, m, b, inward, half, dir)?;
-    let j = path_end_voxel(lut, m, a, -inward, half, dir)?;
-    let span = (m.transform_point(lut.centre(j)) - m.transform_point(lut.centre(i))).length();
-    Some((path - (1.0 - lut.fraction(i, j)) * span).clamp(0.0, path))
+    if path.is_nan() || path <= 0.0 {
+        return Some(0.0);
+    }
+    Some(path * lut.inside_fraction(a, b))
 }
 
-/// The smallest and largest side of the light_id maps, in texels.
+/// The smallest and largest side of the light_id maps, in texels. 4096 is the least
+/// maxImageDimension2D Vulkan allows a device, so every device takes it; at 12 bytes a texel
+/// (light_ids R32UI, light_z R32F, light_depth D32) it is 192 MiB, the memory cap.
 pub const LIGHT_MAP_MIN: u32 = 256;
-pub const LIGHT_MAP_MAX: u32 = 1024;
+pub const LIGHT_MAP_MAX: u32 = 4096;
+/// The cap in scenes that draw a `thickness = "peel"` material: its crossing lists take 68 bytes a
+/// texel more (passes::peel::image_bytes), 272 MiB at 2048² (1.1 GiB at 4096²).
+pub const LIGHT_MAP_MAX_PEEL: u32 = 2048;
+/// Map sides are rounded up to a multiple of this.
+pub const LIGHT_MAP_STEP: u32 = 256;
 
 /// The side of the light_id maps: texels of at most a quarter of the finest world voxel edge among
-/// the translucent instances, so the entry point a texel gives lies within a quarter voxel of the
-/// light's own ray, well under the LUT's voxel-scale error; a power of two in [`LIGHT_MAP_MIN`,
-/// `LIGHT_MAP_MAX`] (the smallest map for a scene without a translucent instance or a light).
-/// The quarter-voxel bound holds only while it fits in `LIGHT_MAP_MAX`: fine voxels over a wide
-/// light view (res 64, several instances apart) are capped at 1024² with coarser texels (0.26–0.40
-/// voxel measured by a review; issue 13 item 5). Instances that move change the view and so the
-/// size, frame by frame (`TranslucentFrame`).
+/// the translucent instances, so the entry point a texel gives lies within a quarter voxel (times
+/// the slope) of the light's own ray; rounded up to a multiple of `LIGHT_MAP_STEP` in
+/// [`LIGHT_MAP_MIN`, `LIGHT_MAP_MAX`] (the smallest map for a scene without a translucent instance
+/// or a light). When the cap binds (`light_map_texel_voxels` > ¼: fine voxels over a light view
+/// wider than 1024 of them, e.g. res 128 instances spread 8 of their sizes apart), the texel is
+/// 2R/4096 (2R/2048 with a peel material: `LIGHT_MAP_MAX_PEEL`, the view wider than 512 voxels)
+/// and the light-map term of the bound grows with it. Instances that move change the view
+/// and so the size, frame by frame (`TranslucentFrame`).
 /// The map spans the light view's diameter 2R. An instance's finest world voxel edge is its object
 /// edge h = (longest side of the mesh box) / voxel_res shrunk by M's smallest stretch σ_min =
 /// 1/‖M⁻¹‖₂ ≥ 1/‖M⁻¹‖_F (Frobenius, on the linear part): h/‖M⁻¹‖_F is a lower bound of it
-/// (√3 below the true edge for a uniform scale: the map may be one step larger than needed).
+/// (√3 below the true edge for a uniform scale: the map may be larger than needed).
 pub fn light_map_size(scene: &Scene) -> u32 {
-    let Some(view) = LightView::fit(scene) else { return LIGHT_MAP_MIN };
+    let Some((diameter, finest)) = light_map_extent(scene) else { return LIGHT_MAP_MIN };
+    let peel = scene.instances.iter().any(|i| {
+        matches!(
+            scene.materials[i.material].kind,
+            MaterialKind::Translucent { thickness: ThicknessMode::Peel, .. }
+        )
+    });
+    let max = if peel { LIGHT_MAP_MAX_PEEL } else { LIGHT_MAP_MAX };
+    let texels = diameter / (0.25 * finest);
+    if !(texels.is_finite() && texels > 0.0) {
+        return max;
+    }
+    let steps = (texels.min(max as f64) / LIGHT_MAP_STEP as f64).ceil() as u32;
+    (steps * LIGHT_MAP_STEP).clamp(LIGHT_MAP_MIN, max)
+}
+
+/// The light map's texel in finest voxel edges (the bound `light_map_size` aims at ≤ ¼);
+/// `None` without a light or a translucent instance.
+pub fn light_map_texel_voxels(scene: &Scene) -> Option<f64> {
+    let (diameter, finest) = light_map_extent(scene)?;
+    Some(diameter / light_map_size(scene) as f64 / finest)
+}
+
+/// The light view's diameter 2R and the finest world voxel edge bound (see `light_map_size`).
+fn light_map_extent(scene: &Scene) -> Option<(f64, f64)> {
+    let view = LightView::fit(scene)?;
     let mut finest = f64::INFINITY;
     for inst in &scene.instances {
         let MaterialKind::Translucent { voxel_res, .. } = scene.materials[inst.material].kind else {
@@ -178,11 +179,7 @@ pub fn light_map_size(scene: &Scene) -> u32 {
         .sqrt();
         finest = finest.min((hi - lo).max_element() / voxel_res as f64 / frobenius);
     }
-    let texels = 2.0 * view.radius / (0.25 * finest);
-    if !(texels.is_finite() && texels > 0.0) {
-        return LIGHT_MAP_MAX;
-    }
-    (texels.ceil().min(LIGHT_MAP_MAX as f64) as u32).next_power_of_two().clamp(LIGHT_MAP_MIN, LIGHT_MAP_MAX)
+    Some((2.0 * view.radius, finest))
 }
 
 /// The light that crossed d of material: L·albedo·exp(−σ·d) per channel (0 for d = +inf).
@@ -240,14 +237,14 @@ mod tests {
     }
 
     /// On a box every segment between two surface points is inside: the LUT thickness is the
-    /// path's length (f = 1, whatever voxels the ends pick), under any transform; and it shrinks
-    /// by about the cavity chord through the cavity cube.
+    /// path's length under any transform; and it shrinks by about the cavity chord through the
+    /// cavity cube.
     #[test]
     fn lut_thickness_is_the_path_on_a_box_and_leaves_the_cavity_out() {
         use crate::effects::thickness_lut::{bake, BakeOptions};
         use crate::scene::procedural;
         use crate::scene::transform::TransformOp;
-        let options = BakeOptions { threads: 1, ..BakeOptions::default() };
+        let options = BakeOptions { threads: 1 };
         let (lut, _) = bake(&procedural::cube(2.0).unwrap(), 8, &options, &|_, _| {}).unwrap();
         let m = Transform::from_ops(&[
             TransformOp::Scale(DVec3::new(1.5, 0.7, 1.0)),
@@ -264,13 +261,11 @@ mod tests {
         }
         assert_eq!(lut_thickness(&lut, &m, DVec3::ZERO, DVec3::ZERO), Some(0.0));
         assert_eq!(lut_thickness(&lut, &m, DVec3::NAN, DVec3::ZERO), None);
-        // Straight through the centre of a cube with a cavity of radius 0.6: the path is 2 long,
-        // the table's segment crosses the whole (tessellated) cavity.
         let (hollow, _) =
             bake(&procedural::cavity_cube(2.0, 0.6, 32, 16).unwrap(), 25, &options, &|_, _| {}).unwrap();
         let (a, b) = (DVec3::new(0.013, 0.011, -1.0), DVec3::new(0.013, 0.011, 1.0));
         let d = lut_thickness(&hollow, &Transform::IDENTITY, a, b).unwrap();
-        assert!((d - (2.0 - 1.2)).abs() < 2.0 * hollow.voxel_size, "{d}");
+        assert!((d - (2.0 - 1.2)).abs() < 0.5 * hollow.voxel_size, "{d}");
     }
 
     #[test]
@@ -288,30 +283,58 @@ mod tests {
     #[test]
     fn light_map_texels_are_a_quarter_of_the_finest_voxel() {
         let load = |name: &str| crate::scene::load_scene(format!("assets/scenes/{name}").as_ref()).unwrap();
-        // The three seed objects side by side need the largest map; the showcase's one cube less.
-        let seed = load("translucency.toml");
-        assert_eq!(light_map_size(&seed), LIGHT_MAP_MAX);
-        let mut showcase = load("showcase.toml");
-        let size = light_map_size(&showcase);
+        for name in ["translucency.toml", "showcase.toml"] {
+            let scene = load(name);
+            let size = light_map_size(&scene);
+            // The Frobenius bound is a lower bound of the finest voxel: the texel in true voxels is
+            // at most the texel in bound voxels.
+            let texel = light_map_texel_voxels(&scene).unwrap();
+            assert!(texel <= 0.25 + 1e-12, "{name}: {size}² map, texel {texel} voxel");
+            // One step smaller would not meet the rule: the size is not larger than it asks.
+            assert!(size == LIGHT_MAP_MIN || texel * size as f64 / (size - LIGHT_MAP_STEP) as f64 > 0.25);
+            assert!(size % LIGHT_MAP_STEP == 0 && size <= LIGHT_MAP_MAX);
+        }
+        // The showcase's jade cube (a uniform scale, where the true voxel is known): its texel is
+        // at most a quarter of it.
+        let showcase = load("showcase.toml");
         let view = LightView::fit(&showcase).unwrap();
         let jade = showcase.instances.iter().find(|i| i.name.as_deref() == Some("jade cube")).unwrap();
         let MaterialKind::Translucent { voxel_res, .. } = showcase.materials[jade.material].kind else {
             panic!()
         };
         let (lo, hi) = showcase.meshes[jade.mesh].mesh.bounds();
-        // A uniform scale s: the world voxel is s·h exactly.
         let world_voxel = 0.55 * (hi - lo).max_element() / voxel_res as f64;
-        let texel = 2.0 * view.radius / size as f64;
+        let texel = 2.0 * view.radius / light_map_size(&showcase) as f64;
         assert!(texel <= 0.25 * world_voxel * (1.0 + 1e-12), "texel {texel}, voxel {world_voxel}");
-        // The Frobenius bound takes a uniform scale's voxel √3 times smaller: half the size must
-        // not meet that bound, or the size is larger than the rule asks.
-        let bound = 0.25 * world_voxel / 3f64.sqrt();
-        assert!(size == LIGHT_MAP_MIN || 2.0 * texel > bound, "{size} is larger than needed");
-        assert!(size < LIGHT_MAP_MAX);
+        // Where the cap binds (res 128 cubes far apart), the texel is 2R/4096 and reported > ¼.
+        let mut wide = showcase.clone();
+        for m in &mut wide.materials {
+            if let MaterialKind::Translucent { voxel_res, .. } = &mut m.kind {
+                *voxel_res = 128;
+            }
+        }
+        let k = wide.instances.iter().position(|i| i.name.as_deref() == Some("jade cube")).unwrap();
+        let mut far = wide.instances[k].clone();
+        far.transform = Transform::from_ops(&[crate::scene::transform::TransformOp::Translate(DVec3::new(
+            60.0, 0.0, 0.0,
+        ))])
+        .unwrap();
+        wide.instances.push(far);
+        assert_eq!(light_map_size(&wide), LIGHT_MAP_MAX);
+        assert!(light_map_texel_voxels(&wide).unwrap() > 0.25);
+        // With a peel material the lists cap the map at 2048².
+        let mut peeled = wide.clone();
+        for m in &mut peeled.materials {
+            if let MaterialKind::Translucent { thickness, .. } = &mut m.kind {
+                *thickness = ThicknessMode::Peel;
+            }
+        }
+        assert_eq!(light_map_size(&peeled), LIGHT_MAP_MAX_PEEL);
         // No translucent instance or no light: the smallest map.
         assert_eq!(light_map_size(&load("single_cube.toml")), LIGHT_MAP_MIN);
-        showcase.lights.clear();
-        assert_eq!(light_map_size(&showcase), LIGHT_MAP_MIN);
+        let mut dark = showcase;
+        dark.lights.clear();
+        assert_eq!(light_map_size(&dark), LIGHT_MAP_MIN);
     }
 
     #[test]

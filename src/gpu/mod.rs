@@ -21,13 +21,13 @@ pub(crate) mod resources;
 #[doc(hidden)]
 pub mod ring;
 #[doc(hidden)]
+pub mod sampler;
+#[doc(hidden)]
 pub mod shader;
 #[doc(hidden)]
 pub mod texel_buffer;
 #[doc(hidden)]
 pub mod timestamps;
-#[doc(hidden)]
-pub mod upload;
 pub mod validation;
 
 pub use ash::vk;

@@ -280,7 +280,7 @@ mod tests {
         assert_eq!(mb.push_bytes, size(size_of::<MetaballParams>()));
         let tr = interface("translucency.comp", &[]);
         assert_eq!(element(&tr, 0), size(size_of::<TranslucencyParams>()));
-        assert_eq!(element(&tr, 11), size(size_of::<MaterialData>()));
+        assert_eq!(element(&tr, 10), size(size_of::<MaterialData>()));
         assert_eq!(interface("tonemap.comp", &[]).push_bytes, 12);
     }
 

@@ -1,22 +1,19 @@
 //! light_id: the translucent instances rendered from the scene's first directional light, with an
 //! orthographic view fitted to their bounding sphere (`effects::translucency::LightView`), into
 //! its own S² maps, S = `effects::translucency::light_map_size` (texels of at most a quarter of the
-//! finest world voxel where 1024 texels suffice, 256 to 1024; independent of the frame's size, so
+//! finest world voxel where 4096 texels suffice, 256 to 4096; independent of the frame's size, so
 //! the light's sampling does not change with the output resolution; made again each frame as
 //! instances move):
-//! - `light_ids` (RG32UI): (instance id + 1, surface voxel) of the first translucent surface the
-//!   light reaches; the voxel is the nearest-grid lookup at the fragment's object-space position
-//!   (`ThicknessLut::surface_voxel_at`; the translucency pass takes it as the first candidate for
-//!   the path's entry end), `NO_LUT` for instances drawn with `thickness = "tsm"`; (0, 0) where
-//!   the light crosses no translucent instance;
+//! - `light_ids` (R32UI): instance id + 1 of the first translucent surface the light reaches, 0
+//!   where the light crosses no translucent instance;
 //! - `light_z` (R32F): that surface's light-space distance z = (p − C)·l + R (TSM's depth);
 //! - `light_depth` (D32): the pass's own depth test (LESS, cleared to 1).
 //!
 //! Only translucent instances are drawn (opaque ones do not shadow the light), one draw per run of
 //! consecutive translucent slots in the scene's instance table, with the faces turned away from
 //! the light culled (translucent meshes are closed and outward-facing: the first surface along a
-//! light ray faces the light; mirrored instances are drawn with the opposite culling). At 1024²
-//! the maps take 16 MiB (8 + 4 + 4 bytes a texel). The `translucency` pass reads them.
+//! light ray faces the light; mirrored instances are drawn with the opposite culling). The maps
+//! take 12 bytes a texel (12 MiB at 1024², 192 MiB at 4096²). The `translucency` pass reads them.
 
 use std::sync::Arc;
 
@@ -115,17 +112,7 @@ impl Pass for LightIdPass {
         let now = TranslucentFrame::new(frame.scene, &self.data);
         (self.view, self.lit, self.draws, self.size) =
             (now.view_data, now.view.is_some(), now.draws, now.map_size);
-        let d = &self.data;
-        Ok(vec![
-            Binding::Bound(Bound::Storage(frame.instances)),
-            Binding::Bound(Bound::UniformTexel(d.grid.view)),
-            Binding::Bound(Bound::UniformTexel(d.records.view)),
-            Binding::Bound(frame.texels(
-                "light_id instances",
-                &now.instances,
-                crate::gpu::texel_buffer::Texels::U32x4,
-            )?),
-        ])
+        Ok(vec![Binding::Bound(Bound::Storage(frame.instances))])
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {

@@ -16,8 +16,8 @@
 //!
 //! The shaded point P = camera + u·distance (the pixel ray as `Camera::pixel_ray` builds it, the
 //! raster's `distance`). Projected into the light's view (`effects::translucency::LightView`) it
-//! falls in texel t of the light_id maps, which hold the instance and the surface voxel of the
-//! first translucent surface the light reaches there, and that surface's light-space distance
+//! falls in texel t of the light_id maps, which hold the instance of the first translucent
+//! surface the light reaches there, and that surface's light-space distance
 //! z(entry). The texel used is t itself when it holds P's instance, else the nearest of its 8
 //! neighbours that does (P at the silhouette seen from the light). With
 //! tsm = max(z(P) − z(entry), 0):
@@ -26,20 +26,10 @@
 //!   P's instance on the crossing list of P's texel t (the `peel` pass), up to z(P); an overflowed
 //!   list takes the TSM path below (src/passes/peel.rs).
 //! - `thickness = "lut"`: the light's entry point a = P − l·tsm lies on P's own light ray; with
-//!   b = P, both taken to object space by M⁻¹, d = |M(b − a)| − (1 − f(i, j))·|M(c_j − c_i)|,
-//!   clamped to [0, tsm] (`effects::translucency::lut_thickness`): the path less the gaps the
-//!   table knows on the segment between the centres c_i, c_j of the surface voxels at its ends.
-//!   Each end's voxel is the best of 4 nearest-grid lookups, at the end and 0.5, 1, 1.5 voxels
-//!   further along the path into the material: the one whose centre lies nearest the path
-//!   (`path_end_voxel`; for the entry end the light map's voxel is the first lookup).
-//!
-//!   Why not f·|M(b − a)| (`world_thickness_between`) with the plain lookups: surface-voxel
-//!   centres lie up to a voxel below the surface and ~1.3 voxels beside the path, so the table's
-//!   segment misses part of a thin wall (the bottle's glass is 1.4 voxels thick) and crosses
-//!   cavity rims the path does not. Measured on the seed's objects under rotated, non-uniformly
-//!   scaled instances when this method was chosen (the scenes of tests/gpu_translucency.rs; the
-//!   plain-lookup variant is no longer built), p95 of the error in voxels: bottle 2.0 → 0.69,
-//!   cavity cube 1.26 → 0.86.
+//!   b = P, both taken to object space by M⁻¹, d = |M(b − a)| times the inside fraction the
+//!   instance's thickness field decodes along a → b (`lut_inside_fraction` in
+//!   shaders/common/translucency.glsl; its f64 twin `ThicknessLut::inside_fraction`, and
+//!   `effects::translucency::lut_thickness`): the path less the cavities and gaps it crosses.
 //!
 //! **Fallbacks** (no texel of P's instance in the 3×3 block): when texel t holds another instance,
 //! the light crossed that one first: d = max(z(P) − z(t), 0), TSM's distance from its surface (the
@@ -48,29 +38,28 @@
 //! groups (instance ids past the scene's instances) are not translucent here. Opaque instances do
 //! not shadow the light (the raster has no shadows either).
 //!
-//! # GPU data (built once at scene load, shared with `light_id`)
+//! # GPU data (built once at scene load)
 //!
 //! Every (mesh, voxel_res) drawn by an instance whose material is translucent with
-//! `thickness = "lut"` is baked through `BakeCache` (`effects::bake_cache`; the device's
-//! maxImageDimension2D is the bake's texture limit) and packed into:
-//! - **LUT image**, `R8_UNORM`, sampled with `texelFetch` (NEAREST sampler): the tables one after
-//!   the other in one texel numbering (no descriptor indexing on lavapipe, so one image for all
-//!   meshes). Table m's pair (i, j) is texel `base_m + pair_index(i, j, N_m)`, texel k at
-//!   `(k mod W, k / W)` with `W = min(total, 4096, limit)` and `H = ceil(total / W)` (W becomes the
-//!   limit when H would exceed it): for one table exactly its `LutLayout`. Bytes = W·H, about
-//!   Σ N_m(N_m + 1)/2. A total above limit² texels is refused, naming maxImageDimension2D.
-//! - **nearest grids**, storage buffer of u32: every table's `nearest_grid` (dims.x·dims.y·dims.z
-//!   words, x fastest), one after the other: 4 bytes a grid voxel.
-//! - **surface-voxel centres**, storage buffer of vec4 (object space, w = 0): 16 bytes a surface
-//!   voxel.
-//! - **`LutRecord`** per table (48 bytes): origin + voxel edge, dims + N, the grid word offset, the
-//!   first texel, the first centre.
+//! `thickness = "lut"` is baked through `BakeCache` (`effects::bake_cache`) and packed into:
+//! - **fields**, a uniform texel buffer of R32_UINT: every table's field (`ThicknessLut::words`:
+//!   four 8-bit SNORM corners a word, the lowest byte first), one after the other, each
+//!   starting on a word. Corner k of table m is byte (k & 3) of word `first_m + k/4`, decoded in
+//!   the shader by integer sign extension (exact) times `scale.x`. Why not a 3D image with a
+//!   linear sampler: there is no descriptor indexing on lavapipe (one image for all meshes would be
+//!   an atlas with borders), and a sampler's filtering weights are only required to have 8
+//!   fractional bits (a 1/256-voxel step in where a crossing lands, of the order of R8's
+//!   quantization) — 8 texel fetches and the interpolation in f32 are exact to f32 rounding.
+//!   Then its τ per cell, four bytes a word (`TAU_STEPS`). A total above
+//!   maxTexelBufferElements words is refused, naming the limit.
+//! - **`LutRecord`** per table (48 bytes): origin + voxel edge, dims + first word, the field's and
+//!   τ's units.
 //! - **`TranslucentInstance`** per scene instance, scene order (144 bytes): M and M⁻¹ (from the f64
 //!   transform), the table index (`NO_LUT` for TSM or opaque instances), a translucent flag.
 //!
-//! For assets/scenes/translucency.toml: a 4096×7280 table image (29.8 MB: ring 60³ 5760 surface
-//! voxels 16.6 MB, hollow cube 25³ 3458 voxels 6.0 MB, bottle 56³ 3806 voxels 7.2 MB), 0.5 MB of
-//! grids, 0.2 MB of centres; plus the light_id maps (16 MiB at 1024², `light_map_size`).
+//! For assets/scenes/translucency.toml: 1 byte a corner and 1 a cell, 0.6 MB for the three fields (ring
+//! 60³, hollow cube 25³, bottle 56³; `hadou report`), plus the light_id maps (12 bytes a texel,
+//! `light_map_size`).
 
 use std::sync::Arc;
 
@@ -78,14 +67,13 @@ use glam::DVec3;
 
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
 use crate::effects::bake_cache::BakeCache;
-use crate::effects::thickness_lut::{bake, BakeOptions, ThicknessLut, LUT_WIDTH};
+use crate::effects::thickness_lut::{bake, BakeOptions, ThicknessLut, TAU_STEPS};
 use crate::effects::translucency::{light_map_size, LightView};
 use crate::gpu::barriers::ImageAccess;
-use crate::gpu::memory::{Image, Memory};
+use crate::gpu::memory::Memory;
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::texel_buffer::{TexelBuffer, Texels};
-use crate::gpu::upload::{stage_image, Sampler};
 use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
 use crate::passes::gpu_structs::{instance_records, mat4_f32};
 use crate::scene::camera::PixelRect;
@@ -95,16 +83,16 @@ use crate::targets::Target;
 /// `TranslucentInstance::info.x` of an instance without a table.
 pub const NO_LUT: u32 = u32::MAX;
 
-/// One baked table. Keep in sync with `LutRecord` in shaders/common/translucency.glsl.
+/// One baked field. Keep in sync with `LutRecord` in shaders/common/translucency.glsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct LutRecord {
-    /// xyz: object-space minimum corner of voxel (0, 0, 0); w: voxel edge.
+    /// xyz: object-space position of corner (0, 0, 0); w: voxel edge h.
     pub origin: [f32; 4],
-    /// xyz: grid voxels; w: surface voxels N.
+    /// xyz: grid voxels (corners: + 1); w: its first word in the fields buffer.
     pub dims: [u32; 4],
-    /// x: first word of the nearest grid; y: first texel of the table; z: first surface-voxel centre.
-    pub offsets: [u32; 4],
+    /// x: object units per unit of a stored value (C·h/127); y: object units per τ step (h/64).
+    pub scale: [f32; 4],
 }
 
 /// Per scene instance. Keep in sync with `TranslucentInstance` in shaders/common/translucency.glsl.
@@ -146,7 +134,7 @@ pub struct TranslucencyParams {
     pub view: LightViewData,
     /// Frame width, height, light map size, scene instances.
     pub dims: [u32; 4],
-    /// x: LUT image width.
+    /// Unused (kept for the layout).
     pub lut: [u32; 4],
     /// The pixels [x, z) × [y, w) the main dispatch covers (`translucent_pixels`).
     pub rect: [u32; 4],
@@ -177,54 +165,27 @@ impl LightViewData {
     }
 }
 
-/// The size of the packed table image for `total` texels under a `limit`-texel side, or an error
-/// naming the limit.
-pub fn atlas_extent(total: u64, limit: u32) -> GpuResult<vk::Extent2D> {
-    let limit64 = limit.max(1) as u64;
-    let mut width = total.clamp(1, (LUT_WIDTH as u64).min(limit64));
-    let mut height = total.div_ceil(width).max(1);
-    if height > limit64 {
-        width = limit64;
-        height = total.div_ceil(width);
-    }
-    if height > limit64 {
-        return Err(GpuError::Limit {
-            what: "translucency LUT image".into(),
-            message: format!(
-                "the scene's thickness tables hold {total} texels, more than a {limit}×{limit} image \
-                 (the device's maxImageDimension2D is {limit}); lower the materials' voxel_res"
-            ),
-        });
-    }
-    Ok(vk::Extent2D { width: width as u32, height: height as u32 })
-}
-
 /// What was baked for one table, for logs and reports.
 #[derive(Clone, Debug)]
 pub struct LutSummary {
     pub mesh: String,
     pub res: u32,
-    pub surface_voxels: u32,
-    /// Bytes of its table (N(N+1)/2) and of its nearest grid.
-    pub table_bytes: u64,
-    pub grid_bytes: u64,
+    /// Bytes of its field and τ (1 a corner, 1 a cell).
+    pub field_bytes: u64,
 }
 
-/// The scene's baked translucency data on the GPU, shared by `light_id` and `translucency`: what
-/// does not change when instances move (the tables are in object space, exact under any affine
-/// transform). What does — the light's view, the instance matrices, the light draws — is a
-/// `TranslucentFrame`, made each frame.
+/// The scene's baked translucency data on the GPU, read by `translucency`: what does not change
+/// when instances move (the fields are in object space, exact under any affine transform). What
+/// does — the light's view, the instance matrices, the light draws — is a `TranslucentFrame`,
+/// made each frame.
 pub struct TranslucentData {
     pub tables: Vec<LutSummary>,
     /// The (mesh, voxel_res) of each table, in table order.
     pub keys: Vec<(usize, u32)>,
-    pub lut_image: Image,
-    pub sampler: Sampler,
-    // Read as texel buffers (see gpu::texel_buffer for why): the nearest grids (one uint per
-    // texel), the LutRecords (3 four-uint texels each) and the surface-voxel centres (1).
-    pub grid: TexelBuffer,
+    // Read as texel buffers (see gpu::texel_buffer for why): the fields (two corners a uint
+    // texel) and the LutRecords (3 four-uint texels each).
+    pub fields: TexelBuffer,
     pub records: TexelBuffer,
-    pub centres: TexelBuffer,
 }
 
 /// What the translucent instances look like this frame, from the scene's current transforms and
@@ -267,11 +228,8 @@ impl TranslucentFrame {
 pub(crate) struct Packed {
     tables: Vec<LutSummary>,
     keys: Vec<(usize, u32)>,
-    atlas: Vec<u8>,
-    extent: vk::Extent2D,
-    grid: Vec<u32>,
+    fields: Vec<u32>,
     records: Vec<LutRecord>,
-    centres: Vec<[f32; 4]>,
 }
 
 fn translucent_mode(scene: &Scene, instance: usize) -> Option<(u32, ThicknessMode)> {
@@ -285,11 +243,10 @@ fn bake_table(
     scene: &Scene,
     mesh: usize,
     res: u32,
-    limit: u32,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> GpuResult<ThicknessLut> {
     let m = &scene.meshes[mesh];
-    let options = BakeOptions { max_texture_dim: limit, ..BakeOptions::default() };
+    let options = BakeOptions::default();
     let none = progress;
     let baked = match BakeCache::from_env() {
         Some(cache) => cache.get_or_bake(&m.mesh, res, &options, none).map(|c| {
@@ -365,49 +322,48 @@ fn pack(scene: &Scene, limit: u32) -> GpuResult<Packed> {
     pack_keys(scene, table_keys(scene), limit, &|_, _| {})
 }
 
-/// The tables of `keys` (mesh, voxel_res), baked through the cache, packed as the passes read
-/// them; `progress(done, total)` of each bake in turn. Runs on any thread (run-time bakes).
+/// The tables of `keys` (mesh, voxel_res), baked through the cache, packed as the pass reads
+/// them (`limit`: the device's maxTexelBufferElements); `progress(done, total)` of each bake in
+/// turn. Runs on any thread (run-time bakes).
 pub(crate) fn pack_keys(
     scene: &Scene,
     keys: Vec<(usize, u32)>,
     limit: u32,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> GpuResult<Packed> {
-    let (mut tables, mut grid, mut records, mut texels) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut centres: Vec<[f32; 4]> = Vec::new();
+    let (mut tables, mut fields, mut records) = (Vec::new(), Vec::new(), Vec::new());
     for &(mesh, res) in &keys {
-        let lut = bake_table(scene, mesh, res, limit, progress)?;
-        let n = lut.surface_count() as u64;
-        let pairs = n * (n + 1) / 2;
-        records.push(LutRecord {
-            origin: v4(lut.origin, lut.voxel_size as f32),
-            dims: [lut.dims[0], lut.dims[1], lut.dims[2], n as u32],
-            offsets: [grid.len() as u32, texels.len() as u32, centres.len() as u32, 0],
-        });
-        if texels.len() as u64 + pairs > u32::MAX as u64 {
-            // The image limit below refuses this too; the u32 offsets must not wrap before.
+        let lut = bake_table(scene, mesh, res, progress)?;
+        let words = lut.words();
+        if fields.len() as u64 + words.len() as u64 > limit as u64 {
             return Err(GpuError::Limit {
-                what: "translucency LUT image".into(),
-                message: format!("more than 2³² texels (maxImageDimension2D is {limit})"),
+                what: "translucency thickness fields".into(),
+                message: format!(
+                    "the scene's fields need {} words, more than the device's maxTexelBufferElements \
+                     {limit}; lower the materials' voxel_res",
+                    fields.len() + words.len()
+                ),
             });
         }
-        texels.extend_from_slice(&lut.data[..pairs as usize]);
-        grid.extend_from_slice(&lut.nearest_grid);
-        centres.extend(lut.surface_centres_f32());
+        records.push(LutRecord {
+            origin: v4(lut.origin, lut.voxel_size as f32),
+            dims: [lut.dims[0], lut.dims[1], lut.dims[2], fields.len() as u32],
+            scale: [lut.scale() as f32, (lut.voxel_size / TAU_STEPS) as f32, 0.0, 0.0],
+        });
+        fields.extend_from_slice(&words);
         tables.push(LutSummary {
             mesh: scene.meshes[mesh].name.clone(),
             res,
-            surface_voxels: n as u32,
-            table_bytes: pairs,
-            grid_bytes: lut.nearest_grid.len() as u64 * 4,
+            field_bytes: lut.bytes() as u64,
         });
     }
-    let extent = atlas_extent(texels.len() as u64, limit)?;
-    texels.resize(extent.width as usize * extent.height as usize, 0);
     if records.is_empty() {
         records.push(LutRecord::default());
     }
-    Ok(Packed { tables, keys, atlas: texels, extent, grid, records, centres })
+    if fields.is_empty() {
+        fields.push(0);
+    }
+    Ok(Packed { tables, keys, fields, records })
 }
 
 /// One instanced draw of the light_id pass.
@@ -445,56 +401,26 @@ pub fn draw_runs(scene: &Scene) -> Vec<LightDraw> {
 }
 
 impl TranslucentData {
-    /// Bakes (through the cache) and uploads everything the two passes read.
+    /// Bakes (through the cache) and uploads everything the translucency pass reads.
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
-        Self::from_packed(ctx, memory, pack(scene, ctx.limits.max_image_dimension2_d)?)
+        Self::upload(ctx, memory, pack(scene, ctx.limits.max_texel_buffer_elements)?)
     }
 
-    /// Uploads tables packed already, the LUT image by a one-off copy waited for (at load).
-    pub(crate) fn from_packed(ctx: &GpuContext, memory: &Memory, packed: Packed) -> GpuResult<Self> {
-        let (data, copy) = Self::staged(ctx, memory, packed)?;
-        copy.submit_once(ctx)?;
-        Ok(data)
-    }
-
-    /// Tables packed already (`pack_keys`, e.g. by a run-time bake), with the copy that fills the
-    /// LUT image still to record (into a frame's command buffer before any pass reads it).
-    pub(crate) fn staged(
-        ctx: &GpuContext,
-        memory: &Memory,
-        packed: Packed,
-    ) -> GpuResult<(Self, crate::gpu::upload::ImageCopy)> {
+    /// Uploads tables packed already (`pack_keys`, e.g. by a run-time bake): host-visible texel
+    /// buffers, written at once.
+    pub(crate) fn upload(ctx: &GpuContext, memory: &Memory, packed: Packed) -> GpuResult<Self> {
         let (word, quad) = (Texels::U32, Texels::U32x4);
         let texels =
             |name: &str, bytes: &[u8], texels| TexelBuffer::from_bytes(ctx, memory, name, bytes, texels);
-        let grid = texels("translucency nearest grids", bytemuck::cast_slice(&packed.grid), word)?;
+        let fields = texels("translucency fields", bytemuck::cast_slice(&packed.fields), word)?;
         let records = texels("translucency lut records", bytemuck::cast_slice(&packed.records), quad)?;
-        let centres = texels("translucency centres", bytemuck::cast_slice(&packed.centres), quad)?;
-        let format = vk::Format::R8_UNORM;
-        let (lut_image, copy) =
-            stage_image(ctx, memory, "translucency lut", packed.extent, format, 1, &packed.atlas)?;
-        let sampler = Sampler::nearest(ctx, "translucency lut sampler")?;
-        let (table_bytes, grid_bytes): (u64, u64) =
-            packed.tables.iter().fold((0, 0), |(t, g), s| (t + s.table_bytes, g + s.grid_bytes));
+        let field_bytes: u64 = packed.tables.iter().map(|s| s.field_bytes).sum();
         log::info!(
-            "translucency: {} tables, LUT image {}x{} R8_UNORM ({} bytes, {table_bytes} used), grids {grid_bytes} \
-             bytes, centres {} bytes",
+            "translucency: {} thickness fields, {field_bytes} bytes ({} words of R8_SNORM quads and τ)",
             packed.tables.len(),
-            packed.extent.width,
-            packed.extent.height,
-            packed.atlas.len(),
-            packed.centres.len() * 16
+            packed.fields.len()
         );
-        let data = TranslucentData {
-            tables: packed.tables,
-            keys: packed.keys,
-            lut_image,
-            sampler,
-            grid,
-            records,
-            centres,
-        };
-        Ok((data, copy))
+        Ok(TranslucentData { tables: packed.tables, keys: packed.keys, fields, records })
     }
 }
 
@@ -511,7 +437,7 @@ pub struct TranslucencyPass {
     rect: Option<PixelRect>,
     extent: vk::Extent2D,
     data: Arc<TranslucentData>,
-    /// Built with WITH_PEEL: reads the peel pass's lists (bindings 14, 15).
+    /// Built with WITH_PEEL: reads the peel pass's lists (bindings 12, 13).
     peel: bool,
 }
 
@@ -590,7 +516,7 @@ impl Pass for TranslucencyPass {
             view: now.view_data,
             // light_id sized its maps from the same frame.
             dims: [extent.width, extent.height, now.map_size, scene.instances.len() as u32],
-            lut: [data.lut_image.extent.width, 0, 0, 0],
+            lut: [0; 4],
             rect: self.rect.map_or([0; 4], |r| [r.x0, r.y0, r.x1, r.y1]),
         };
         let mut bindings = vec![
@@ -601,12 +527,10 @@ impl Pass for TranslucencyPass {
             Binding::Image(Target::LightIds),
             Binding::Image(Target::LightZ),
             Binding::Image(Target::Thickness),
-            Binding::Bound(Bound::Sampled(data.lut_image.view, data.sampler.raw)),
-            Binding::Bound(Bound::UniformTexel(data.grid.view)),
+            Binding::Bound(Bound::UniformTexel(data.fields.view)),
             Binding::Bound(Bound::UniformTexel(data.records.view)),
             Binding::Bound(frame.texels("translucency instances", &now.instances, Texels::U32x4)?),
             Binding::Bound(Bound::Storage(frame.materials)),
-            Binding::Bound(Bound::UniformTexel(data.centres.view)),
             Binding::Image(Target::Normal),
         ];
         if self.peel {
@@ -639,21 +563,46 @@ impl Pass for TranslucencyPass {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effects::thickness_lut::LutLayout;
 
+    /// Two fields pack one after the other, each on a word, and a total above the texel buffer
+    /// limit is refused naming it.
     #[test]
-    fn one_table_packs_as_its_layout_and_too_many_texels_name_the_limit() {
-        for n in [0usize, 1, 10, 4000, 12000, 23169] {
-            let layout = LutLayout::new(n, 16384).unwrap();
-            let e = atlas_extent(layout.pairs, 16384).unwrap();
-            assert_eq!((e.width, e.height), (layout.width, layout.height), "{n} surface voxels");
-        }
-        assert!(atlas_extent(256 * 256, 256).is_ok());
-        let message = atlas_extent(256 * 256 + 1, 256).unwrap_err().to_string();
-        assert!(
-            message.contains("maxImageDimension2D is 256") && message.contains("65537 texels"),
-            "{message}"
-        );
+    fn fields_pack_on_words_and_too_many_name_the_limit() {
+        let text = r#"
+            [camera]
+            position = [0, 0, 5]
+            look_at = [0, 0, 0]
+            [[mesh]]
+            name = "a"
+            kind = "cube"
+            [[mesh]]
+            name = "b"
+            kind = "sphere"
+            [[material]]
+            name = "jade"
+            kind = "translucent"
+            sigma = [1, 1, 1]
+            voxel_res = 5
+            [[instance]]
+            mesh = "a"
+            material = "jade"
+            [[instance]]
+            mesh = "b"
+            material = "jade"
+        "#;
+        let scene = crate::scene::parse_scene(text, std::path::Path::new("inline.toml")).unwrap();
+        let packed = pack_keys(&scene, table_keys(&scene), u32::MAX, &|_, _| {}).unwrap();
+        assert_eq!(packed.records.len(), 2);
+        let first_words = packed.records[1].dims[3] as usize;
+        // Corners two a word, then cells four a word: each table's words round its bytes up by
+        // less than two words.
+        let words = |bytes: u64| (bytes.div_ceil(4), bytes / 4 + 2);
+        let (lo, hi) = words(packed.tables[0].field_bytes);
+        assert!((lo..hi).contains(&(first_words as u64)), "{first_words} words");
+        let (lo, hi) = words(packed.tables[1].field_bytes);
+        assert!((lo..hi).contains(&(packed.fields.len() as u64 - first_words as u64)));
+        let message = pack_keys(&scene, table_keys(&scene), 100, &|_, _| {}).err().unwrap().to_string();
+        assert!(message.contains("maxTexelBufferElements 100"), "{message}");
     }
 
     #[test]

@@ -46,18 +46,6 @@ pub(super) struct Bakes {
     queued: Vec<(usize, u32)>,
     /// Keys whose bake failed (logged): their instances stay on TSM.
     failed: Vec<(usize, u32)>,
-    /// Copies into the new tables' LUT image, recorded by the next frame before its passes.
-    copies: Vec<crate::gpu::upload::ImageCopy>,
-}
-
-impl Bakes {
-    /// Records the pending LUT copies into the frame's command buffer; their staging buffers are
-    /// retired with this frame.
-    pub(super) fn record_copies(&mut self, ctx: &crate::gpu::GpuContext, cmd: ash::vk::CommandBuffer) {
-        for copy in self.copies.drain(..) {
-            copy.record(ctx, cmd);
-        }
-    }
 }
 
 /// The scene's current tables, if the translucency passes were ever built.
@@ -77,15 +65,13 @@ impl Renderer {
     }
 
     /// Makes sure the tables exist (an empty set when the scene never drew a translucent
-    /// instance) so passes built from now on find them instead of baking on this thread; their
-    /// (empty) LUT image is filled by the next frame, like a bake's.
+    /// instance) so passes built from now on find them instead of baking on this thread.
     pub(super) fn ensure_tables(&mut self) -> Result<(), Error> {
-        let limit = self.ctx.limits.max_image_dimension2_d;
+        let limit = self.ctx.limits.max_texel_buffer_elements;
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         if current_data(&loaded.shared).is_none() {
             let packed = pack_keys(&loaded.scene, Vec::new(), limit, &|_, _| {})?;
-            let (data, copy) = TranslucentData::staged(&self.ctx, &self.memory, packed)?;
-            loaded.bakes.copies.push(copy);
+            let data = TranslucentData::upload(&self.ctx, &self.memory, packed)?;
             loaded.shared.push(Arc::new(data));
         }
         Ok(())
@@ -103,7 +89,7 @@ impl Renderer {
     }
 
     fn start_bake_job(&mut self) {
-        let limit = self.ctx.limits.max_image_dimension2_d;
+        let limit = self.ctx.limits.max_texel_buffer_elements;
         let Some(loaded) = &mut self.loaded else { return };
         if loaded.bakes.job.is_some() || loaded.bakes.queued.is_empty() {
             return;
@@ -138,10 +124,8 @@ impl Renderer {
                 message: "the bake thread panicked".into(),
             })
         });
-        match packed.and_then(|p| TranslucentData::staged(&self.ctx, &self.memory, p)) {
-            Ok((data, copy)) => {
-                // The LUT image is filled by this frame's command buffer, before its passes.
-                loaded.bakes.copies.push(copy);
+        match packed.and_then(|p| TranslucentData::upload(&self.ctx, &self.memory, p)) {
+            Ok(data) => {
                 loaded.shared.retain(|s| s.clone().downcast::<TranslucentData>().is_err());
                 loaded.shared.push(Arc::new(data));
                 // The passes holding the old tables go (retired with the frames that use them);

@@ -183,8 +183,6 @@ impl Renderer {
         let s = &mut self.slots[slot];
         // Deformed meshes: this slot's vertex buffers (its previous frame has finished).
         loaded.gpu.begin_slot(ctx, memory, &loaded.scene, slot)?;
-        // A run-time bake's new LUT image, filled before any pass reads it (bakes.rs).
-        loaded.bakes.record_copies(ctx, cmd);
         if loaded.tables_dirty {
             loaded.gpu.refresh_instances(&loaded.scene);
             loaded.gpu.refresh_materials(&loaded.scene);

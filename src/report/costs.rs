@@ -43,14 +43,18 @@ pub fn tonemap() -> PassCost {
 }
 
 /// translucency (shaders/translucency.comp) with `coverage` the fraction of pixels on a
-/// translucent surface. Every pixel reads its ids (8) and writes the thickness (4). A translucent
-/// pixel: pixel ray and point ≈ 20, light projection ≈ 15, two inverse-model transforms ≈ 40,
-/// path length and direction ≈ 12, two `path_end_voxel` searches ≈ 240, the span ≈ 20, exp and
-/// colour ≈ 30: ≈ 380 FLOP; reads distance (4), normal (8), HDR (8), light-map ids and depth
-/// (≈ 2 texels, 20), surface-voxel grid (≈ 8 lookups, 32), two centres (32), one LUT byte (1),
-/// writes HDR (8): ≈ 113 bytes more.
-pub fn translucency(coverage: f64) -> PassCost {
-    PassCost { flop_per_px: 380.0 * coverage, bytes_per_px: 12.0 + 113.0 * coverage }
+/// translucent surface and `samples` the field samples per such pixel (0 for TSM; about two per
+/// voxel of the light path for the LUT, fewer where long steps skip, plus one per crossing).
+/// Every pixel reads its ids (8) and writes the thickness (4). A translucent pixel: pixel ray and
+/// point ≈ 20, light projection ≈ 15, two inverse-model transforms ≈ 40, exp and colour ≈ 30:
+/// ≈ 105 FLOP; reads distance (4), normal (8), HDR (8), light-map ids and depth (≈ 2 texels, 16),
+/// writes HDR (8): ≈ 44 bytes. A field sample: cell and weights ≈ 20, 8 corner decodes ≈ 16,
+/// 7 lerps ≈ 21, τ's cell ≈ 10: ≈ 67 FLOP; 8 corner words and a τ word: 36 bytes.
+pub fn translucency(coverage: f64, samples: f64) -> PassCost {
+    PassCost {
+        flop_per_px: (105.0 + 67.0 * samples) * coverage,
+        bytes_per_px: 12.0 + (44.0 + 36.0 * samples) * coverage,
+    }
 }
 
 /// The cells "GFLOP/s", "% FMA ceiling", "GB/s", "% copy ceiling" for a pass of `pixels` that took

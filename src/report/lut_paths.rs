@@ -1,7 +1,8 @@
-//! The thickness LUT's error on light paths, on the CPU (seed 003, figure 13): for random lines
+//! The thickness field's error on light paths, on the CPU (seed 003, figure 13): for random lines
 //! through a mesh, the segment from the light's first entry to its last exit (the TSM segment),
-//! the exact inside fraction (`MeshBvh::inside_fraction`) against the LUT's f(i, j) for the surface
-//! voxels of its two ends. `examples/bake_measure.rs` prints these per resolution.
+//! the exact inside fraction (`MeshBvh::inside_fraction`) against the field's decoded fraction
+//! (`ThicknessLut::inside_fraction`) along the same segment. `examples/bake_measure.rs` prints
+//! these per resolution.
 
 use glam::DVec3;
 
@@ -9,15 +10,11 @@ use crate::effects::raycast::MeshBvh;
 use crate::effects::thickness_lut::ThicknessLut;
 use crate::testing::Rng;
 
-/// |Δf| and |Δd| per path (d in voxel edges), sorted ascending: `centre` uses the LUT's segment
-/// between the two voxel centres (f(i, j)·|c_j − c_i|, the seed's thickness), `path` the LUT's
-/// fraction times the actual segment's length.
+/// |Δf| and |Δd| per path (d in voxel edges), sorted ascending.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PathErrors {
-    pub centre_df: Vec<f64>,
-    pub centre_dd: Vec<f64>,
-    pub path_df: Vec<f64>,
-    pub path_dd: Vec<f64>,
+    pub df: Vec<f64>,
+    pub dd: Vec<f64>,
 }
 
 /// Nearest-rank-style percentile of sorted values: the value at index ⌊(n − 1)·p⌋.
@@ -37,7 +34,7 @@ pub fn path_errors(bvh: &MeshBvh, lut: &ThicknessLut, paths: usize, seed: u64) -
     let mut e = PathErrors::default();
     // Give up on meshes the lines never cross twice (a flat mesh): at most 100 tries per path.
     let mut tries = 0usize;
-    while e.centre_df.len() < paths && tries < 100 * paths.max(1) {
+    while e.df.len() < paths && tries < 100 * paths.max(1) {
         tries += 1;
         let z = 2.0 * rng.next() - 1.0;
         let phi = std::f64::consts::TAU * rng.next();
@@ -52,16 +49,12 @@ pub fn path_errors(bvh: &MeshBvh, lut: &ThicknessLut, paths: usize, seed: u64) -
             continue;
         }
         let (a, b) = (origin + u * last.t, origin + u * first.t);
-        let (Some(i), Some(j)) = (lut.surface_voxel_at(a), lut.surface_voxel_at(b)) else { continue };
         let exact = bvh.inside_fraction(a, b);
-        let f = lut.fraction(i, j);
-        e.centre_df.push((f - exact).abs());
-        let d = f * lut.centre(i).distance(lut.centre(j)) - exact * a.distance(b);
-        e.centre_dd.push(d.abs() / lut.voxel_size);
-        e.path_df.push((f - exact).abs());
-        e.path_dd.push((f - exact).abs() * a.distance(b) / lut.voxel_size);
+        let f = lut.inside_fraction(a, b);
+        e.df.push((f - exact).abs());
+        e.dd.push((f - exact).abs() * a.distance(b) / lut.voxel_size);
     }
-    for v in [&mut e.centre_df, &mut e.centre_dd, &mut e.path_df, &mut e.path_dd] {
+    for v in [&mut e.df, &mut e.dd] {
         v.sort_by(f64::total_cmp);
     }
     e
@@ -86,16 +79,16 @@ mod tests {
     use crate::scene::procedural;
 
     /// On a solid box every segment between two surface points is inside: the exact fraction is 1
-    /// and so is the table's (quantized to R8: within 0.5/255).
+    /// and so is the field's (the gap threshold keeps the ends' reconstruction error out).
     #[test]
     fn a_box_has_no_fraction_error() {
         let mesh = procedural::cube(2.0).unwrap();
-        let options = BakeOptions { threads: 1, ..BakeOptions::default() };
+        let options = BakeOptions { threads: 1 };
         let (lut, _) = bake(&mesh, 8, &options, &|_, _| {}).unwrap();
         let e = path_errors(&MeshBvh::new(&mesh).unwrap(), &lut, 200, 7);
-        assert_eq!(e.centre_df.len(), 200);
-        assert!(at(&e.path_df, 1.0) <= 0.5 / 255.0 + 1e-12, "{}", at(&e.path_df, 1.0));
-        assert!(e.path_df.windows(2).all(|w| w[0] <= w[1]));
+        assert_eq!(e.df.len(), 200);
+        assert!(at(&e.df, 1.0) <= 1e-12, "{}", at(&e.df, 1.0));
+        assert!(e.df.windows(2).all(|w| w[0] <= w[1]));
         assert!(at(&[], 0.5).is_nan());
     }
 }

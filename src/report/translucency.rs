@@ -179,7 +179,7 @@ fn render(
 
 /// Bakes every LUT the scene uses (timed, the sum over its meshes) and stores them in the bake
 /// cache when there is one, so loading the scene does not bake again. Returns (seconds, bytes).
-fn bake_all(scene: &Scene, max_texture_dim: u32) -> Result<(f64, usize), Error> {
+fn bake_all(scene: &Scene) -> Result<(f64, usize), Error> {
     let mut keys: Vec<(usize, u32)> = Vec::new();
     for inst in &scene.instances {
         if let MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Lut, .. } =
@@ -190,7 +190,7 @@ fn bake_all(scene: &Scene, max_texture_dim: u32) -> Result<(f64, usize), Error> 
             }
         }
     }
-    let options = BakeOptions { max_texture_dim, ..BakeOptions::default() };
+    let options = BakeOptions::default();
     let cache = BakeCache::from_env();
     let (mut seconds, mut bytes) = (0.0, 0);
     for (mesh, res) in keys {
@@ -201,7 +201,7 @@ fn bake_all(scene: &Scene, max_texture_dim: u32) -> Result<(f64, usize), Error> 
         seconds += start.elapsed().as_secs_f64();
         bytes += lut.bytes();
         if let Some(cache) = &cache {
-            if let Err(e) = cache.store(&m.mesh, &lut, &options) {
+            if let Err(e) = cache.store(&m.mesh, &lut) {
                 log::warn!("bake cache not written: {e}");
             }
         }
@@ -212,6 +212,8 @@ fn bake_all(scene: &Scene, max_texture_dim: u32) -> Result<(f64, usize), Error> 
 /// Errors of one variant against the f64 references.
 struct Errors {
     pixels: usize,
+    /// Mean length of the pixels' light paths (the TSM distance), in voxels of their instance.
+    path_voxels: f64,
     /// |d − d*| in voxels of each pixel's instance (mean, p95, max), then in world units.
     voxels: (f64, f64, f64),
     world: (f64, f64, f64),
@@ -236,8 +238,10 @@ fn errors(scene: &Scene, opts: &ReportOptions, r: &Rendered, surface: &[f32]) ->
             translucent_colour(px(surface), light.color * light.intensity, mat.albedo, sigma, s.exact, w);
         (px(&r.hdr) - cpu).abs().max_element()
     });
+    let paths: f64 = samples.iter().map(|s| s.tsm / voxel(s)).filter(|v| v.is_finite()).sum();
     Ok(Errors {
         pixels: samples.len(),
+        path_voxels: paths / samples.len().max(1) as f64,
         voxels: abs_stats(samples.iter().map(|s| (s.gpu - s.exact) / voxel(s))),
         world: abs_stats(samples.iter().map(|s| s.gpu - s.exact)),
         colour: abs_stats(colour.collect::<Vec<_>>()),
@@ -252,7 +256,6 @@ pub fn section(
 ) -> Result<Section, ReportError> {
     let path = opts.scene("translucency.toml");
     let base = opts.load_scene("translucency.toml")?;
-    let limit = runtime.context().limits.max_image_dimension2_d;
     let aovs = vec![Aov::Thickness, Aov::Depth, Aov::Hdr, Aov::Normal];
     // The surface term alone: the same scene with every material lambert.
     steps.next("translucency: surface reference");
@@ -308,7 +311,7 @@ pub fn section(
         steps.next(&format!("translucency: {label}"));
         // (bake seconds, bytes): the LUT's tables, or the peel pass's per-frame lists (no bake).
         let memory = match mode {
-            ThicknessMode::Lut => Some(bake_all(&scene, limit)?),
+            ThicknessMode::Lut => Some(bake_all(&scene)?),
             ThicknessMode::Peel => Some((0.0, peel::image_bytes(map) as usize)),
             ThicknessMode::Tsm => None,
         };
@@ -341,7 +344,11 @@ pub fn section(
             num(e.colour.2, Fmt::Sci(2)),
         ];
         row.extend(costs::fraction_cells(
-            Some(costs::translucency(coverage)),
+            // Two field samples a voxel of path for the LUT (MAX_STEP_VOXELS = ½), none for TSM and peel.
+            Some(costs::translucency(
+                coverage,
+                if matches!(mode, ThicknessMode::Lut) { 2.0 * e.path_voxels + 2.0 } else { 0.0 },
+            )),
             pixels,
             r.translucency_ms,
             ceilings,
@@ -367,8 +374,8 @@ pub fn section(
          silhouette pixels where the f64 ray hits another surface are left out. Colour error: the largest \
          channel of |HDR − f64 colour| (the lambert render's surface term plus the transmitted light with the \
          exact thickness, `effects::translucency::translucent_colour`), in linear HDR units; it includes \
-         RGBA16F rounding (2⁻¹⁰ relative). Bake s: wall seconds of baking every table of the row (all cores), \
-         before the frames. Peel rows (`thickness = \"peel\"`, no bake): the voxel resolution only sizes the \
+         RGBA16F rounding (2⁻¹⁰ relative). LUT bytes: the row's thickness fields (2 bytes a grid corner, 1 a cell). Bake s: wall \
+         seconds of baking every table of the row (all cores), before the frames. Peel rows (`thickness = \"peel\"`, no bake): the voxel resolution only sizes the \
          light map (texels of ¼ voxel), and their memory is the pass's crossing lists and counts \
          (`passes::peel::image_bytes`), allocated for every frame; the light_id maps (the light map's \
          size, all rows) are not counted. The TSM row has neither.",

@@ -174,6 +174,115 @@ pub fn hollow_ball(radius: f64, cavity_radius: f64, segments: u32, rings: u32) -
     Ok(b.mesh)
 }
 
+/// A ball of `radius` at the origin with spherical cavities (centre, radius) inside it, faces of
+/// the cavities pointing inward (as `cavity_cube`): the tests' hollow shape with several cavities.
+/// Each cavity must lie inside the ball, apart from the others, by at least radius/1000.
+pub fn ball_with_cavities(
+    radius: f64,
+    cavities: &[(DVec3, f64)],
+    segments: u32,
+    rings: u32,
+) -> Result<Mesh, MeshError> {
+    let r = check_length("ball_with_cavities", "radius", radius)?;
+    let segments = check_count("ball_with_cavities", "segments", segments, 3)?;
+    let rings = check_count("ball_with_cavities", "rings", rings, 2)?;
+    let gap = r * MIN_FEATURE_FRACTION;
+    for (k, &(c, cr)) in cavities.iter().enumerate() {
+        check_length("ball_with_cavities", "cavity radius", cr)?;
+        if !c.is_finite() || c.length() + cr > r - gap {
+            return Err(invalid(
+                "ball_with_cavities",
+                "cavity",
+                "inside the ball",
+                format!("{k}: {c} r {cr}"),
+            ));
+        }
+        for &(d, dr) in &cavities[..k] {
+            if c.distance(d) < cr + dr + gap {
+                return Err(invalid(
+                    "ball_with_cavities",
+                    "cavity",
+                    "apart from the others",
+                    format!("{k}: {c} r {cr}"),
+                ));
+            }
+        }
+    }
+    let mut b = Builder::default();
+    b.revolve(&sphere_profile(r, rings), false, segments);
+    for &(c, cr) in cavities {
+        let first = b.mesh.positions.len();
+        let inward: Vec<ProfilePoint> = sphere_profile(cr, rings)
+            .iter()
+            .rev()
+            .map(|p| ProfilePoint { normal: -p.normal, ..*p })
+            .collect();
+        b.revolve(&inward, false, segments);
+        for p in &mut b.mesh.positions[first..] {
+            *p = (DVec3::from_array(p.map(f64::from)) + c).as_vec3().to_array();
+        }
+    }
+    Ok(b.mesh)
+}
+
+/// A box of half extents `half` at the origin with a box cavity of half extents `cavity_half`
+/// centred at `offset` (faces pointing inward), at least size/1000 from the outer faces.
+pub fn box_with_box_cavity(half: DVec3, cavity_half: DVec3, offset: DVec3) -> Result<Mesh, MeshError> {
+    for (field, v) in [("half", half), ("cavity_half", cavity_half)] {
+        for c in v.to_array() {
+            check_length("box_with_box_cavity", field, c)?;
+        }
+    }
+    let gap = half.max_element() * MIN_FEATURE_FRACTION;
+    let inside = (offset.abs() + cavity_half).cmplt(half - gap).all();
+    if !offset.is_finite() || !inside {
+        return Err(invalid(
+            "box_with_box_cavity",
+            "cavity_half",
+            "inside the box",
+            format!("{cavity_half} at {offset}"),
+        ));
+    }
+    let mut b = Builder::default();
+    add_box(&mut b, DVec3::ZERO, half, false);
+    add_box(&mut b, offset, cavity_half, true);
+    Ok(b.mesh)
+}
+
+/// A U of `width` × `height` with arms and base `thickness` thick, extruded `depth` along z,
+/// centred at the origin (opening toward +y): two inner concave corners. Flat normals.
+pub fn u_shape(width: f64, height: f64, depth: f64, thickness: f64) -> Result<Mesh, MeshError> {
+    let (w, h) = (check_length("u_shape", "width", width)?, check_length("u_shape", "height", height)?);
+    let (d, t) = (check_length("u_shape", "depth", depth)?, check_length("u_shape", "thickness", thickness)?);
+    if 2.0 * t >= w || t >= h {
+        return Err(invalid("u_shape", "thickness", "< width/2 and < height", t));
+    }
+    let o = DVec2::new(w, h) / 2.0;
+    // Counter-clockwise outline in the xy-plane.
+    let outline = [[0.0, 0.0], [w, 0.0], [w, h], [w - t, h], [w - t, t], [t, t], [t, h], [0.0, h]]
+        .map(|[x, y]| DVec2::new(x, y) - o);
+    let mut b = Builder::default();
+    // Caps: the base and two arms, each a quad of outline corners (no T-junctions).
+    let quads = [[0, 1, 4, 5], [0, 5, 6, 7], [1, 2, 3, 4]];
+    for (z, n) in [(d / 2.0, DVec3::Z), (-d / 2.0, DVec3::NEG_Z)] {
+        for q in quads {
+            let mut idx = q.map(|k| b.vertex(outline[k].extend(z), n));
+            if n.z < 0.0 {
+                idx.reverse();
+            }
+            b.quad(idx);
+        }
+    }
+    for k in 0..outline.len() {
+        let (p, q) = (outline[k], outline[(k + 1) % outline.len()]);
+        let n = DVec3::new(q.y - p.y, p.x - q.x, 0.0).normalize();
+        let corners = [p.extend(-d / 2.0), q.extend(-d / 2.0), q.extend(d / 2.0), p.extend(d / 2.0)];
+        let idx = corners.map(|c| b.vertex(c, n));
+        b.quad(idx);
+    }
+    Ok(b.mesh)
+}
+
 /// The bottle's profile in the (r, y) half-plane, polylines from the axis upward.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BottleProfile {
@@ -341,6 +450,11 @@ fn sphere_profile(r: f64, rings: u32) -> Vec<ProfilePoint> {
 }
 
 fn add_cube(b: &mut Builder, h: f64) {
+    add_box(b, DVec3::ZERO, DVec3::splat(h), false);
+}
+
+/// A box at `centre` with half extents `half`; `inward`: faces and normals toward its centre.
+fn add_box(b: &mut Builder, centre: DVec3, half: DVec3, inward: bool) {
     // (normal, u, v) with u × v = normal, so corners n + (±u ±v) in this order are CCW.
     let faces = [
         (DVec3::X, DVec3::Y, DVec3::Z),
@@ -352,7 +466,11 @@ fn add_cube(b: &mut Builder, h: f64) {
     ];
     for (n, u, v) in faces {
         let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
-        let idx = corners.map(|(a, c)| b.vertex((n + u * a + v * c) * h, n));
+        let normal = if inward { -n } else { n };
+        let mut idx = corners.map(|(a, c)| b.vertex(centre + (n + u * a + v * c) * half, normal));
+        if inward {
+            idx.reverse();
+        }
         b.quad(idx);
     }
 }
@@ -493,6 +611,29 @@ mod tests {
 
     fn rel(a: f64, b: f64) -> f64 {
         (a - b).abs() / b.abs()
+    }
+
+    /// The tests' hollow shapes: closed, oriented, with the volumes of their parts.
+    #[test]
+    fn hollow_shapes_are_solids_with_their_volumes() {
+        let cavities = [(DVec3::new(0.4, 0.0, 0.0), 0.3), (DVec3::new(-0.35, 0.3, 0.1), 0.25)];
+        let ball = ball_with_cavities(1.0, &cavities, 64, 32).unwrap();
+        check_solid(&ball);
+        let sphere = |r: f64| 4.0 / 3.0 * PI * r * r * r;
+        let want = sphere(1.0) - sphere(0.3) - sphere(0.25);
+        assert!(rel(ball.signed_volume(), want) < 0.01, "{} vs {want}", ball.signed_volume());
+        let offset = DVec3::new(0.1, 0.05, 0.0);
+        let boxed =
+            box_with_box_cavity(DVec3::new(1.0, 0.8, 0.6), DVec3::new(0.5, 0.4, 0.3), offset).unwrap();
+        check_solid(&boxed);
+        assert!(rel(boxed.signed_volume(), 8.0 * (0.48 - 0.06)) < 1e-6);
+        let u = u_shape(2.0, 1.6, 1.0, 0.5).unwrap();
+        check_solid(&u);
+        assert!(rel(u.signed_volume(), 2.0 * 0.5 + 2.0 * 1.1 * 0.5) < 1e-6);
+        assert!(ball_with_cavities(1.0, &[(DVec3::new(0.9, 0.0, 0.0), 0.2)], 16, 8).is_err());
+        assert!(ball_with_cavities(1.0, &[(DVec3::ZERO, 0.3), (DVec3::X * 0.5, 0.3)], 16, 8).is_err());
+        assert!(box_with_box_cavity(DVec3::ONE, DVec3::splat(0.5), DVec3::X * 0.6).is_err());
+        assert!(u_shape(1.0, 1.0, 1.0, 0.5).is_err());
     }
 
     /// Volume of the revolution of a tessellated profile: segments·sin(2π/segments)·∫∫ r dA
