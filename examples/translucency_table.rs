@@ -1,11 +1,12 @@
-//! The `hadou report` translucency table alone (ceilings, then the LUT at 25, 40, 56, 64, 128 and
-//! TSM at 512×512), for docs/PERFORMANCE.md's before/after.
+//! The `hadou report` translucency table alone (ceilings, then the LUT at 25, 40, 56, 64, 128, peel
+//! with the light maps of res 25 and 56, and TSM at 512×512), for docs/PERFORMANCE.md.
 //!
 //! cargo run --release --example translucency_table
 fn main() {
     let mut runtime = hadou::Runtime::new(&hadou::RuntimeOptions::from_env()).expect("runtime");
     let mut opts = hadou::report::ReportOptions::new(false);
     opts.voxel_res = vec![25, 40, 56, 64, 128];
+    opts.peel_res = vec![25, 56];
     opts.frames = 10;
     let mut show = |label: &str, _: usize, _: usize| eprintln!("{label}");
     let mut steps = hadou::report::Steps::new(opts.step_count(), &mut show);

@@ -95,6 +95,7 @@ fn quick_report_has_every_row() {
 
     let tl = Csv::read(&out.join("translucency.csv"));
     let mut labels: Vec<String> = opts.voxel_res.iter().map(|r| format!("lut {r}")).collect();
+    labels.extend(opts.peel_res.iter().map(|r| format!("peel {r}")));
     labels.push("tsm".into());
     for label in &labels {
         let row = tl.row("variant", label);
@@ -111,11 +112,18 @@ fn quick_report_has_every_row() {
         ] {
             finite(row, column);
         }
-        if label != "tsm" {
-            assert!(finite(row, "LUT bytes") > 0.0);
+        assert!(finite(row, "light map") >= 256.0);
+        if label.starts_with("lut") {
+            assert!(finite(row, "memory bytes") > 0.0);
             finite(row, "bake s");
+            assert_eq!(row["peel ms"], "", "{label}: no peel pass");
+        } else if label.starts_with("peel") {
+            assert!(finite(row, "memory bytes") > 0.0, "{label}: the crossing lists");
+            assert_eq!(row["bake s"], "", "{label}: nothing baked");
+            finite(row, "peel ms");
         } else {
-            assert_eq!(row["LUT bytes"], "", "TSM has no table");
+            assert_eq!(row["memory bytes"], "", "TSM has no table");
+            assert_eq!(row["peel ms"], "", "TSM has no peel pass");
         }
     }
     assert_eq!(tl.rows.len(), labels.len());

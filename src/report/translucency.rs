@@ -305,7 +305,7 @@ pub fn section(
         let map = light_map_size(&scene);
         let label = match (mode, res) {
             (ThicknessMode::Lut, Some(r)) => format!("lut {r}"),
-            (ThicknessMode::Peel, Some(r)) => format!("peel {r} ({map}²)"),
+            (ThicknessMode::Peel, Some(r)) => format!("peel {r}"),
             _ => "tsm".to_string(),
         };
         steps.next(&format!("translucency: {label}"));
