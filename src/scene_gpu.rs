@@ -183,3 +183,27 @@ impl SceneGpu {
         (self.instances, self.draws) = instance_layout(scene);
     }
 }
+
+/// How the passes read the scene's vertex buffers: binding 0 of interleaved (position, normal)
+/// f32 triples, 24 bytes a vertex; location 0 the position and, `with_normal`, location 1 the
+/// normal.
+pub(crate) fn vertex_input(
+    with_normal: bool,
+) -> ([ash::vk::VertexInputBindingDescription; 1], Vec<ash::vk::VertexInputAttributeDescription>) {
+    use ash::vk;
+    let binding = [vk::VertexInputBindingDescription::default()
+        .binding(0)
+        .stride(24)
+        .input_rate(vk::VertexInputRate::VERTEX)];
+    let attribute = |location: u32, offset: u32| {
+        vk::VertexInputAttributeDescription::default()
+            .location(location)
+            .format(vk::Format::R32G32B32_SFLOAT)
+            .offset(offset)
+    };
+    let mut attributes = vec![attribute(0, 0)];
+    if with_normal {
+        attributes.push(attribute(1, 12));
+    }
+    (binding, attributes)
+}

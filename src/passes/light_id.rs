@@ -60,14 +60,7 @@ impl LightIdPass {
         let vertex = compiler.compile("light_id.vert", &[])?;
         let fragment = compiler.compile("light_id.frag", &[])?;
         // The scene's vertex buffers (position, normal); only the position is read.
-        let vertex_bindings = [vk::VertexInputBindingDescription::default()
-            .binding(0)
-            .stride(24)
-            .input_rate(vk::VertexInputRate::VERTEX)];
-        let vertex_attributes = [vk::VertexInputAttributeDescription::default()
-            .location(0)
-            .format(vk::Format::R32G32B32_SFLOAT)
-            .offset(0)];
+        let (vertex_bindings, vertex_attributes) = crate::scene_gpu::vertex_input(false);
         let color_formats = COLOR_TARGETS.map(Target::format);
         create_graphics_pipeline(
             ctx,

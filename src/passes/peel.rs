@@ -173,14 +173,7 @@ impl PeelPass {
         let vertex = compiler.compile("peel.vert", &[])?;
         let fragment = compiler.compile("peel.frag", &[])?;
         // The scene's vertex buffers (position, normal); only the position is read.
-        let vertex_bindings = [vk::VertexInputBindingDescription::default()
-            .binding(0)
-            .stride(24)
-            .input_rate(vk::VertexInputRate::VERTEX)];
-        let vertex_attributes = [vk::VertexInputAttributeDescription::default()
-            .location(0)
-            .format(vk::Format::R32G32B32_SFLOAT)
-            .offset(0)];
+        let (vertex_bindings, vertex_attributes) = crate::scene_gpu::vertex_input(false);
         let pipeline = create_graphics_pipeline(
             ctx,
             &GraphicsDesc {

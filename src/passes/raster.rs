@@ -19,20 +19,7 @@ impl RasterPass {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
         let vertex = compiler.compile("raster.vert", &[])?;
         let fragment = compiler.compile("raster.frag", &[])?;
-        let vertex_bindings = [vk::VertexInputBindingDescription::default()
-            .binding(0)
-            .stride(24)
-            .input_rate(vk::VertexInputRate::VERTEX)];
-        let vertex_attributes = [
-            vk::VertexInputAttributeDescription::default()
-                .location(0)
-                .format(vk::Format::R32G32B32_SFLOAT)
-                .offset(0),
-            vk::VertexInputAttributeDescription::default()
-                .location(1)
-                .format(vk::Format::R32G32B32_SFLOAT)
-                .offset(12),
-        ];
+        let (vertex_bindings, vertex_attributes) = crate::scene_gpu::vertex_input(true);
         let color_formats = COLOR_TARGETS.map(Target::format);
         let pipeline = create_graphics_pipeline(
             ctx,
