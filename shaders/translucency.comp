@@ -10,7 +10,9 @@
 //        |M(b - a)| = z(P) - z(entry).
 // Fallbacks are documented in src/passes/translucency.rs. CPU twin: src/effects/translucency.rs.
 // Dispatched over `rect` only (the pixels that can show a translucent instance: lavapipe runs the
-// whole shader for every 8-lane group, taken branches or not); with FILL_ONLY defined, the variant
+// whole shader for every 8-lane group, taken branches or not). WITH_LUT (an instance reads a
+// LUT) and WITH_PEEL (one reads peel lists) compile those paths in only where the scene has them,
+// for the same reason; with FILL_ONLY defined, the variant
 // that writes +inf thickness over the whole frame first when `rect` is not all of it.
 #include "common/camera.glsl"
 #include "common/frame.glsl"
@@ -23,7 +25,9 @@ layout(set = 0, binding = 7) uniform usamplerBuffer field_texels;
 layout(set = 0, binding = 8) uniform usamplerBuffer lut_texels;
 layout(set = 0, binding = 9) uniform usamplerBuffer translucent_texels;
 uint field_word(uint i) { return texelFetch(field_texels, int(i)).x; }
+#ifdef WITH_LUT
 #define HADOU_TRANSLUCENCY_FIELD
+#endif
 #include "common/translucency.glsl"
 
 // Keep in sync with TranslucencyParams in src/passes/translucency.rs.
@@ -91,6 +95,7 @@ float thickness_at(vec3 P, uint instance, uint mode) {
     }
     float tsm = max(lp.z - imageLoad(light_z, t).r, 0.0);
     TranslucentInstance ti = translucent_instance_at(translucent_texels, instance);
+#ifdef WITH_LUT
     if (mode == THICKNESS_TSM || ti.info.x == NO_LUT || !(tsm > 0.0)) return tsm;
     // effects::translucency::lut_thickness: the path from the light's entry a (on P's own light
     // ray) to b = P, less the gaps the field decodes between them.
@@ -98,6 +103,10 @@ float thickness_at(vec3 P, uint instance, uint mode) {
     vec3 b = (ti.inverse_model * vec4(P, 1.0)).xyz;
     vec3 a = (ti.inverse_model * vec4(P - params.view.dir.xyz * tsm, 1.0)).xyz;
     return tsm * lut_inside_fraction(r, a, b);
+#else
+    // Built without the field's march (no instance of the scene reads a LUT): TSM's distance.
+    return tsm;
+#endif
 }
 
 #ifdef FILL_ONLY

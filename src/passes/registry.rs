@@ -104,12 +104,12 @@ pub const PASSES: &[Entry] = &[
     Entry {
         name: "translucency",
         needed: translucency::needed,
-        // With or without the peel lists.
-        variant: super::peel::variant,
+        // With or without the field's march and the peel lists.
+        variant: translucency::variant,
         build: |b| {
             let data = translucent_data(b)?;
-            let peel = super::peel::needed(b.scene);
-            Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, data, peel)?))
+            let (lut, peel) = (translucency::reads_lut(b.scene), super::peel::needed(b.scene));
+            Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, data, lut, peel)?))
         },
     },
     Entry {

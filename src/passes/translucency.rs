@@ -22,7 +22,8 @@
 //! neighbours that does (P at the silhouette seen from the light). With
 //! tsm = max(z(P) − z(entry), 0):
 //! - `thickness = "tsm"`: d = tsm (translucent shadow maps: cavities and gaps count as material).
-//! - `thickness = "peel"` (built with WITH_PEEL when the scene has it): d = the inside intervals of
+//! - `thickness = "peel"` (built with WITH_PEEL when the scene has it; the LUT's march likewise only
+//!   with WITH_LUT, when an instance reads a LUT): d = the inside intervals of
 //!   P's instance on the crossing list of P's texel t (the `peel` pass), up to z(P); an overflowed
 //!   list takes the TSM path below (src/passes/peel.rs).
 //! - `thickness = "lut"`: the light's entry point a = P − l·tsm lies on P's own light ray; with
@@ -429,6 +430,16 @@ pub fn needed(scene: &Scene) -> bool {
     (0..scene.instances.len()).any(|i| translucent_mode(scene, i).is_some())
 }
 
+/// Some instance reads a thickness LUT: the pass is built with the field's march (WITH_LUT).
+pub fn reads_lut(scene: &Scene) -> bool {
+    (0..scene.instances.len()).any(|i| matches!(translucent_mode(scene, i), Some((_, ThicknessMode::Lut))))
+}
+
+/// The pass's build: with the march (a LUT) and/or the peel lists, as the scene needs.
+pub fn variant(scene: &Scene) -> String {
+    format!("lut {} {}", reads_lut(scene), super::peel::variant(scene))
+}
+
 pub struct TranslucencyPass {
     pipeline: Pipeline,
     /// The FILL_ONLY variant: +inf thickness over the frame, for the pixels outside `rect`.
@@ -446,10 +457,17 @@ impl TranslucencyPass {
         ctx: &GpuContext,
         compiler: &mut ShaderCompiler,
         data: Arc<TranslucentData>,
+        lut: bool,
         peel: bool,
     ) -> GpuResult<Self> {
-        let with_peel: &[(&str, &str)] = if peel { &[("WITH_PEEL", "1")] } else { &[] };
-        let spirv = compiler.compile("translucency.comp", with_peel)?;
+        let mut defines = Vec::new();
+        if lut {
+            defines.push(("WITH_LUT", "1"));
+        }
+        if peel {
+            defines.push(("WITH_PEEL", "1"));
+        }
+        let spirv = compiler.compile("translucency.comp", &defines)?;
         let fill_spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
         let pipeline = create_compute_pipeline(ctx, "translucency", &spirv, 0)?;
         let fill = create_compute_pipeline(ctx, "translucency fill", &fill_spirv, 0)?;
@@ -603,6 +621,27 @@ mod tests {
         assert!((lo..hi).contains(&(packed.fields.len() as u64 - first_words as u64)));
         let message = pack_keys(&scene, table_keys(&scene), 100, &|_, _| {}).err().unwrap().to_string();
         assert!(message.contains("maxTexelBufferElements 100"), "{message}");
+    }
+
+    /// The march is compiled in only where an instance reads a LUT; the variant says so, so a
+    /// world that starts or stops reading one rebuilds the pass.
+    #[test]
+    fn the_field_march_is_built_only_for_lut_scenes() {
+        let scene =
+            crate::scene::load_scene(std::path::Path::new("assets/scenes/translucency.toml")).unwrap();
+        assert!(reads_lut(&scene));
+        let mut tsm = scene.clone();
+        for m in &mut tsm.materials {
+            if let MaterialKind::Translucent { thickness, .. } = &mut m.kind {
+                *thickness = ThicknessMode::Tsm;
+            }
+        }
+        assert!(!reads_lut(&tsm));
+        assert_ne!(variant(&scene), variant(&tsm));
+        let peel =
+            crate::scene::load_scene(std::path::Path::new("assets/scenes/translucency_peel.toml")).unwrap();
+        assert!(!reads_lut(&peel));
+        assert_ne!(variant(&peel), variant(&tsm), "the peel lists are a variant too");
     }
 
     #[test]
