@@ -3,7 +3,9 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use common::cli::{scratch, text};
+
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -16,20 +18,9 @@ fn hadou(args: &[&str], envs: &[(&str, &str)]) -> Output {
     cmd.output().expect("run hadou")
 }
 
-fn tmp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hadou-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
 #[test]
 fn render_writes_png_and_depth_exr() {
-    let dir = tmp_dir("render");
+    let dir = scratch("render");
     let png = dir.join("s.png");
     let exr = dir.join("d.exr");
     let out = hadou(
@@ -63,7 +54,7 @@ fn render_writes_png_and_depth_exr() {
 
 #[test]
 fn profile_writes_json_and_trace() {
-    let dir = tmp_dir("profile");
+    let dir = scratch("profile");
     let json = dir.join("p.json");
     let trace = dir.join("t.json");
     let out = hadou(
@@ -108,7 +99,7 @@ fn profile_writes_json_and_trace() {
 /// output file written.
 #[test]
 fn bad_scenes_fail_cleanly_without_output() {
-    let dir = tmp_dir("bad");
+    let dir = scratch("bad");
     let bad = common::root().join("tests/bad_scenes");
     let mut files: Vec<_> =
         std::fs::read_dir(&bad).unwrap().filter_map(|e| e.ok()).map(|e| e.path()).collect();
@@ -217,7 +208,7 @@ fn assert_refused(out: &Output, path: &str, says: &str) {
 
 #[test]
 fn special_files_are_refused_as_outputs_before_rendering() {
-    let dir = tmp_dir("special");
+    let dir = scratch("special");
     let fifo = dir.join("fifo.png");
     mkfifo(&fifo);
     let fifo = fifo.to_str().unwrap().to_string();
@@ -247,7 +238,7 @@ fn special_files_are_refused_as_outputs_before_rendering() {
 
 #[test]
 fn outputs_may_not_name_the_input_or_each_other() {
-    let dir = tmp_dir("same");
+    let dir = scratch("same");
     let scene = dir.join("s.toml");
     let text_before = std::fs::read_to_string(common::root().join("assets/scenes/single_cube.toml")).unwrap()
         + "\n[[material]]\nname = \"jade\"\nkind = \"translucent\"\nsigma = [1, 1, 1]\nvoxel_res = 8\n";
@@ -280,7 +271,7 @@ fn outputs_may_not_name_the_input_or_each_other() {
 
 #[test]
 fn an_unwritable_output_is_found_before_rendering() {
-    let dir = tmp_dir("unwritable");
+    let dir = scratch("unwritable");
     let file = dir.join("file");
     std::fs::write(&file, "x").unwrap();
     let inside = format!("{}/out.png", file.display());
@@ -313,7 +304,7 @@ fn huge_frame_counts_are_errors_not_aborts() {
 
 #[test]
 fn special_input_files_are_refused_without_blocking() {
-    let dir = tmp_dir("fifo-in");
+    let dir = scratch("fifo-in");
     let obj = dir.join("pipe.obj");
     mkfifo(&obj);
     let obj = obj.to_str().unwrap();
@@ -338,7 +329,7 @@ fn io_errors_state_the_os_text_once() {
 
 #[test]
 fn a_missing_thickness_aov_names_what_produces_it() {
-    let dir = tmp_dir("thickness");
+    let dir = scratch("thickness");
     let aov = format!("thickness={}/t.exr", dir.display());
     let png = format!("{}/c.png", dir.display());
     let args = ["render", "assets/scenes/single_cube.toml", "-o", &png, "--size", "16x16", "--aov", &aov];
@@ -358,7 +349,7 @@ fn a_missing_thickness_aov_names_what_produces_it() {
 /// thickness field, issue 13: 283 M surface-voxel pairs above a 16384² texture) renders.
 #[test]
 fn a_translucent_cube_renders_at_the_largest_voxel_res() {
-    let dir = tmp_dir("lut-128");
+    let dir = scratch("lut-128");
     let scene = dir.join("big.toml");
     std::fs::write(
         &scene,

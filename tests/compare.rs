@@ -3,34 +3,13 @@
 
 mod common;
 
+use common::cli::{hadou, s, scratch, text};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use hadou::compare::{compare_files, Tolerance};
 use hadou::AovImage;
-
-fn hadou(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hadou"))
-        .args(args)
-        .current_dir(common::root())
-        .output()
-        .expect("run hadou")
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn tmp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hadou-compare-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 /// A 32×24 RGBA picture with structure (so a shift shows).
 fn picture() -> Vec<u8> {
@@ -63,7 +42,7 @@ fn code(out: &Output) -> i32 {
 
 #[test]
 fn png_pairs_identical_one_pixel_off_and_shifted() {
-    let dir = tmp_dir("png");
+    let dir = scratch("png");
     let a = png(&dir, "a.png", &picture());
     let same = png(&dir, "same.png", &picture());
     let mut one = picture();
@@ -111,7 +90,7 @@ fn png_pairs_identical_one_pixel_off_and_shifted() {
 
 #[test]
 fn exr_pairs_infinities_nans_and_thresholds() {
-    let dir = tmp_dir("exr");
+    let dir = scratch("exr");
     let inf = f32::INFINITY;
     let base = vec![1.0, 2.0, inf, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, -inf];
     let a = exr(&dir, "a.exr", 1, base.clone());
@@ -166,7 +145,7 @@ fn exr_pairs_infinities_nans_and_thresholds() {
 
 #[test]
 fn mismatches_and_bad_files_are_errors_naming_the_files() {
-    let dir = tmp_dir("errors");
+    let dir = scratch("errors");
     let a = png(&dir, "a.png", &picture());
     let small = dir.join("small.png");
     hadou::output::write_png(&small, 16, 24, &picture()[..16 * 24 * 4]).unwrap();
@@ -211,7 +190,7 @@ fn mismatches_and_bad_files_are_errors_naming_the_files() {
 
 #[test]
 fn the_heat_map_is_written_safely() {
-    let dir = tmp_dir("heat");
+    let dir = scratch("heat");
     let a = png(&dir, "a.png", &picture());
     let mut p = picture();
     p[0] = 0;

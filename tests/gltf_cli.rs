@@ -4,25 +4,10 @@
 
 mod common;
 
-use std::path::Path;
-use std::process::{Command, Output};
+use common::cli::{hadou, s, text};
 
 use common::gltf_writer::{hierarchy, temp_dir};
 use serde_json::json;
-
-fn hadou(args: &[&str]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
-    cmd.args(args).current_dir(common::root()).env("HADOU_VALIDATION", "1");
-    cmd.output().expect("run hadou")
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 #[test]
 fn render_a_glb_directly() {

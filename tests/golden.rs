@@ -4,32 +4,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn hadou(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hadou"))
-        .args(args)
-        .current_dir(common::root())
-        .env("HADOU_VALIDATION", "1")
-        .output()
-        .expect("run hadou")
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn tmp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hadou-golden-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use common::cli::{hadou, s, scratch, text};
 
 /// The `<testcase …>` element of scene `name` in a JUnit report, up to its end.
 fn testcase<'a>(xml: &'a str, name: &str) -> &'a str {
@@ -41,7 +16,7 @@ fn testcase<'a>(xml: &'a str, name: &str) -> &'a str {
 
 #[test]
 fn the_projects_scenes_match_their_references() {
-    let dir = tmp_dir("project");
+    let dir = scratch("project");
     let junit = dir.join("junit.xml");
     let out =
         hadou(&["test", "assets/scenes", "--refs", "tests/golden", "--junit", s(&junit), "--out", s(&dir)]);
@@ -58,7 +33,7 @@ fn the_projects_scenes_match_their_references() {
 
 #[test]
 fn bless_then_test_passes_and_a_changed_scene_fails_by_name() {
-    let dir = tmp_dir("cycle");
+    let dir = scratch("cycle");
     let scenes = dir.join("scenes");
     let refs = dir.join("refs");
     std::fs::create_dir_all(&scenes).unwrap();

@@ -103,34 +103,10 @@ fn runs_that_drift_are_resampled_as_runs() {
 }
 
 mod cli {
-    use std::path::{Path, PathBuf};
-    use std::process::{Command, Output};
+    use std::path::Path;
 
     use super::common;
-
-    fn hadou(args: &[&str]) -> Output {
-        Command::new(env!("CARGO_BIN_EXE_hadou"))
-            .args(args)
-            .current_dir(common::root())
-            .env("HADOU_VALIDATION", "1")
-            .output()
-            .expect("run hadou")
-    }
-
-    fn text(out: &Output) -> String {
-        format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-    }
-
-    fn tmp_dir(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("hadou-gate-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
-    }
-
-    fn s(p: &Path) -> &str {
-        p.to_str().unwrap()
-    }
+    use common::cli::{hadou, s, scratch, text};
 
     /// A profile file with synthetic samples: tonemap at `ms` ± 2 %, raster at 3 ms ± 2 %.
     fn synthetic(path: &Path, ms: f64) {
@@ -151,7 +127,7 @@ mod cli {
 
     #[test]
     fn profile_diff_flags_the_slower_pass_and_only_it() {
-        let dir = tmp_dir("diff");
+        let dir = scratch("diff");
         let (base, slow) = (dir.join("base.json"), dir.join("slow.json"));
         synthetic(&base, 1.0);
         synthetic(&slow, 1.2);
@@ -184,7 +160,7 @@ mod cli {
 
     #[test]
     fn profile_keeps_raw_samples_and_ab_interleaves_runs() {
-        let dir = tmp_dir("ab");
+        let dir = scratch("ab");
         let json = dir.join("p.json");
         let scene = "assets/scenes/single_cube.toml";
         let out = hadou(&[

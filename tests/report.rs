@@ -5,8 +5,10 @@
 
 mod common;
 
+use common::cli::scratch;
+
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use hadou::report::csv::parse;
@@ -16,13 +18,6 @@ fn hadou() -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
     cmd.current_dir(common::root()).env("HADOU_VALIDATION", "1").env("XDG_RUNTIME_DIR", "/tmp");
     cmd
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hadou-test-report-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// A CSV as (header, rows as column → value).

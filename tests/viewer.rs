@@ -7,23 +7,14 @@
 
 mod common;
 
+use common::cli::{scratch, text};
+
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use common::xvfb::Xvfb;
-
-fn tmp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("hadou-viewer-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn text(out: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
 
 /// Runs `hadou ARGS` with validation on; kills it (and fails) if it runs past `limit`.
 fn hadou(args: &[&str], envs: &[(&str, &str)], limit: Duration) -> Output {
@@ -61,7 +52,7 @@ fn hadou(args: &[&str], envs: &[(&str, &str)], limit: Duration) -> Output {
 #[test]
 fn view_presents_resizes_screenshots_and_quits_cleanly() {
     let x = Xvfb::start();
-    let dir = tmp_dir("run");
+    let dir = scratch("run");
     let shot = dir.join("shot.png");
     let script = format!(
         "frames=2;key=1;key=2;key=3;frames=1;key=1;key=2;key=3;key=r;key=t;frames=1;key=r;key=t;\
@@ -119,7 +110,7 @@ fn replace_file(path: &Path, text: &str) {
 #[test]
 fn view_hot_reload_keeps_the_last_good_state() {
     let x = Xvfb::start();
-    let dir = tmp_dir("reload");
+    let dir = scratch("reload");
     let scene = dir.join("scene.toml");
     let shaders = dir.join("shaders");
     copy_dir(&common::asset("shaders"), &shaders);
@@ -254,7 +245,7 @@ fn view_hot_reload_keeps_the_last_good_state() {
 #[test]
 fn view_hot_reload_follows_the_obj_a_scene_reads() {
     let x = Xvfb::start();
-    let dir = tmp_dir("reload-obj");
+    let dir = scratch("reload-obj");
     let scene = dir.join("scene.toml");
     let obj = dir.join("shape.obj");
     let wedge = std::fs::read_to_string(common::asset("assets/meshes/wedge.obj")).unwrap();

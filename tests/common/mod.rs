@@ -2,6 +2,7 @@
 //! and asserts zero errors and zero warnings. No device is a failure, never a skip.
 #![allow(dead_code)]
 
+pub mod cli;
 pub mod gltf_writer;
 pub mod host;
 pub mod xvfb;
