@@ -160,18 +160,8 @@ pub fn hollow_ball(radius: f64, cavity_radius: f64, segments: u32, rings: u32) -
     }
     let segments = check_count("hollow_ball", "segments", segments, 3)?;
     let rings = check_count("hollow_ball", "rings", rings, 2)?;
-    let mut b = Builder::default();
-    b.revolve(&sphere_profile(big, rings), false, segments);
-    for centre in [-0.5 * big, 0.5 * big] {
-        // Reversed and shifted along the axis: faces and normals point into the cavity.
-        let inward: Vec<ProfilePoint> = sphere_profile(r, rings)
-            .iter()
-            .rev()
-            .map(|p| ProfilePoint { y: p.y + centre, normal: -p.normal, ..*p })
-            .collect();
-        b.revolve(&inward, false, segments);
-    }
-    Ok(b.mesh)
+    let cavity = |y: f64| (DVec3::new(0.0, y, 0.0), r);
+    ball_with_cavities(big, &[cavity(-0.5 * big), cavity(0.5 * big)], segments, rings)
 }
 
 /// A ball of `radius` at the origin with spherical cavities (centre, radius) inside it, faces of
@@ -211,15 +201,20 @@ pub fn ball_with_cavities(
     let mut b = Builder::default();
     b.revolve(&sphere_profile(r, rings), false, segments);
     for &(c, cr) in cavities {
+        // Reversed and shifted along the axis in the profile (exact in f64), then beside it: faces
+        // and normals point into the cavity.
         let first = b.mesh.positions.len();
         let inward: Vec<ProfilePoint> = sphere_profile(cr, rings)
             .iter()
             .rev()
-            .map(|p| ProfilePoint { normal: -p.normal, ..*p })
+            .map(|p| ProfilePoint { y: p.y + c.y, normal: -p.normal, ..*p })
             .collect();
         b.revolve(&inward, false, segments);
-        for p in &mut b.mesh.positions[first..] {
-            *p = (DVec3::from_array(p.map(f64::from)) + c).as_vec3().to_array();
+        let beside = DVec3::new(c.x, 0.0, c.z);
+        if beside != DVec3::ZERO {
+            for p in &mut b.mesh.positions[first..] {
+                *p = (DVec3::from_array(p.map(f64::from)) + beside).as_vec3().to_array();
+            }
         }
     }
     Ok(b.mesh)
