@@ -2,6 +2,9 @@
 
 use glam::DVec3;
 
+pub mod comparison;
+pub use comparison::Comparison;
+
 /// xorshift64*: deterministic random numbers without a dependency, so every test and
 /// measurement draws the same cases on every machine.
 pub struct Rng(pub u64);

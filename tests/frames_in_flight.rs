@@ -130,7 +130,7 @@ const AOVS: [Aov; 3] = [Aov::Depth, Aov::Energy, Aov::Normal];
 /// 3 slots, 60 frames, all submitted without waiting; every 10th frame is read back and checked.
 #[test]
 fn sixty_frames_three_in_flight_each_sees_its_own_world() {
-    let ctx = common::context();
+    let (_leaks, ctx) = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, 3);
     let options = RendererOptions { frames_in_flight: 3, ..RendererOptions::default() };
@@ -215,7 +215,7 @@ fn check_energy(i: usize, scene: &Scene, energy: &AovImage, distance: &AovImage)
 /// frame's descriptor set, so nothing stale is used, nothing crashes, and it never waits.
 #[test]
 fn a_new_depth_view_every_frame() {
-    let ctx = common::context();
+    let (_leaks, ctx) = common::context();
     let log = ctx.validation_log();
     let device = ctx.device.clone();
     let mut host = Host::new(&ctx, 2);
@@ -323,7 +323,7 @@ fn a_new_depth_view_every_frame() {
 /// (no wait), every frame has the size it asked for.
 #[test]
 fn resize_twenty_times_with_three_in_flight() {
-    let ctx = common::context();
+    let (_leaks, ctx) = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, 3);
     let options = RendererOptions { frames_in_flight: 3, ..RendererOptions::default() };
@@ -390,7 +390,7 @@ material = "jade"
 #[test]
 fn a_moving_translucent_instance_renders_as_the_same_world_still() {
     use hadou::report::translucency::{abs_stats, samples, world_voxel};
-    let ctx = common::context();
+    let (_leaks, ctx) = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, 2);
     let mut hadou = Renderer::with_options(ctx, &RendererOptions::default()).unwrap();

@@ -452,7 +452,7 @@ fn spawning_a_peel_instance_brings_the_pass_in_and_out() {
 /// scene is an error naming the feature, and the renderer keeps working for other scenes.
 #[test]
 fn peel_without_the_feature_is_a_named_error() {
-    let mut ctx = common::context();
+    let (_leaks, mut ctx) = common::context();
     ctx.fragment_stores_and_atomics = false;
     let log = ctx.validation_log();
     let mut renderer = hadou::Renderer::new(ctx).unwrap();

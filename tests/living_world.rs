@@ -78,7 +78,7 @@ const AOVS: [Aov; 3] = [Aov::Depth, Aov::Energy, Aov::Normal];
 /// frames, 3 in flight.
 #[test]
 fn spawn_and_despawn_over_three_hundred_frames() {
-    let ctx = common::context();
+    let (_leaks, ctx) = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, 3);
     let options = RendererOptions { frames_in_flight: 3, ..RendererOptions::default() };
@@ -203,7 +203,8 @@ fn spawn_and_despawn_over_three_hundred_frames() {
 /// Bad calls: a despawned id, NaN, an unknown material, no balls — typed errors, world unchanged.
 #[test]
 fn bad_calls_are_typed_errors_and_change_nothing() {
-    let mut hadou = Renderer::with_options(common::context(), &RendererOptions::default()).unwrap();
+    let (_leaks, ctx) = common::context();
+    let mut hadou = Renderer::with_options(ctx, &RendererOptions::default()).unwrap();
     hadou.load_scene(common::parse(SCENE)).unwrap();
     let id = hadou.spawn_wave(&wave(0)).unwrap();
     let group = hadou.spawn_metaballs(&metaballs(0)).unwrap();

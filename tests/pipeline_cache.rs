@@ -7,7 +7,7 @@ mod common;
 use hadou::{FrameInputs, Renderer, RendererOptions};
 
 fn renderer(dir: &std::path::Path) -> Renderer {
-    let ctx = common::context();
+    let (_leaks, ctx) = common::context();
     let options =
         RendererOptions { pipeline_cache_dir: Some(dir.to_path_buf()), ..RendererOptions::default() };
     let mut r = Renderer::with_options(ctx, &options).unwrap();

@@ -123,3 +123,21 @@ fn check_outputs(outputs: &[&Path], inputs: &[PathBuf]) -> anyhow::Result<()> {
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     Ok(hadou::output::check_outputs(outputs, &inputs)?)
 }
+
+/// Destroys the runtime and fails when validation (on with `HADOU_VALIDATION=1`) reported any
+/// error or warning, objects still alive at vkDestroyDevice included. Called before any output
+/// is committed, so a run the layer objects to writes nothing.
+fn finish_validated(runtime: hadou::Runtime) -> anyhow::Result<()> {
+    let log = runtime.validation_log();
+    drop(runtime);
+    let counts = log.counts();
+    if counts.errors > 0 || counts.warnings > 0 {
+        bail!(
+            "validation reported {} errors and {} warnings; nothing written:\n{}",
+            counts.errors,
+            counts.warnings,
+            log.messages().join("\n")
+        );
+    }
+    Ok(())
+}

@@ -119,6 +119,7 @@ pub fn run(args: ProfileArgs) -> anyhow::Result<ExitCode> {
         args.warmup,
         &frames,
     );
+    super::finish_validated(runtime)?;
     // Both files or neither.
     let mut set = OutputSet::default();
     if let Some(path) = &args.json {

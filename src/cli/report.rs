@@ -65,15 +65,7 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
     };
     let report = hadou::report::run(&mut runtime, &opts, &command, &mut show)?;
     progress.finish();
-    let counts = runtime.validation_counts();
-    if counts.errors > 0 || counts.warnings > 0 {
-        bail!(
-            "validation reported {} errors and {} warnings; no report written:\n{}",
-            counts.errors,
-            counts.warnings,
-            runtime.validation_messages().join("\n")
-        );
-    }
+    super::finish_validated(runtime)?;
     let written = staging.write(&report)?;
     let out = staging.commit()?;
     println!("report written to {} ({} files)", out.display(), written.len());
