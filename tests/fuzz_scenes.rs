@@ -184,6 +184,18 @@ fn check_limits(s: &Scene) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// Every OBJ file of the repository as a seed: the valid meshes of assets/meshes and the loader's
+/// own malformed and edge cases (tests/data/obj, tests/bad_scenes), each a different start for
+/// the mutations.
+fn obj_seeds() -> Vec<(PathBuf, String)> {
+    let seeds: Vec<_> = ["assets/meshes", "tests/data/obj", "tests/bad_scenes"]
+        .iter()
+        .flat_map(|d| files(d, "obj"))
+        .collect();
+    assert!(seeds.len() >= 20, "only {} OBJ seeds", seeds.len());
+    seeds
+}
+
 fn cases() -> u32 {
     std::env::var("HADOU_FUZZ_CASES").ok().and_then(|n| n.parse().ok()).unwrap_or(48)
 }
@@ -207,10 +219,11 @@ proptest! {
 
     #[test]
     fn mutated_obj_files_are_refused_in_place_or_finite(
+        which in any::<Index>(),
         mutations in prop::collection::vec(mutation(), 1..4),
     ) {
-        let seeds = files("assets/meshes", "obj");
-        let (path, text) = &seeds[0];
+        let seeds = obj_seeds();
+        let (path, text) = &seeds[which.index(seeds.len())];
         let text = mutations.iter().fold(text.clone(), |t, m| apply(&t, m));
         match hadou::scene::obj::parse_obj(&text, path) {
             Ok(mesh) => {
