@@ -2,13 +2,16 @@
 //! and the f64 reference: a probe compute shader (below) casts rays given in a buffer through
 //! `metaball_cast`, for random groups (several per dispatch, each with its own ball range and
 //! index list). The GLSL and the twin share every operation, so away from the tangency band they
-//! agree to rounding (the device may fuse multiply-adds); validation must stay silent.
+//! agree to rounding (the device may fuse multiply-adds): each lies within `f32_bound` (the f32
+//! error model of the band, per ray) of the exact hit, so they differ by at most twice that.
+//! Validation must stay silent (checked after the device is destroyed).
 
 mod common;
 
+use glam::DMat3;
 use glam::DVec3;
 use gpu_allocator::MemoryLocation;
-use hadou::effects::metaballs::{cast, Ball, Kernel, MetaballGroupParams};
+use hadou::effects::metaballs::{cast, gradient, Ball, Kernel, MetaballGroupParams};
 use hadou::effects::metaballs_f32::{
     cast_f32, gpu_balls, gpu_group, tangency, GpuMetaBall, GpuMetaGroup, BAND_C, MB_HIT, MB_NOT_CONVERGED,
     MB_STREAMED,
@@ -17,9 +20,9 @@ use hadou::gpu::barriers::{cmd_barriers, memory_barrier};
 use hadou::gpu::commands::FrameCommands;
 use hadou::gpu::memory::Memory;
 use hadou::gpu::pipeline::{create_compute_pipeline, write_set, Bound, BufferRange, DescriptorPool};
-use hadou::gpu::{vk, ContextOptions, GpuContext};
+use hadou::gpu::vk;
 use hadou::scene::transform::{Transform, TransformOp};
-use hadou::testing::Rng;
+use hadou::testing::{Comparison, Rng};
 
 const PROBE: &str = r#"#version 460
 // metaballs probe: one ray per invocation through metaball_cast (tests/metaballs_gpu.rs).
@@ -90,11 +93,8 @@ fn run_probe(
     lists: &[u32],
     rays: &[ProbeRay],
 ) -> Vec<([f32; 3], f32, u32, u32)> {
-    let options = ContextOptions {
-        validation: true,
-        device_filter: std::env::var("HADOU_DEVICE").ok().filter(|s| !s.is_empty()),
-    };
-    let ctx = GpuContext::new(&options).unwrap_or_else(|e| panic!("GPU tests need a Vulkan device: {e}"));
+    // The guard checks the validation log after the device is destroyed (leaks included).
+    let (_leaks, ctx) = common::context();
     let out = {
         let memory = Memory::new(&ctx).unwrap();
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
@@ -168,14 +168,6 @@ fn run_probe(
             .collect();
         out
     };
-    let counts = ctx.validation_counts();
-    assert!(
-        counts.errors == 0 && counts.warnings == 0,
-        "validation: {} errors, {} warnings:\n{}",
-        counts.errors,
-        counts.warnings,
-        ctx.validation_messages().join("\n")
-    );
     out
 }
 
@@ -202,6 +194,83 @@ fn random_group(rng: &mut Rng) -> MetaballGroupParams {
         transform: Transform::from_ops(&ops).unwrap(),
         method: Default::default(),
     }
+}
+
+/// How far an f32 cast may lie from the exact hit of `g` at world distance `t` on a ray outside
+/// the tangency band: (relative depth, normal angle in radians), from the f32 error model of the
+/// band (`metaballs_f32` module docs). In object space (t′ = t·t_scale, unit direction), over the
+/// balls whose support holds the hit (R_max the largest radius):
+/// - g = F − T is evaluated to within δ = BAND_C·ε·(S + X·G), with S ≤ T + Σ|q|·B (B the largest
+///   chord Bernstein coefficient: 104/45 for wyvill6, 8/5 for murakami4; restricting a chord only
+///   averages them), X ≤ ‖o′‖ + t′ + 2R_max and G = Σ|q|γ/R. Outside the band the root is simple
+///   and no extremum comes within δ of zero, so δ moves it by at most δ/|g′(t′)|;
+/// - the clipping answers the middle of a bracket ≤ 2⁻²² of an interval that lies in one support
+///   chord (≤ 2R_max): 2⁻²²·R_max more; `extra` (object units) is a method's own term;
+/// - t = t′/t_scale, in f32 and stored: 4ε relative.
+///
+/// The normal ∝ −∇F at the f32 hit: the offset Δt′ above turns it by ≤ ‖∇²F‖·Δt′/‖∇F‖ (the
+/// Hessian's Frobenius norm at the hit, twice for its change over Δt′); ∇F in f32 sums terms of
+/// size ≤ G (BAND_C·ε·G) at a position rounded to ε·X per coordinate (2ε·X·‖∇²F‖); M⁻ᵀ into the
+/// world turns an angle by at most cond(M); normalising adds 2ε.
+fn f32_bound(g: &MetaballGroupParams, o: DVec3, d: DVec3, t: f64, extra: f64) -> (f64, f64) {
+    let eps = f64::from(f32::EPSILON);
+    let ray = g.transform.ray_to_object(o, d);
+    let tp = t * ray.t_scale;
+    let p = ray.origin + ray.dir * tp;
+    let b_max = match g.kernel {
+        Kernel::Wyvill6 => 104.0 / 45.0,
+        Kernel::Murakami4 => 1.6,
+    };
+    let gamma = g.kernel.max_slope();
+    let (mut s, mut gs, mut r_max) = (g.threshold, 0.0, 0.0);
+    let mut hessian = DMat3::ZERO;
+    for b in g.balls.iter().filter(|b| (p - b.centre).length() < b.radius) {
+        s += b.q.abs() * b_max;
+        gs += b.q.abs() * gamma / b.radius;
+        if b.radius > r_max {
+            r_max = b.radius;
+        }
+        // ∇²(q·f(‖x‖²/R²)) = q·(2f′(s)·I/R² + 4f″(s)·x xᵀ/R⁴).
+        let (x, r2) = (p - b.centre, b.radius * b.radius);
+        let rp = x.length_squared() / r2;
+        let f2 = match g.kernel {
+            Kernel::Wyvill6 => -8.0 / 3.0 * rp + 34.0 / 9.0,
+            Kernel::Murakami4 => 2.0,
+        };
+        let outer = DMat3::from_cols(x * x.x, x * x.y, x * x.z);
+        hessian += DMat3::from_diagonal(DVec3::splat(2.0 * b.q * g.kernel.df(rp) / r2))
+            + outer * (4.0 * b.q * f2 / (r2 * r2));
+    }
+    let h = 2.0 * frobenius(hessian);
+    let x = ray.origin.length() + tp + 2.0 * r_max;
+    let grad = gradient(g, p);
+    let dt = BAND_C * eps * (s + x * gs) / grad.dot(ray.dir).abs() + 2f64.powi(-22) * r_max + extra;
+    let normal = h * dt + BAND_C * eps * gs + 2.0 * eps * x * h;
+    let m = DMat3::from_mat4(g.transform.matrix);
+    (dt / tp + 4.0 * eps, condition(m) * normal / grad.length() + 2.0 * eps)
+}
+
+/// The angle between two vectors in radians, accurate near 0 (atan2 of |a × b| and a·b: acos
+/// of a dot product near 1 loses half the digits).
+fn angle(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b))
+}
+
+fn frobenius(m: DMat3) -> f64 {
+    (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
+}
+
+/// cond₂(M) = σ_max/σ_min, each by 64 power iterations on MᵀM (and on its inverse).
+fn condition(m: DMat3) -> f64 {
+    let sigma_max = |a: DMat3| {
+        let ata = a.transpose() * a;
+        let mut v = DVec3::new(0.6, 0.5, 0.62).normalize();
+        for _ in 0..64 {
+            v = (ata * v).normalize();
+        }
+        (ata * v).length().sqrt()
+    };
+    sigma_max(m) * sigma_max(m.inverse())
 }
 
 #[test]
@@ -241,8 +310,18 @@ fn glsl_matches_the_f32_twin_and_f64() {
         params.push(g);
     }
     let gpu = run_probe(&groups, &balls, &lists, &rays);
-    let (mut hits, mut same_iterations, mut in_band, mut band_differ) = (0usize, 0usize, 0usize, 0usize);
-    let (mut worst_twin_t, mut worst_twin_n, mut worst_f64_t) = (0.0f64, 0.0f64, 0.0f64);
+    // Hit/miss as an error of 0 or 1 (tolerance 0) over every ray, band rays excluded; depths and
+    // normals in units of their bounds (`f32_bound`: the device and the twin each err by at most
+    // one bound, so they differ by at most two), and the pass's contract against f64 (depth 1e-4
+    // relative, normal 0.5°: metaballs_f32's module docs) on the same hits.
+    let mut hit_miss = Comparison::new("hit/miss differs from the twin or f64 (outside the band)");
+    let mut twin_t = Comparison::new("depth vs the f32 twin / 2 bounds");
+    let mut twin_n = Comparison::new("normal vs the f32 twin / 2 bounds");
+    let mut f64_t = Comparison::new("depth vs f64 / its bound");
+    let mut f64_n = Comparison::new("normal vs f64 / its bound");
+    let mut contract_t = Comparison::new("depth vs f64, relative (contract 1e-4)");
+    let mut contract_n = Comparison::new("normal vs f64, degrees (contract 0.5°)");
+    let (mut same_iterations, mut band_differ) = (0usize, 0usize);
     for (k, (ray, &(gi, o, d, t_min, t_max))) in rays.iter().zip(&ray_f64).enumerate() {
         let (normal, t, flags, iterations) = gpu[k];
         let (b, c) = (ray.target[1] as usize, ray.target[2] as usize);
@@ -261,43 +340,54 @@ fn glsl_matches_the_f32_twin_and_f64() {
         let band = tangency(&params[gi], o, d, t_min, t_max).in_band();
         let gpu_hit = flags & MB_HIT != 0;
         if band {
-            in_band += 1;
+            hit_miss.exclude();
             band_differ += usize::from(gpu_hit != twin.hit());
             continue;
         }
-        assert_eq!(gpu_hit, twin.hit(), "ray {k}: GPU flags {flags:#x}, twin {twin:?}");
-        assert_eq!(gpu_hit, reference.is_some(), "ray {k}: GPU flags {flags:#x}, f64 {reference:?}");
+        let differ = gpu_hit != twin.hit() || gpu_hit != reference.is_some();
+        hit_miss.error(
+            format_args!("ray {k}: GPU flags {flags:#x}, twin {twin:?}, f64 {reference:?}"),
+            f64::from(u8::from(differ)),
+        );
         same_iterations += usize::from(iterations == twin.iterations);
-        if let Some(r) = reference {
-            hits += 1;
-            let tw = (t - twin.t).abs() / twin.t;
-            worst_twin_t = worst_twin_t.max(f64::from(tw));
+        if let (Some(r), true, true) = (reference, gpu_hit, twin.hit()) {
+            let (depth, bound_n) = f32_bound(&params[gi], o, d, r.t, 0.0);
             let gn = glam::Vec3::from(normal).as_dvec3();
-            worst_twin_n = worst_twin_n.max(gn.angle_between(twin.normal.as_dvec3()).to_degrees());
-            let rel = (f64::from(t) - r.t).abs() / r.t;
-            worst_f64_t = worst_f64_t.max(rel);
-            assert!(rel <= 1e-4, "ray {k}: GPU t {t} vs f64 {}", r.t);
-            assert!(gn.angle_between(r.normal).to_degrees() <= 0.5, "ray {k}: normal {gn} vs {}", r.normal);
+            let tn = twin.normal.as_dvec3();
+            let at = format_args!("ray {k}");
+            twin_t.error(at, (f64::from(t) - f64::from(twin.t)).abs() / r.t / (2.0 * depth));
+            twin_n.error(at, angle(gn, tn) / (2.0 * bound_n));
+            f64_t.error(at, (f64::from(t) - r.t).abs() / r.t / depth);
+            f64_n.error(at, angle(gn, r.normal) / bound_n);
+            contract_t.rel(at, f64::from(t), r.t);
+            contract_n.error(at, angle(gn, r.normal).to_degrees());
         }
     }
     println!(
-        "GPU probe, {} rays on {} groups: {hits} hits; vs the f32 twin: worst depth {worst_twin_t:.1e} relative, \
-         worst normal {worst_twin_n:.4}°, same iteration count on {same_iterations} of {} rays outside the band; vs \
-         f64: worst depth {worst_f64_t:.1e}; {in_band} rays in the tangency band ({band_differ} hit/miss differ from \
-         the twin)",
+        "GPU probe, {} rays on {} groups: same iteration count as the twin on {same_iterations} of {} rays \
+         outside the band; {} rays in the band ({band_differ} hit/miss differ from the twin)",
         rays.len(),
         groups.len(),
-        rays.len() - in_band
+        hit_miss.compared(),
+        hit_miss.excluded()
     );
-    assert!(hits > 2000, "{hits} hits");
-    assert!(worst_twin_t <= 1e-5 && worst_twin_n <= 0.05);
+    // The band is a shell ~δ/‖∇F‖ ≈ 10⁻⁵ units thick about grazing rays; rays aimed into a ±4-unit
+    // box cross it with a chance of that order, so 1% (a thousand times more) caps the exclusion.
+    hit_miss.assert_excluded_at_most(0.01);
+    hit_miss.assert_within(0.0, rays.len() * 99 / 100);
+    // About a quarter of the rays hit (4,633 of 16,384 when written); 2,000 is the floor.
+    for c in [&twin_t, &twin_n, &f64_t, &f64_n] {
+        c.assert_within(1.0, 2000);
+    }
+    contract_t.assert_within(1e-4, 2000);
+    contract_n.assert_within(0.5, 2000);
 }
 
 /// The two variants the speed-against-error report compares, on the device against the f32
 /// twin: Bézier clipping with a coarse `tolerance` (1e-3 world units) and sphere tracing (4,096
 /// steps: far more than any of these rays needs, so no cast runs out). Both are the same f32
-/// operations on both sides, so outside the tangency band hit/miss agree and depths agree to
-/// rounding (1e-5 relative, as for the default clipping above). Sphere tracing may also skip a
+/// operations on both sides, so outside the tangency band hit/miss agree and depths and normals
+/// agree within twice `f32_bound` (plus each method's own term, below). Sphere tracing may also skip a
 /// sliver of surface thinner than its least step, where F − T stays within 2⁻¹⁰·T of zero (see
 /// metaballs_trace.rs): there the device and the twin may legitimately take different steps, so
 /// rays whose tangency margin is below 2⁻¹⁰ (margin = min |F − T|/(S + X·G) ≥ that, since
@@ -305,6 +395,7 @@ fn glsl_matches_the_f32_twin_and_f64() {
 #[test]
 fn glsl_variants_match_the_f32_twin() {
     use hadou::effects::metaballs::CastMethod;
+    use hadou::effects::metaballs_trace::{TRACE_BISECT, TRACE_MIN_STEP};
     let mut rng = Rng(0x7661_7269_616e_7473);
     let (mut groups, mut params, mut balls, mut lists) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut rays, mut ray_f64) = (Vec::new(), Vec::new());
@@ -335,10 +426,17 @@ fn glsl_variants_match_the_f32_twin() {
         params.push(g);
     }
     let gpu = run_probe(&groups, &balls, &lists, &rays);
-    let (mut hits, mut left_out, mut worst_t, mut worst_f64) = ([0usize; 2], [0usize; 2], [0f64; 2], 0f64);
-    let mut worst_tol = 0f64;
+    let names = ["clip 1e-3", "trace 4096"];
+    let new = |what: &str| names.map(|m| Comparison::new(format!("{m}: {what}")));
+    let (mut hit_miss, mut twin_t, mut twin_n, mut f64_t) = (
+        new("hit/miss differs from the twin"),
+        new("depth vs the twin / 2 bounds"),
+        new("normal vs the twin / 2 bounds"),
+        new("depth vs f64 / its bound"),
+    );
+    let mut same_steps = [0usize; 2];
     for (k, (ray, &(gi, o, d, t_min))) in rays.iter().zip(&ray_f64).enumerate() {
-        let (normal, t, flags, _) = gpu[k];
+        let (normal, t, flags, iterations) = gpu[k];
         let trace = ray.target[3] as usize;
         let (b, c) = (ray.target[1] as usize, ray.target[2] as usize);
         let twin = cast_f32(
@@ -356,54 +454,64 @@ fn glsl_variants_match_the_f32_twin() {
         let margin = tangency(&params[gi], o, d, t_min, 100.0).margin;
         let limit = if trace == 1 { 2f64.powi(-10) } else { BAND_C * f64::from(f32::EPSILON) };
         if margin <= limit {
-            left_out[trace] += 1;
+            hit_miss[trace].exclude();
             continue;
         }
         let gpu_hit = flags & MB_HIT != 0;
-        assert_eq!(
-            gpu_hit,
-            twin.hit(),
-            "ray {k} ({}): GPU flags {flags:#x}, twin {twin:?}",
-            ["clip", "trace"][trace]
-        );
-        if gpu_hit {
-            hits[trace] += 1;
-            worst_t[trace] = worst_t[trace].max(f64::from((t - twin.t).abs() / twin.t));
-            let gn = glam::Vec3::from(normal);
-            assert!(
-                gn.angle_between(twin.normal).to_degrees() <= 0.05,
-                "ray {k}: normal {gn} vs {}",
-                twin.normal
-            );
-            let r = cast(&params[gi], o, d, t_min, 100.0).expect("the reference hits too");
-            if trace == 1 {
-                // Sphere tracing finds the exact first root (away from slivers), to ~2⁻²⁶·T/L.
-                worst_f64 = worst_f64.max((f64::from(t) - r.t).abs() / r.t);
-            } else {
-                // A part whose ends differ in sign holds the first root: within half the
-                // tolerance of its middle, plus the default clipping's f32 error (≤ 1e-4).
-                let err = (f64::from(t) - r.t).abs();
-                assert!(err <= 0.5e-3 + 1e-4 * r.t, "ray {k}: tolerance 1e-3, t {t} vs f64 {}", r.t);
-                worst_tol = worst_tol.max(err);
-            }
+        let at = format_args!("ray {k}: GPU flags {flags:#x}, twin {twin:?}");
+        hit_miss[trace].error(at, f64::from(u8::from(gpu_hit != twin.hit())));
+        same_steps[trace] += usize::from(iterations == twin.iterations);
+        if !(gpu_hit && twin.hit()) {
+            continue;
+        }
+        let g = &params[gi];
+        let r = cast(g, o, d, t_min, 100.0).expect("the reference hits too");
+        let ts = g.transform.ray_to_object(o, d).t_scale;
+        // Each method's own term (object units) beside the f32 error of `f32_bound`:
+        // - sphere tracing bisects a bracket one least step wide (TRACE_MIN_STEP·T/L, L ≥ the
+        //   group's least |q|γ/R) 16 times: its middle is within 2⁻¹⁷ of that of the root (see
+        //   metaballs_math.rs), on each side;
+        // - clipping with a tolerance answers the middle of a bracket up to 1e-3 world units wide:
+        //   within 0.5e-3 of the root. The device and the twin take the same steps (same
+        //   iteration count) and so the same brackets up to rounding; where the counts differ,
+        //   each may end anywhere in its bracket: 1e-3 apart.
+        let (twin_extra, f64_extra) = if trace == 1 {
+            let l_min = g
+                .balls
+                .iter()
+                .map(|b| b.q.abs() * g.kernel.max_slope() / b.radius)
+                .fold(f64::INFINITY, f64::min);
+            let bracket = TRACE_MIN_STEP * g.threshold / l_min * 0.5f64.powi(TRACE_BISECT as i32 + 1);
+            (bracket, bracket)
+        } else {
+            (if iterations == twin.iterations { 0.0 } else { 0.5e-3 * ts }, 0.5e-3 * ts)
+        };
+        let (twin_depth, twin_angle) = f32_bound(g, o, d, r.t, twin_extra);
+        let (f64_depth, _) = f32_bound(g, o, d, r.t, f64_extra);
+        let gn = glam::Vec3::from(normal).as_dvec3();
+        twin_t[trace].error(at, (t - twin.t).abs() as f64 / r.t / (2.0 * twin_depth));
+        twin_n[trace].error(at, angle(gn, twin.normal.as_dvec3()) / (2.0 * twin_angle));
+        f64_t[trace].error(at, (f64::from(t) - r.t).abs() / r.t / f64_depth);
+    }
+    println!("same step count as the twin outside the band: clip {}, trace {}", same_steps[0], same_steps[1]);
+    for m in 0..2 {
+        // Rays within 2⁻¹⁰ of tangency (sphere tracing) are ~1% of these (104 of 3,072 when
+        // written): 10% caps it; the clip band (16·ε) holds none of them.
+        hit_miss[m].assert_excluded_at_most(0.1);
+        hit_miss[m].assert_within(0.0, 2000);
+        // About 850 hits per method when written.
+        for c in [&twin_t[m], &twin_n[m], &f64_t[m]] {
+            c.assert_within(1.0, 500);
         }
     }
-    println!(
-        "GPU variants vs the f32 twin: tolerance 1e-3: {} hits, worst depth {:.1e} rel (vs f64: {worst_tol:.1e} \
-         world units), {} rays in the band; \
-         sphere tracing: {} hits, worst depth {:.1e} rel (vs f64 reference {worst_f64:.1e}), {} rays within 2^-10",
-        hits[0], worst_t[0], left_out[0], hits[1], worst_t[1], left_out[1]
-    );
-    assert!(hits[0] > 500 && hits[1] > 500, "{hits:?}");
-    assert!(worst_t[0] <= 1e-5 && worst_t[1] <= 1e-5, "{worst_t:?}");
-    assert!(worst_f64 <= 1e-4, "{worst_f64:.2e}");
 }
 
 /// The streamed cast (`mb_clip_stream`) on the device against its f32 twin and f64: crowds of 40,
 /// 48 and 150 overlapping supports (`testing::crowded_metaballs`; more than the 32 slots hold at
 /// one point), half the groups sphere-traced (a crowded ray is streamed with clipping whatever
 /// the method). Same operations on both sides, so outside the tangency band hit/miss agree,
-/// depths to rounding (1e-5 relative, as for the slot casts above) and the f64 bounds hold.
+/// depths and normals within twice `f32_bound` (as for the slot casts above) and the f64 bounds
+/// hold.
 #[test]
 fn glsl_streamed_casts_match_the_f32_twin() {
     use hadou::effects::metaballs::CastMethod;
@@ -436,8 +544,14 @@ fn glsl_streamed_casts_match_the_f32_twin() {
         params.push(g);
     }
     let gpu = run_probe(&groups, &balls, &lists, &rays);
-    let (mut hits, mut streamed, mut in_band, mut worst_t, mut worst_f64) =
-        (0usize, 0usize, 0usize, 0f64, 0f64);
+    let mut hit_miss = Comparison::new("hit/miss differs from the twin or f64 (outside the band)");
+    let mut twin_t = Comparison::new("depth vs the twin / 2 bounds");
+    let mut twin_n = Comparison::new("normal vs the twin / 2 bounds");
+    let mut f64_t = Comparison::new("depth vs f64 / its bound");
+    let mut f64_n = Comparison::new("normal vs f64 / its bound");
+    let mut contract_t = Comparison::new("depth vs f64, relative (contract 1e-4)");
+    let mut contract_n = Comparison::new("normal vs f64, degrees (contract 0.5°)");
+    let mut streamed = 0usize;
     for (k, (ray, &(gi, o, d))) in rays.iter().zip(&ray_f64).enumerate() {
         let (normal, t, flags, _) = gpu[k];
         let (b, c) = (ray.target[1] as usize, ray.target[2] as usize);
@@ -455,33 +569,35 @@ fn glsl_streamed_casts_match_the_f32_twin() {
         assert_eq!(flags & MB_STREAMED, twin.flags & MB_STREAMED, "ray {k}: GPU {flags:#x}, twin {twin:?}");
         streamed += usize::from(flags & MB_STREAMED != 0);
         if tangency(&params[gi], o, d, 0.1, 100.0).in_band() {
-            in_band += 1;
+            hit_miss.exclude();
             continue;
         }
         let gpu_hit = flags & MB_HIT != 0;
-        assert_eq!(gpu_hit, twin.hit(), "ray {k}: GPU flags {flags:#x}, twin {twin:?}");
         let reference = cast(&params[gi], o, d, 0.1, 100.0);
-        assert_eq!(gpu_hit, reference.is_some(), "ray {k}: GPU flags {flags:#x}, f64 {reference:?}");
-        if let Some(r) = reference {
-            hits += 1;
-            worst_t = worst_t.max(f64::from((t - twin.t).abs() / twin.t));
-            let gn = glam::Vec3::from(normal);
-            assert!(
-                gn.angle_between(twin.normal).to_degrees() <= 0.05,
-                "ray {k}: normal {gn} vs {}",
-                twin.normal
-            );
-            let rel = (f64::from(t) - r.t).abs() / r.t;
-            worst_f64 = worst_f64.max(rel);
-            assert!(rel <= 1e-4, "ray {k}: GPU t {t} vs f64 {}", r.t);
-            assert!(gn.as_dvec3().angle_between(r.normal).to_degrees() <= 0.5, "ray {k}: normal vs f64");
+        let at = format_args!("ray {k}: GPU flags {flags:#x}, twin {twin:?}, f64 {reference:?}");
+        hit_miss.error(at, f64::from(u8::from(gpu_hit != twin.hit() || gpu_hit != reference.is_some())));
+        if let (Some(r), true, true) = (reference, gpu_hit, twin.hit()) {
+            // A streamed cast clips like the slot cast (Bézier clipping whatever the method).
+            let (depth, bound_n) = f32_bound(&params[gi], o, d, r.t, 0.0);
+            let gn = glam::Vec3::from(normal).as_dvec3();
+            twin_t.error(at, (t - twin.t).abs() as f64 / r.t / (2.0 * depth));
+            twin_n.error(at, angle(gn, twin.normal.as_dvec3()) / (2.0 * bound_n));
+            f64_t.error(at, (f64::from(t) - r.t).abs() / r.t / depth);
+            f64_n.error(at, angle(gn, r.normal) / bound_n);
+            contract_t.rel(at, f64::from(t), r.t);
+            contract_n.error(at, angle(gn, r.normal).to_degrees());
         }
     }
-    println!(
-        "GPU streamed casts, {} rays: {streamed} streamed, {hits} hits; worst depth vs the twin {worst_t:.1e} rel, \
-         vs f64 {worst_f64:.1e}; {in_band} in the band",
-        rays.len()
-    );
-    assert!(streamed > rays.len() * 3 / 4 && hits > 100, "{streamed} streamed, {hits} hits");
-    assert!(worst_t <= 1e-5, "{worst_t:.2e}");
+    println!("GPU streamed casts, {} rays: {streamed} streamed", rays.len());
+    assert!(streamed > rays.len() * 3 / 4, "{streamed} streamed");
+    // The crowds' rays are aimed at the dense middle, not at silhouettes (none in the band when
+    // written); the band shell (~10⁻⁵ units) cannot hold a tenth of them.
+    hit_miss.assert_excluded_at_most(0.1);
+    hit_miss.assert_within(0.0, rays.len() * 9 / 10);
+    // 176 of the 288 rays hit when written.
+    for c in [&twin_t, &twin_n, &f64_t, &f64_n] {
+        c.assert_within(1.0, 100);
+    }
+    contract_t.assert_within(1e-4, 100);
+    contract_n.assert_within(0.5, 100);
 }
