@@ -9,6 +9,7 @@ pub mod metaballs_f32;
 pub mod metaballs_trace;
 pub mod peel;
 pub mod raycast;
+pub mod shading;
 pub mod thickness;
 pub mod thickness_lut;
 pub mod tonemap;
