@@ -273,20 +273,70 @@ fn a_cube_bakes_at_every_documented_resolution() {
     }
 }
 
+/// Every parameter t where the line `o + t·d` crosses a triangle of `mesh`, sorted: Möller–Trumbore
+/// in f64 over every triangle, no BVH (the twin of `MeshBvh::crossings` on one line).
+fn crossings_brute_force(mesh: &Mesh, o: DVec3, d: DVec3) -> Vec<f64> {
+    let mut ts: Vec<f64> = (0..mesh.triangle_count())
+        .filter_map(|t| {
+            let [a, b, c] = mesh.triangle(t).map(|i| mesh.position(i));
+            let (e1, e2) = (b - a, c - a);
+            let p = d.cross(e2);
+            let det = e1.dot(p);
+            let s = o - a;
+            let (u, q) = (s.dot(p) / det, s.cross(e1));
+            let v = d.dot(q) / det;
+            (det != 0.0 && u >= 0.0 && v >= 0.0 && u + v <= 1.0).then(|| e2.dot(q) / det)
+        })
+        .collect();
+    ts.sort_by(f64::total_cmp);
+    ts
+}
+
 /// The exact reference on the cavity cube: the TSM thickness counts the cavity, the exact one
-/// does not, and their difference is the chord.
+/// does not, and their difference is the chord through the tessellated cavity, computed here over
+/// every triangle without the BVH.
 #[test]
 fn cavity_cube_references_differ_by_the_chord() {
-    let mesh = procedural::cavity_cube(2.0, 0.6, 48, 24).unwrap();
+    let (size, r) = (2.0, 0.6);
+    let mesh = procedural::cavity_cube(size, r, 48, 24).unwrap();
     let bvh = MeshBvh::new(&mesh).unwrap();
     let m = Transform::from_ops(&[TransformOp::Scale(DVec3::new(1.5, 1.0, 1.0))]).unwrap();
-    let p = m.transform_point(DVec3::new(0.013, 0.011, 1.0));
+    let (x, y) = (0.013, 0.011);
+    let p = m.transform_point(DVec3::new(x, y, 1.0));
     let exact = exact_thickness(&bvh, &m, p, DVec3::NEG_Z);
     let tsm = tsm_thickness(&bvh, &m, p, DVec3::NEG_Z);
-    assert!((tsm - 2.0).abs() < 1e-12);
-    assert!((tsm - exact - 1.2).abs() < 0.01, "{tsm} {exact}");
+    // The line along z through (x, y) crosses the front face, the cavity twice, the back face; M
+    // scales x only, so object and world lengths along z agree.
+    let ts = crossings_brute_force(&mesh, DVec3::new(x, y, 3.0), DVec3::NEG_Z);
+    assert_eq!(ts.len(), 4, "{ts:?}");
+    let (chord, through) = (ts[2] - ts[1], ts[3] - ts[0]);
+    // Each side adds or subtracts crossing parameters |t| ≤ 4 (here, and ≤ 2 in the BVH's ray
+    // from p), each a few f64 operations on exact inputs: a handful of ulps of 4 (8.9e-16 each).
+    // 16 ulps of 4 for the sum of four such terms is 1.4e-14.
+    let ulps4 = 4.0 * f64::EPSILON;
+    assert!((tsm - through).abs() <= 16.0 * ulps4, "TSM {tsm} vs the cube's depth {through}");
+    assert!((tsm - exact - chord).abs() <= 16.0 * ulps4, "TSM {tsm} − exact {exact} vs the chord {chord}");
+    // The chord is the cavity's: its vertices lie on the sphere of radius r, so its facets lie
+    // inside it (the chord is at most the sphere's, 2√(r² − ρ²)) and outside the sphere of radius
+    // r·cos δ, δ the largest angle between two corners of a cavity triangle (a triangle lies in
+    // the convex hull of the cap of angular radius δ about a corner, whose nearest point to the
+    // centre is at r·cos δ).
+    let rho2 = x * x + y * y;
+    let delta = (0..mesh.triangle_count())
+        .map(|t| mesh.triangle(t).map(|i| mesh.position(i)))
+        .filter(|c| c.iter().all(|v| v.length() < size / 2.0))
+        .flat_map(|[a, b, c]| [a.angle_between(b), b.angle_between(c), c.angle_between(a)])
+        .fold(0.0, f64::max);
+    let (lo, hi) = (2.0 * ((r * delta.cos()).powi(2) - rho2).sqrt(), 2.0 * (r * r - rho2).sqrt());
+    println!(
+        "chord {chord} in [{lo}, {hi}] (δ = {:.2}°); TSM − depth {:.1e}, TSM − exact − chord {:.1e}",
+        delta.to_degrees(),
+        tsm - through,
+        tsm - exact - chord
+    );
+    assert!(delta < 0.2 && lo <= chord && chord <= hi, "chord {chord} outside [{lo}, {hi}]");
     let t = transmittance(DVec3::ONE, exact);
-    assert!((t.x - (-exact).exp()).abs() < 1e-15);
+    assert_eq!(t.x, (-exact).exp(), "σ = 1: the same exponential");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -306,15 +356,32 @@ fn cache_hits_and_rebuilds_damaged_files() {
     let other = procedural::torus(1.0, 0.35, 16, 8).unwrap();
     let (res, opts) = (16, options());
     let quiet = |_: usize, _: usize| {};
-    let first = cache.get_or_bake(&mesh, res, &opts, &quiet).unwrap();
+    // The bake reports its progress: calls counted, a bake makes some, reading a file none.
+    let calls = std::sync::atomic::AtomicUsize::new(0);
+    let counted = |_: usize, _: usize| {
+        calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    };
+    let progress_calls = || calls.swap(0, std::sync::atomic::Ordering::Relaxed);
+    let first = cache.get_or_bake(&mesh, res, &opts, &counted).unwrap();
     let path = cache.path_for(&mesh, res);
     assert_eq!(first.outcome, CacheOutcome::Miss(path.clone()));
     assert!(first.stats.is_some());
-    let second = cache.get_or_bake(&mesh, res, &opts, &quiet).unwrap();
+    assert!(progress_calls() > 0, "a miss bakes");
+    // A store writes a new file and renames it over the old one: a hit leaves the file (its
+    // inode and modification time) as it was.
+    let file_id = |p: &std::path::Path| {
+        use std::os::unix::fs::MetadataExt;
+        let m = std::fs::metadata(p).unwrap();
+        (m.ino(), m.modified().unwrap())
+    };
+    let stored = file_id(&path);
+    let second = cache.get_or_bake(&mesh, res, &opts, &counted).unwrap();
     assert_eq!(second.outcome, CacheOutcome::Hit(path.clone()));
     assert_eq!(second.lut, first.lut);
     assert!(second.stats.is_none());
-    assert!(second.seconds < first.seconds, "hit {} s vs bake {} s", second.seconds, first.seconds);
+    // A hit is proven by events, not by being faster: nothing baked, nothing written.
+    assert_eq!(progress_calls(), 0, "a hit must not bake");
+    assert_eq!(file_id(&path), stored, "a hit must not rewrite the file");
     // No temporary files are left behind.
     let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(names.len(), 1, "{names:?}");
@@ -347,7 +414,8 @@ fn cache_hits_and_rebuilds_damaged_files() {
     ];
     for (what, bytes) in damage {
         std::fs::write(&path, &bytes).unwrap();
-        let got = cache.get_or_bake(&mesh, res, &opts, &quiet).unwrap();
+        let got = cache.get_or_bake(&mesh, res, &opts, &counted).unwrap();
+        assert!(progress_calls() > 0, "{what}: a refused file is baked anew");
         match &got.outcome {
             CacheOutcome::Rebuilt { path: p, reason } => {
                 assert_eq!(p, &path);
@@ -357,8 +425,9 @@ fn cache_hits_and_rebuilds_damaged_files() {
         }
         assert_eq!(got.lut, first.lut, "{what}: the rebuilt table differs");
         // The rebuilt file is good again.
-        let again = cache.get_or_bake(&mesh, res, &opts, &quiet).unwrap();
+        let again = cache.get_or_bake(&mesh, res, &opts, &counted).unwrap();
         assert_eq!(again.outcome, CacheOutcome::Hit(path.clone()), "{what}");
+        assert_eq!(progress_calls(), 0, "{what}: the rebuilt file is read, not baked");
     }
     // A different resolution or mesh is a different file.
     assert_ne!(cache.path_for(&mesh, res + 1), path);
