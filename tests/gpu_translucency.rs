@@ -37,9 +37,10 @@ mod common;
 use glam::DVec3;
 use hadou::effects::raycast::SceneCaster;
 use hadou::effects::translucency::{exit_weight, transmitted};
-use hadou::report::translucency::{self as report, abs_stats as stats, with_thickness, Sample};
+use hadou::report::translucency::{self as report, abs_stats as stats, with_thickness, Sample, SampleSet};
 use hadou::scene::transform::{Transform, TransformOp};
 use hadou::scene::{MaterialKind, Scene, ThicknessMode};
+use hadou::testing::Comparison;
 use hadou::{Aov, FrameRequest};
 
 // ---------------------------------------------------------------------------------------------
@@ -164,7 +165,8 @@ fn missing_translucent_pixels(scene: &Scene, frame: &Rendered) -> Vec<(u32, u32)
             }
             let (o, u) = scene.camera.pixel_ray(x, y, frame.width, frame.height);
             let depth = frame.depth[i] as f64;
-            let Some(hit) = caster.cast(o, u).filter(|h| (h.t - depth).abs() <= 1e-3 * depth) else {
+            // The same surface as the GPU's within the rounding `report::same_surface` argues.
+            let Some(hit) = caster.cast(o, u).filter(|h| report::same_surface(h.t, depth, o)) else {
                 continue;
             };
             let material = scene.instances[hit.instance].material;
@@ -181,31 +183,43 @@ fn world_voxel(scene: &Scene, instance: usize) -> f64 {
     report::world_voxel(scene, instance).unwrap_or_else(|| panic!("instance {instance} is not translucent"))
 }
 
-/// `report::translucency::samples` over a rendered frame: every pixel with a finite GPU thickness
-/// whose centre ray hits, in f64, a translucent instance at the GPU's depth, with its exact and
-/// TSM references (silhouette pixels counted and left out); every thickness is +inf or finite ≥ 0.
-fn samples(scene: &Scene, frame: &Rendered) -> (Vec<Sample>, usize) {
+/// `report::translucency::sample_set` over a rendered frame: every pixel with a finite GPU
+/// thickness whose centre ray hits, in f64, a translucent instance at the GPU's depth, with its
+/// exact and TSM references; at most `MAX_SKIPPED_SHARE` of them left out (silhouettes), at least
+/// `min_compared` compared; every thickness is +inf or finite ≥ 0.
+fn samples(scene: &Scene, frame: &Rendered, min_compared: usize) -> SampleSet {
     for (i, &d) in frame.thickness.iter().enumerate() {
         assert!(d == f32::INFINITY || (d.is_finite() && d >= 0.0), "pixel {i}: thickness {d}");
     }
-    report::samples(scene, (frame.width, frame.height), &frame.thickness, &frame.depth).unwrap()
+    let set = report::sample_set(scene, (frame.width, frame.height), &frame.thickness, &frame.depth).unwrap();
+    println!("{}", set.assert_usable(min_compared));
+    set
 }
 
 // ---------------------------------------------------------------------------------------------
 // Tests
 
-/// GPU thickness vs the exact f64 thickness on the seed's three objects under rotated,
-/// non-uniformly scaled instances, for the LUT and for the TSM baseline.
+/// GPU thickness on the seed's three objects under rotated, non-uniformly scaled instances: the
+/// LUT against the exact f64 thickness (p95 ≤ 1 voxel, the seed's target), and the TSM baseline
+/// against its own f64 twin (`Sample::tsm`, the distance to the light's entry along P's ray).
+///
+/// TSM's bound: the GPU reads the entry depth of the light-map texel holding P (or of a neighbour
+/// holding P's instance), rasterized at the texel's centre — the same light ray peel uses, so the
+/// same method error as peel vs exact (tests/gpu_peel.rs: texels ≤ ¼ voxel, the centre's ray
+/// ≤ (√2/2)·texel beside P's): p95 ≤ ½ voxel, as peel's on these objects. And TSM counts the
+/// cavity cube's cavity and the bottle's air, which the exact thickness leaves out: off by more
+/// than 2 voxels at the 95th percentile there (it is ~15).
 #[test]
-fn thickness_matches_exact_on_the_seed_objects() {
+fn lut_matches_exact_and_tsm_its_f64_twin_on_the_seed_objects() {
     let (w, h) = (480, 270);
     let mut failures = Vec::new();
     for (mode, label) in [(ThicknessMode::Lut, "lut"), (ThicknessMode::Tsm, "tsm")] {
         let scene = with_thickness(seed_objects_transformed(), mode);
         let frame = render(&scene, w, h);
         assert_eq!(frame.passes[..3], ["raster", "light_id", "translucency"]);
-        let (samples, skipped) = samples(&scene, &frame);
-        println!("{label}: {} translucent pixels, {skipped} silhouette pixels left out", samples.len());
+        // Each object, ≈ 1.5 units 7.5 away under a 40° view, covers ≈ 1/35 of the frame: the
+        // three together more than a sixteenth.
+        let samples = samples(&scene, &frame, (w * h / 16) as usize).samples;
         let missing = missing_translucent_pixels(&scene, &frame);
         assert!(missing.is_empty(), "{label}: translucent pixels without a thickness: {missing:?}");
         for (k, inst) in scene.instances.iter().enumerate() {
@@ -213,16 +227,32 @@ fn thickness_matches_exact_on_the_seed_objects() {
                 continue;
             }
             let hw = world_voxel(&scene, k);
-            let mine: Vec<&Sample> = samples.iter().filter(|s| s.instance == k).collect();
-            assert!(mine.len() > 500, "{}: only {} pixels", inst.name.as_deref().unwrap_or("?"), mine.len());
-            let (mean, p95, max) = stats(mine.iter().map(|s| (s.gpu - s.exact) / hw));
             let name = inst.name.as_deref().unwrap_or("?");
+            let mine: Vec<&Sample> = samples.iter().filter(|s| s.instance == k).collect();
+            assert!(mine.len() > 500, "{name}: only {} pixels", mine.len());
+            let (mean, p95, max) = stats(mine.iter().map(|s| (s.gpu - s.exact) / hw));
             println!(
                 "{label} {name:>14}: {} px, voxel {hw:.4}: |error| mean {mean:.3}, p95 {p95:.3}, max {max:.2} voxels",
                 mine.len()
             );
-            if mode == ThicknessMode::Lut && p95 > 1.0 {
+            if !max.is_finite() {
+                failures.push(format!("{label} {name}: a non-finite thickness error"));
+            }
+            if mode == ThicknessMode::Lut && (p95.is_nan() || p95 > 1.0) {
                 failures.push(format!("{name}: LUT thickness p95 error {p95:.3} voxels > 1"));
+            }
+            if mode == ThicknessMode::Tsm {
+                let (tm, tp, tx) = stats(mine.iter().map(|s| (s.gpu - s.tsm) / hw));
+                println!(
+                    "tsm {name:>14}: vs its f64 twin |error| mean {tm:.3}, p95 {tp:.3}, max {tx:.2} voxels"
+                );
+                if tp.is_nan() || tp > 0.5 {
+                    failures.push(format!("{name}: TSM p95 error vs its twin {tp:.3} voxels > ½"));
+                }
+                if name != "upright torus" && (p95.is_nan() || p95 <= 2.0) {
+                    failures
+                        .push(format!("{name}: TSM p95 {p95:.3} voxels from exact: the cavity not counted?"));
+                }
             }
         }
         if std::env::var_os("HADOU_TEST_DUMP").is_some() {
@@ -332,10 +362,12 @@ fn hollow_case(label: &str, mesh_fields: &str, mesh: Option<hadou::scene::mesh::
     let m = lut_scene.instances[0].transform;
     let hw = world_voxel(&lut_scene, 0);
     let lut_frame = render(&lut_scene, w, h);
-    let lut = samples(&lut_scene, &lut_frame).0;
+    // The shapes (≈ 1.5 across, 6 units away under 25°: ≈ 0.55 of the frame's 2.66) cover about a
+    // quarter of the pixels: half of that is the floor.
+    let lut = samples(&lut_scene, &lut_frame, (w * h / 8) as usize).samples;
     let tsm_scene = with_thickness(lut_scene.clone(), ThicknessMode::Tsm);
     let tsm_frame = render(&tsm_scene, w, h);
-    let tsm = samples(&tsm_scene, &tsm_frame).0;
+    let tsm = samples(&tsm_scene, &tsm_frame, (w * h / 8) as usize).samples;
     assert_eq!(lut.len(), tsm.len());
     let options = hadou::effects::thickness_lut::BakeOptions::default();
     let (field, _) =
@@ -345,13 +377,17 @@ fn hollow_case(label: &str, mesh_fields: &str, mesh: Option<hadou::scene::mesh::
     let (delta, h_obj) = (field.error_band(), field.voxel_size);
     let band = |a: DVec3, b: DVec3| {
         let step = h_obj / 16.0;
-        let n = ((b - a).length() / step).ceil().max(1.0) as usize;
+        let n = std::cmp::max(1, ((b - a).length() / step).ceil() as usize);
         let near: Vec<bool> = (0..=n)
             .map(|k| bvh.distance_within(a + (b - a) * (k as f64 / n as f64), delta + step / 2.0).is_some())
             .collect();
         near.windows(2).filter(|w| w[0] || w[1]).count() as f64 / n as f64
     };
-    let (mut twin_misses, mut worst_twin, mut worst_bound) = (0usize, 0.0f64, 0.0f64);
+    // GPU vs twin, as a share of the per-pixel tolerance: all but 1 % within it (the ties the doc
+    // allows are excluded, and capped).
+    let mut twin_cmp = Comparison::new(format!("{label}: |GPU − twin| / (1e-3·h_w + 1e-5·tsm)"));
+    // The error vs exact as a share of its per-pixel bound, where it is measured.
+    let mut bound_cmp = Comparison::new(format!("{label}: |GPU − exact| / per-pixel bound"));
     let (mut through, mut lut_err, mut tsm_err) = (0usize, Vec::new(), Vec::new());
     for (s, t) in lut.iter().zip(&tsm) {
         assert_eq!(s.pixel, t.pixel);
@@ -362,21 +398,26 @@ fn hollow_case(label: &str, mesh_fields: &str, mesh: Option<hadou::scene::mesh::
             .unwrap();
         let diff = (s.gpu - twin).abs();
         let tolerance = 1e-3 * hw + 1e-5 * t.gpu;
-        twin_misses += usize::from(diff > tolerance);
-        worst_twin = worst_twin.max(diff / hw);
+        // A NaN is not > 1: compared (and failing), never excluded.
+        if diff / tolerance > 1.0 {
+            twin_cmp.exclude();
+        } else {
+            twin_cmp.error(format_args!("pixel {}: GPU {}, twin {twin}", s.pixel, s.gpu), diff / tolerance);
+        }
         let err = (s.gpu - s.exact).abs();
         let map = (t.gpu - s.tsm).abs();
-        if err > diff + map + 0.5 * hw {
+        // Below diff + map + ½ voxel the bound holds without measuring the band: the band around P
+        // alone is ≥ 0.9·δ ≈ 1.6 voxels (doc above). Measured (costly) only beyond.
+        if err.is_nan() || err > diff + map + 0.5 * hw {
             let bound = diff + map + t.gpu * band(to_object(a), to_object(s.point)) + 1e-6 * t.gpu;
-            assert!(
-                err <= bound,
-                "{label}: pixel {}: LUT {}, exact {}, bound {bound}",
-                s.pixel,
-                s.gpu,
-                s.exact
+            bound_cmp.error(
+                format_args!("pixel {}: LUT {}, exact {}, bound {bound}", s.pixel, s.gpu, s.exact),
+                err / bound,
             );
-            worst_bound = worst_bound.max(err / bound);
         }
+        // TSM − exact is the air on P's light path (both f64, from the same crossings): more than
+        // 2 voxels of it is a path through a cavity (radius ≥ 0.15/0.064 ≈ 2.3 voxels), not past
+        // its rim. A selection: the floor below keeps it from emptying.
         if s.tsm - s.exact > 2.0 * hw {
             through += 1;
             lut_err.push((s.gpu - s.exact).abs() / hw);
@@ -386,14 +427,16 @@ fn hollow_case(label: &str, mesh_fields: &str, mesh: Option<hadou::scene::mesh::
     let (_, lp, lx) = stats(lut_err);
     let (tm, _, _) = stats(tsm_err);
     println!(
-        "{label}: {} pixels, voxel {hw:.4}; GPU vs twin beyond 1e-3 voxel: {twin_misses} (worst {worst_twin:.4} voxels); \
-         worst error / per-pixel bound {worst_bound:.2}; \
-         {through} through a cavity: LUT |error| p95 {lp:.3}, max {lx:.2} voxels; TSM mean {tm:.2} voxels (the chord)",
+        "{label}: {} pixels, voxel {hw:.4}; {through} through a cavity: LUT |error| p95 {lp:.3}, max {lx:.2} voxels; \
+         TSM mean {tm:.2} voxels (the chord)",
         lut.len()
     );
-    assert!(twin_misses * 100 <= lut.len(), "{label}: {twin_misses} of {} pixels off the twin", lut.len());
+    twin_cmp.assert_within(1.0, lut.len() / 2);
+    twin_cmp.assert_excluded_at_most(0.01);
+    // Where no pixel's error exceeds diff + map + ½ voxel nothing needs the band: no floor.
+    bound_cmp.assert_within(1.0, 0);
     assert!(through > 1000, "{label}: only {through} pixels see the light through the cavity");
-    assert!(lp <= 1.0, "{label}: LUT p95 {lp} voxels through the cavity");
+    assert!(lp <= 1.0 && lx.is_finite(), "{label}: LUT p95 {lp} voxels through the cavity (max {lx})");
     assert!(tm > 2.0, "{label}: TSM counts the cavity");
 }
 
@@ -411,14 +454,15 @@ fn colour_matches_the_f64_formula() {
     }
     let surface = render(&lambert, w, h);
     assert_eq!(surface.passes[..2], ["raster", "tonemap"]);
-    let (samples, _) = samples(&scene, &frame);
+    let samples = samples(&scene, &frame, (w * h / 16) as usize).samples;
     let light = &scene.lights[0];
     let radiance = light.color * light.intensity;
     let light_dir = light.direction.normalize();
     let step = 2f64.powi(-10);
     let mut lit_through = 0;
     let mut per_instance: Vec<Vec<f64>> = vec![Vec::new(); scene.instances.len()];
-    let mut worst: f64 = 0.0;
+    // Every pixel and channel, its error as a share of its own bound (module docs).
+    let mut colour = Comparison::new("|GPU colour − f64 colour| / per-pixel bound");
     for s in &samples {
         let inst = &scene.instances[s.instance];
         let mat = &scene.materials[inst.material];
@@ -429,6 +473,7 @@ fn colour_matches_the_f64_formula() {
         lit_through += usize::from(weight > 0.5);
         let cpu = weight * transmitted(radiance, mat.albedo, sigma, s.exact);
         let la = radiance * mat.albedo;
+        // The largest channel's error beyond rounding; a NaN sticks.
         let mut excess: f64 = 0.0;
         for c in 0..3 {
             let (h1, h0) = (frame.hdr[i + c] as f64, surface.hdr[i + c] as f64);
@@ -437,23 +482,23 @@ fn colour_matches_the_f64_formula() {
             let slope = weight * la[c] * sigma[c] * (-sigma[c] * s.gpu.min(s.exact)).exp();
             let bound = slope * (s.gpu - s.exact).abs() + rounding;
             let err = (gpu - cpu[c]).abs();
-            assert!(
-                err <= bound,
-                "pixel {} channel {c}: gpu {gpu} ({h1} - {h0}), cpu {}, bound {bound}, d {} exact {}",
-                s.pixel,
-                cpu[c],
-                s.gpu,
-                s.exact
+            colour.error(
+                format_args!(
+                    "pixel {} channel {c}: gpu {gpu} ({h1} - {h0}), cpu {}, bound {bound}, d {} exact {}",
+                    s.pixel, cpu[c], s.gpu, s.exact
+                ),
+                err / bound,
             );
-            worst = worst.max(err / bound);
-            excess = excess.max(err - rounding);
+            let e = err - rounding;
+            if !excess.is_nan() && (e.is_nan() || e > excess) {
+                excess = e;
+            }
         }
         per_instance[s.instance].push(excess);
     }
-    println!(
-        "worst error / per-pixel bound: {worst:.3}; {lit_through} of {} pixels lit through",
-        samples.len()
-    );
+    // Three channels of every sample compared, each within its bound.
+    colour.assert_within(1.0, 3 * samples.len());
+    println!("{lit_through} of {} pixels lit through", samples.len());
     // The objects are back-lit: most of what the camera sees is a face the light leaves through.
     assert!(lit_through * 2 > samples.len(), "{lit_through} of {}", samples.len());
     for (k, errors) in per_instance.into_iter().enumerate() {
@@ -471,7 +516,7 @@ fn colour_matches_the_f64_formula() {
             "{:>14}: colour error beyond f16 rounding: mean {mean:.4}, p95 {p95:.4} (bound max L·a·σ·h_w = {p95_bound:.4}), max {max:.4}",
             inst.name.as_deref().unwrap_or("?")
         );
-        assert!(p95 <= p95_bound);
+        assert!(p95 <= p95_bound && max.is_finite(), "p95 {p95} > {p95_bound} or max {max}");
     }
 }
 
@@ -514,7 +559,8 @@ fn a_smaller_light_map_keeps_the_thickness_bound() {
     frame_scene.camera.look_at = DVec3::new(-3.4, 0.55, 2.6);
     let frame = render(&frame_scene, 320, 240);
     assert!(missing_translucent_pixels(&frame_scene, &frame).is_empty());
-    let (samples, _) = samples(&frame_scene, &frame);
+    // Close up, the cube covers ≈ 1/8 of the 320×240 frame: half of that is the floor.
+    let samples = samples(&frame_scene, &frame, (320 * 240 / 16) as usize).samples;
     let k = frame_scene.instances.iter().position(|i| i.name.as_deref() == Some("jade cube")).unwrap();
     let hw = world_voxel(&frame_scene, k);
     let mine: Vec<&Sample> = samples.iter().filter(|s| s.instance == k).collect();
@@ -524,5 +570,5 @@ fn a_smaller_light_map_keeps_the_thickness_bound() {
         "jade cube, {size}² light map: {} px, error mean {mean:.3}, p95 {p95:.3}, max {max:.2} voxels",
         mine.len()
     );
-    assert!(p95 <= 1.0, "p95 {p95:.3} voxels");
+    assert!(p95 <= 1.0 && max.is_finite(), "p95 {p95:.3} voxels, max {max}");
 }

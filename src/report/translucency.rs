@@ -67,23 +67,87 @@ pub struct Sample {
     pub tsm: f64,
 }
 
+/// The most pixels [`sample_set`] may leave out, as a share of the pixels with a finite GPU
+/// thickness. Left out are pixels where the f32 raster and the f64 cast see different surfaces:
+/// a silhouette rim as wide as the raster's 1/256-pixel snap (a negligible share), and surfaces
+/// seen steeper than [`same_surface`] covers (cos θ < ¼, where f32 coordinates far from the origin
+/// can move the depth beyond it): on a sphere's disc the share 1 − (√15/4)² = 1/16.
+pub const MAX_SKIPPED_SHARE: f64 = 1.0 / 16.0;
+
+/// Whether an f64 hit at `t` along a pixel's centre ray is the surface the GPU drew at depth
+/// `depth` (both distances from the camera at `camera`). The raster snaps to 1/256 pixel, which
+/// moves the depth by ≤ d·α/256·tan θ (α the pixel's angle, θ the incidence): ≤ 1e-3·d for
+/// α ≤ 8e-3 rad up to tan θ = 32. The f32 coordinates (|x| ≤ |C| + d, rounded to 2⁻²⁴ of that,
+/// a few more ulps through the transforms: ≤ 8 ulps) move it by ≤ 2⁻²¹·(|C| + d)/cos θ: 2⁻¹⁹·(|C| + d)
+/// up to cos θ = ¼ (far from the origin this dominates). Steeper pixels are left out as rims.
+pub fn same_surface(t: f64, depth: f64, camera: DVec3) -> bool {
+    (t - depth).abs() <= 1e-3 * depth + 2f64.powi(-19) * (camera.length() + depth)
+}
+
+/// A frame's translucent pixels with their f64 references, and how many were left out.
+#[derive(Clone, Debug, Default)]
+pub struct SampleSet {
+    pub samples: Vec<Sample>,
+    /// Pixels with a finite GPU thickness whose centre ray hits, in f64, no translucent surface at
+    /// the GPU's depth (silhouettes; see [`MAX_SKIPPED_SHARE`]).
+    pub skipped: usize,
+}
+
+impl SampleSet {
+    /// The share of the pixels with a finite GPU thickness that were left out (0 for none).
+    pub fn skipped_share(&self) -> f64 {
+        let looked_at = self.samples.len() + self.skipped;
+        if looked_at == 0 {
+            0.0
+        } else {
+            self.skipped as f64 / looked_at as f64
+        }
+    }
+
+    /// `Ok(summary)` when at most [`MAX_SKIPPED_SHARE`] of the pixels were left out and at least
+    /// `min_compared` are samples; otherwise what failed.
+    pub fn check(&self, min_compared: usize) -> Result<String, String> {
+        let summary = format!(
+            "{} translucent pixels compared, {} left out (share {:.4}, at most {MAX_SKIPPED_SHARE})",
+            self.samples.len(),
+            self.skipped,
+            self.skipped_share()
+        );
+        if self.samples.len() < min_compared {
+            Err(format!("{summary}: fewer than the {min_compared} needed"))
+        } else if self.skipped_share() > MAX_SKIPPED_SHARE {
+            Err(format!("{summary}: too many left out"))
+        } else {
+            Ok(summary)
+        }
+    }
+
+    /// Panics unless [`SampleSet::check`] holds; returns the summary.
+    #[track_caller]
+    pub fn assert_usable(&self, min_compared: usize) -> String {
+        self.check(min_compared).unwrap_or_else(|e| panic!("{e}"))
+    }
+}
+
 /// Every pixel with a finite GPU thickness whose centre ray hits, in f64, a translucent instance
-/// at the GPU's depth (within 1e-3 relative); pixels on silhouettes, where the two disagree, are
-/// counted (second value) and left out. Only the thickness is compared, not the raster.
-pub fn samples(
+/// at the GPU's depth ([`same_surface`]); pixels on silhouettes, where the two disagree, are
+/// counted and left out (bound them with [`SampleSet::check`]). Only the thickness is compared,
+/// not the raster. A NaN or −∞ thickness, or a non-finite depth under a finite thickness, is an
+/// error naming the pixel: never left out, never a sample.
+pub fn sample_set(
     scene: &Scene,
     size: (u32, u32),
     thickness: &[f32],
     depth: &[f32],
-) -> Result<(Vec<Sample>, usize), Error> {
+) -> Result<SampleSet, Error> {
     let meshes: Vec<_> = scene.meshes.iter().map(|m| m.mesh.clone()).collect();
     let instances: Vec<_> = scene.instances.iter().map(|i| (i.mesh, i.transform)).collect();
     let mesh_error = |e: crate::scene::mesh::MeshError| Error::Report(format!("reference ray caster: {e}"));
     let caster = SceneCaster::new(&meshes, &instances).map_err(mesh_error)?;
     let bvhs = meshes.iter().map(MeshBvh::new).collect::<Result<Vec<_>, _>>().map_err(mesh_error)?;
-    let Some(light) = scene.lights.first() else { return Ok((Vec::new(), 0)) };
+    let mut set = SampleSet::default();
+    let Some(light) = scene.lights.first() else { return Ok(set) };
     let toward_light = -light.direction;
-    let (mut out, mut skipped) = (Vec::new(), 0);
     for y in 0..size.1 {
         for x in 0..size.0 {
             let i = (y * size.0 + x) as usize;
@@ -91,25 +155,38 @@ pub fn samples(
             if gpu == f64::INFINITY {
                 continue;
             }
-            let (o, u) = scene.camera.pixel_ray(x, y, size.0, size.1);
             let d = depth[i] as f64;
-            let Some(hit) = caster.cast(o, u).filter(|h| (h.t - d).abs() <= 1e-3 * d) else {
-                skipped += 1;
+            if !gpu.is_finite() || !d.is_finite() {
+                return Err(Error::Report(format!("pixel ({x}, {y}): GPU thickness {gpu}, depth {d}")));
+            }
+            let (o, u) = scene.camera.pixel_ray(x, y, size.0, size.1);
+            let Some(hit) = caster.cast(o, u).filter(|h| same_surface(h.t, d, o)) else {
+                set.skipped += 1;
                 continue;
             };
             let inst = &scene.instances[hit.instance];
             if !matches!(scene.materials[inst.material].kind, MaterialKind::Translucent { .. }) {
-                skipped += 1;
+                set.skipped += 1;
                 continue;
             }
             let point = o + u * d;
             let bvh = &bvhs[inst.mesh];
             let exact = exact_thickness(bvh, &inst.transform, point, toward_light);
             let tsm = tsm_thickness(bvh, &inst.transform, point, toward_light);
-            out.push(Sample { pixel: i, instance: hit.instance, point, gpu, exact, tsm });
+            set.samples.push(Sample { pixel: i, instance: hit.instance, point, gpu, exact, tsm });
         }
     }
-    Ok((out, skipped))
+    Ok(set)
+}
+
+/// [`sample_set`] as (samples, pixels left out), without the bound on what was left out.
+pub fn samples(
+    scene: &Scene,
+    size: (u32, u32),
+    thickness: &[f32],
+    depth: &[f32],
+) -> Result<(Vec<Sample>, usize), Error> {
+    sample_set(scene, size, thickness, depth).map(|s| (s.samples, s.skipped))
 }
 
 /// (mean, nearest-rank p95, max) of |values|; NaN for none. A NaN value sorts last: it is the max.
@@ -222,7 +299,11 @@ struct Errors {
 }
 
 fn errors(scene: &Scene, opts: &ReportOptions, r: &Rendered, surface: &[f32]) -> Result<Errors, Error> {
-    let (samples, _) = samples(scene, opts.effect_size, &r.thickness, &r.depth)?;
+    let set = sample_set(scene, opts.effect_size, &r.thickness, &r.depth)?;
+    // Errors over silhouettes alone would be no measurement: the share left out is bounded, and
+    // there must be pixels to measure.
+    set.check(1).map_err(|e| Error::Report(format!("translucency errors: {e}")))?;
+    let samples = set.samples;
     let voxel = |s: &Sample| world_voxel(scene, s.instance).unwrap_or(f64::NAN);
     let light = scene.lights.first();
     let colour = samples.iter().map(|s| {
@@ -236,12 +317,18 @@ fn errors(scene: &Scene, opts: &ReportOptions, r: &Rendered, surface: &[f32]) ->
         let w = exit_weight(px(&r.normal), light.direction);
         let cpu =
             translucent_colour(px(surface), light.color * light.intensity, mat.albedo, sigma, s.exact, w);
-        (px(&r.hdr) - cpu).abs().max_element()
+        // The largest channel, NaN when any channel is (`max_element` would drop it).
+        let e = (px(&r.hdr) - cpu).abs();
+        if e.is_nan() {
+            f64::NAN
+        } else {
+            e.max_element()
+        }
     });
     let paths: f64 = samples.iter().map(|s| s.tsm / voxel(s)).filter(|v| v.is_finite()).sum();
     Ok(Errors {
         pixels: samples.len(),
-        path_voxels: paths / samples.len().max(1) as f64,
+        path_voxels: if samples.is_empty() { 0.0 } else { paths / samples.len() as f64 },
         voxels: abs_stats(samples.iter().map(|s| (s.gpu - s.exact) / voxel(s))),
         world: abs_stats(samples.iter().map(|s| s.gpu - s.exact)),
         colour: abs_stats(colour.collect::<Vec<_>>()),
@@ -390,4 +477,61 @@ pub fn section(
         tables: vec![table],
         plots: vec![plot],
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Sample {
+        Sample { pixel: 0, instance: 0, point: DVec3::ZERO, gpu: 1.0, exact: 1.0, tsm: 1.0 }
+    }
+
+    #[test]
+    fn what_is_left_out_is_capped_and_what_is_compared_has_a_floor() {
+        let set = SampleSet { samples: vec![sample(); 15], skipped: 1 };
+        assert!(set.check(15).is_ok(), "1 of 16 is the cap");
+        assert!(set.check(16).unwrap_err().contains("fewer"));
+        let set = SampleSet { samples: vec![sample(); 14], skipped: 1 };
+        assert!(set.check(1).unwrap_err().contains("too many"));
+        assert_eq!(SampleSet::default().skipped_share(), 0.0);
+        assert!(SampleSet::default().check(1).is_err());
+    }
+
+    #[test]
+    fn a_nan_from_the_gpu_is_an_error_never_a_skip() {
+        let text = r#"
+            [camera]
+            position = [0, 0, 5]
+            look_at = [0, 0, 0]
+            [[light]]
+            direction = [0, 0, 1]
+            [[mesh]]
+            name = "box"
+            kind = "cube"
+            [[material]]
+            name = "jade"
+            kind = "translucent"
+            sigma = [1, 1, 1]
+            [[instance]]
+            mesh = "box"
+            material = "jade"
+        "#;
+        let scene = crate::scene::parse_scene(text, std::path::Path::new("inline.toml")).unwrap();
+        let inf = f32::INFINITY;
+        let err = sample_set(&scene, (2, 1), &[inf, f32::NAN], &[4.0, 4.0]).unwrap_err().to_string();
+        assert!(err.contains("pixel (1, 0)"), "{err}");
+        assert!(sample_set(&scene, (2, 1), &[inf, 1.0], &[4.0, f32::NAN]).is_err());
+        // No thickness: nothing to compare, whatever the depth.
+        assert!(sample_set(&scene, (2, 1), &[inf, inf], &[f32::NAN, 4.0]).unwrap().samples.is_empty());
+    }
+
+    #[test]
+    fn the_same_surface_allows_f32_coordinates_far_out() {
+        // Near the origin the 1e-3 relative term: 4 mm at 4 units.
+        assert!(same_surface(4.003, 4.0, DVec3::ZERO) && !same_surface(4.005, 4.0, DVec3::ZERO));
+        // 10⁵ out, 2⁻¹⁹·10⁵ ≈ 0.19 more.
+        let far = DVec3::new(1e5, 0.0, 0.0);
+        assert!(same_surface(4.19, 4.0, far) && !same_surface(4.2, 4.0, far));
+    }
 }
