@@ -543,13 +543,16 @@ fn documented_wave_examples_parse() {
 /// Scene loading is linear (issue 14, finding 7): n instances each with its own material. Every
 /// look-up once scanned every name, and every material's location was found by scanning the
 /// text from its start (20,000: 10 s in a debug build, 0.125 s → 2.4 s from 2,000 to 8,000).
-/// Not a timing bound: the ratio of the best of five loads of 20,000 and of 2,500 tables is ~8
-/// when linear and ~64 when quadratic; 24 lies between with a factor 3 for noise either way (a
-/// loaded 2-core machine measured 8.2 where 4 was due, for 4× the tables).
+/// Not a timing bound but a ratio: 8× the tables take ~8× as long when linear and ~64× when
+/// quadratic; the bound 24 lies between with a factor 3 for noise either way (a loaded 2-core
+/// machine measured 8.2 where 4 was due, for 4× the tables). Noise is cut three ways: each size
+/// is the best of 5 loads, the loads of the two sizes alternate (a burst of load elsewhere slows
+/// both alike), and a ratio over the bound is measured again, up to 3 attempts in all: linear
+/// code fails only if all three are disturbed, quadratic code (~64 every time) never passes.
 #[test]
 fn loading_is_linear_in_the_number_of_tables() {
     use std::fmt::Write;
-    let load = |n: usize| {
+    let text = |n: usize| {
         let mut text = String::from("[[mesh]]\nname = \"box\"\nkind = \"cube\"\n");
         for i in 0..n {
             let _ = write!(
@@ -557,19 +560,32 @@ fn loading_is_linear_in_the_number_of_tables() {
                 "[[material]]\nname = \"m{i}\"\n[[instance]]\nmesh = \"box\"\nmaterial = \"m{i}\"\n"
             );
         }
-        let mut best = f64::INFINITY;
-        for _ in 0..5 {
-            let start = std::time::Instant::now();
-            let scene = parse(&text).unwrap();
-            best = best.min(start.elapsed().as_secs_f64());
-            assert_eq!((scene.instances.len(), scene.materials.len()), (n, n));
-            assert!(scene.instances.iter().enumerate().all(|(i, inst)| inst.material == i));
-        }
-        best
+        (n, text)
     };
-    let (small, large) = (load(2_500), load(20_000));
-    println!("2,500 tables: {small:.3} s, 20,000: {large:.3} s (ratio {:.1})", large / small);
-    assert!(large / small < 24.0, "8× the tables took {:.1}× as long", large / small);
+    let load = |(n, text): &(usize, String)| {
+        let start = std::time::Instant::now();
+        let scene = parse(text).unwrap();
+        let seconds = start.elapsed().as_secs_f64();
+        assert_eq!((scene.instances.len(), scene.materials.len()), (*n, *n));
+        assert!(scene.instances.iter().enumerate().all(|(i, inst)| inst.material == i));
+        seconds
+    };
+    let (small, large) = (text(2_500), text(20_000));
+    let mut ratios = Vec::new();
+    for _attempt in 0..3 {
+        let (mut best_small, mut best_large) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..5 {
+            best_small = best_small.min(load(&small));
+            best_large = best_large.min(load(&large));
+        }
+        let ratio = best_large / best_small;
+        println!("2,500 tables: {best_small:.3} s, 20,000: {best_large:.3} s (ratio {ratio:.1})");
+        ratios.push(ratio);
+        if ratio < 24.0 {
+            return;
+        }
+    }
+    panic!("8× the tables took {ratios:.1?}× as long in 3 attempts (linear: ~8, quadratic: ~64)");
 }
 
 /// `instance_records` groups instances by mesh (one draw each), in scene order within a mesh.
