@@ -4,6 +4,7 @@
 mod common;
 
 use common::cli::{scratch, text};
+use hadou::testing::Comparison;
 
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
@@ -52,6 +53,8 @@ fn render_writes_png_and_depth_exr() {
     assert!(depth.contains(&f32::INFINITY), "the showcase has sky pixels");
 }
 
+/// Runs with HADOU_VALIDATION=1: `profile` exits non-zero on any validation error or warning
+/// (leaks at device destroy included), so its success is a clean validation log.
 #[test]
 fn profile_writes_json_and_trace() {
     let dir = scratch("profile");
@@ -93,6 +96,32 @@ fn profile_writes_json_and_trace() {
     let events = trace["traceEvents"].as_array().unwrap();
     assert!(events.iter().filter(|e| e["name"] == "raster").count() == 4);
     assert!(text(&out).contains("gpu raster"));
+}
+
+/// `profile` fails on validation messages, like `render`: with the layer's best-practices checks
+/// switched on from outside (VK_LAYER_ENABLES, read by the Khronos layer), lavapipe's run draws
+/// warnings (a timestamp written at ALL_COMMANDS), and the run exits non-zero naming them and
+/// writes no JSON. So the success of `profile_writes_json_and_trace` (HADOU_VALIDATION=1, as
+/// every run here) means a clean log, not an unchecked one.
+#[test]
+fn profile_fails_on_validation_warnings() {
+    let dir = scratch("profile-warned");
+    let json = dir.join("p.json");
+    let args =
+        ["profile", "assets/scenes/single_cube.toml", "--size", "16x16", "--frames", "1", "--warmup", "0"];
+    let mut with_json = args.to_vec();
+    with_json.extend(["--json", json.to_str().unwrap()]);
+    let best_practices = [("VK_LAYER_ENABLES", "VK_VALIDATION_FEATURE_ENABLE_BEST_PRACTICES_EXT")];
+    let out = hadou(&with_json, &best_practices);
+    let msg = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{msg}");
+    assert!(msg.contains("validation reported") && msg.contains("warnings"), "{msg}");
+    assert!(!json.exists(), "a run the layer objected to wrote its JSON");
+    // The same run without the extra checks passes: the failure above is the warnings'.
+    let out = hadou(&with_json, &[]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(json.exists());
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Every bad scene file: its own message with line and column, non-zero exit, no panic, and no
@@ -346,22 +375,56 @@ fn a_missing_thickness_aov_names_what_produces_it() {
 }
 
 /// Every voxel_res the format accepts fits: a translucent cube at 128 (refused before the
-/// thickness field, issue 13: 283 M surface-voxel pairs above a 16384² texture) renders.
+/// thickness field, issue 13: 283 M surface-voxel pairs above a 16384² texture) renders, and
+/// renders right. A unit cube faces the camera with the light behind it, along the view axis: on
+/// the front face the light crossed the whole cube, so the thickness AOV is 1 (the f64 twin: the
+/// segment from the face point toward the light, inside the cube). Bound: 1 voxel (1/128), the
+/// documented p95 of the thickness LUT, held here by every pixel (an axis-aligned path through
+/// whole voxels); pixels within 1.5 pixels' width of the face's border are left out (the raster
+/// and the f64 cast may disagree on coverage there), the rest outside show +inf (nothing
+/// translucent). The colour shows the cube: its centre differs from the background's corner.
 #[test]
 fn a_translucent_cube_renders_at_the_largest_voxel_res() {
     let dir = scratch("lut-128");
     let scene = dir.join("big.toml");
-    std::fs::write(
-        &scene,
-        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n[[light]]\ndirection = [0, 0, -1]\n\
-         [[mesh]]\nname = \"box\"\nkind = \"cube\"\n[[material]]\nname = \"jade\"\nkind = \"translucent\"\n\
-         sigma = [1, 1, 1]\nvoxel_res = 128\n[[instance]]\nmesh = \"box\"\nmaterial = \"jade\"\n",
-    )
-    .unwrap();
+    let source = "[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\n[[light]]\ndirection = [0, 0, 1]\n\
+                [[mesh]]\nname = \"box\"\nkind = \"cube\"\n[[material]]\nname = \"jade\"\nkind = \"translucent\"\n\
+                sigma = [1, 1, 1]\nvoxel_res = 128\n[[instance]]\nmesh = \"box\"\nmaterial = \"jade\"\n";
+    std::fs::write(&scene, source).unwrap();
     let png = dir.join("out.png");
-    let args = ["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "16x16"];
+    let exr = dir.join("t.exr");
+    let aov = format!("thickness={}", exr.display());
+    let (w, h) = (48u32, 48u32);
+    let args =
+        ["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap(), "--size", "48x48", "--aov", &aov];
     let out = hadou_within(300, &args, &[("HADOU_CACHE_DIR", dir.join("cache").to_str().unwrap())]);
     assert!(out.status.success(), "{}", text(&out));
-    assert!(png.exists());
+    let img = image::open(&png).unwrap().to_rgba8();
+    assert_ne!(img.get_pixel(w / 2, h / 2), img.get_pixel(0, 0), "the cube shows in the colour");
+    let (ew, eh, thickness) = hadou::output::read_exr_channel(&exr).unwrap();
+    assert_eq!((ew, eh), (w, h));
+    let camera = hadou::scene::parse_scene(source, &scene).unwrap().camera;
+    let mut c = Comparison::new("thickness at voxel_res 128 vs f64");
+    let mut outside = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let (o, u) = camera.pixel_ray(x, y, w, h);
+            // The ray meets the face's plane z = 0.5 at p; a pixel spans ≈ |p − o|·2·tan(fov/2)/h.
+            let p = o + u * ((0.5 - o.z) / u.z);
+            let pixel = (p - o).length() * 2.0 * (camera.fov_y_deg.to_radians() / 2.0).tan() / h as f64;
+            let inset = 0.5 - (if p.x.abs() > p.y.abs() { p.x.abs() } else { p.y.abs() });
+            let got = thickness[(y * w + x) as usize] as f64;
+            if inset > 1.5 * pixel {
+                c.abs(format_args!("({x}, {y})"), got, 1.0);
+            } else if inset < -1.5 * pixel {
+                assert_eq!(got, f64::INFINITY, "({x}, {y}): outside the cube");
+                outside += 1;
+            } else {
+                c.exclude();
+            }
+        }
+    }
+    c.assert_within(1.0 / 128.0, 200);
+    assert!(outside > 1000, "the background shows: {outside} pixels");
     let _ = std::fs::remove_dir_all(&dir);
 }
