@@ -12,6 +12,7 @@ use hadou::effects::energy_wave::line_integral;
 use hadou::effects::raycast::SceneCaster;
 use hadou::passes::energy_wave::wave_params;
 use hadou::scene::Scene;
+use hadou::testing::Comparison;
 use hadou::{Aov, Error, FrameRequest};
 
 const SCENE: &str = r#"
@@ -86,7 +87,9 @@ fn check(label: &str, view: DMat4, proj: DMat4, far: f64) -> Vec<f32> {
         let (o, d) = matrix_ray(view, proj, px, py);
         caster.cast(o, d).map(|h| (h.t, h.instance))
     };
-    let (mut interior, mut hits, mut worst_depth, mut worst_energy) = (0, 0, 0f64, 0f64);
+    let mut interior = 0;
+    let mut depth_vs_f64 = Comparison::new(format!("{label}: depth vs f64 (interior hits)"));
+    let mut energy_vs_f64 = Comparison::new(format!("{label}: energy vs f64"));
     for y in 0..H {
         for x in 0..W {
             let k = (y * W + x) as usize;
@@ -108,10 +111,7 @@ fn check(label: &str, view: DMat4, proj: DMat4, far: f64) -> Vec<f32> {
                 match centre {
                     None => assert_eq!(gpu, f64::INFINITY, "{label} ({x}, {y}): sky"),
                     Some((t, _)) => {
-                        hits += 1;
-                        let rel = (gpu - t).abs() / t;
-                        worst_depth = worst_depth.max(rel);
-                        assert!(rel <= REL_TOL, "{label} ({x}, {y}): depth {gpu} vs f64 {t}");
+                        depth_vs_f64.rel(format_args!("({x}, {y})"), gpu, t);
                     }
                 }
             }
@@ -120,14 +120,18 @@ fn check(label: &str, view: DMat4, proj: DMat4, far: f64) -> Vec<f32> {
             let l = gpu.min(far);
             let reference: f64 = params.iter().map(|p| line_integral(p, o, d, l)).sum();
             let got = energy.data[k] as f64;
-            let rel = if reference > 0.0 { (got - reference).abs() / reference } else { got };
-            worst_energy = worst_energy.max(rel);
-            assert!(rel <= REL_TOL, "{label} ({x}, {y}): energy {got} vs f64 {reference}");
+            if reference > 0.0 {
+                energy_vs_f64.rel(format_args!("({x}, {y})"), got, reference);
+            } else {
+                energy_vs_f64.error(format_args!("({x}, {y}) where f64 is 0: {got}"), got.abs());
+            }
         }
     }
-    println!("{label}: {interior} interior pixels ({hits} hits), worst depth {worst_depth:.1e}, energy {worst_energy:.1e}");
-    assert!(interior > (W * H) as usize * 3 / 4 && hits > 1000, "{label}: the view must show the scene");
-    common::assert_clean(&rt);
+    assert!(interior > (W * H) as usize * 3 / 4, "{label}: {interior} interior pixels");
+    // Floors: the view shows the scene (> 1000 interior hits); the energy on every pixel.
+    depth_vs_f64.assert_within(REL_TOL, 1000);
+    energy_vs_f64.assert_within(REL_TOL, (W * H) as usize);
+    rt.finish();
     depth.data.clone()
 }
 
@@ -157,9 +161,19 @@ fn standard_and_reverse_z_finite_and_infinite() {
         flip_y(DMat4::perspective_infinite_reverse_rh(FOV, ASPECT, 0.5)),
         inf,
     );
-    // The same frustum however the game stores depth: the same distances.
-    let same = a.iter().zip(&b).all(|(x, y)| x == y || (x - y).abs() <= 1e-6 * x.abs());
-    assert!(same, "standard and reverse-Z of one frustum differ");
+    // The same frustum however the game stores depth: the same distances. hadou turns either
+    // matrix into its own camera (f64) and rasterizes into its own reverse-Z depth, so the frames
+    // differ only by that recovery's f64 rounding (≈ 1e-16), which can flip at most the last bit of
+    // an f32 uniform and so move a distance by a few f32 ulps: 1e-6 ≈ 16·2⁻²⁴. (Measured: equal.)
+    let mut same = Comparison::new("standard vs reverse-Z distances");
+    for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+        if x.is_infinite() && x == y {
+            same.exclude();
+        } else {
+            same.rel(k, *y as f64, *x as f64);
+        }
+    }
+    same.assert_within(1e-6, 1000);
 }
 
 #[test]
@@ -208,4 +222,5 @@ fn bad_matrices_are_typed_errors_and_change_nothing() {
         assert!(matches!(r.set_view_projection(v, proj), Err(Error::InvalidUpdate { .. })), "{label}");
         assert_eq!(r.scene().unwrap().camera, before, "{label}: refused, the camera is unchanged");
     }
+    rt.finish();
 }
