@@ -37,5 +37,6 @@ fn texel_buffers_respect_the_device_limit() {
     assert_eq!(empty.buffer.size, 4, "an empty buffer still holds one texel to bind");
     drop(empty);
     drop(memory);
-    common::assert_clean(&rt);
+    // Errors and warnings, leaks included: checked once the device is destroyed.
+    rt.finish();
 }
