@@ -10,6 +10,7 @@ use common::cli::scratch;
 use std::collections::HashMap;
 use std::path::Path;
 use std::process::Command;
+use std::time::Duration;
 
 use hadou::report::csv::parse;
 use hadou::report::ReportOptions;
@@ -18,6 +19,42 @@ fn hadou() -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
     cmd.current_dir(common::root()).env("HADOU_VALIDATION", "1").env("XDG_RUNTIME_DIR", "/tmp");
     cmd
+}
+
+/// `cmd`'s output, as `Command::output` gives it, but a run past `limit` is killed and fails the
+/// test (a hung `hadou` must not hang the suite): threads drain the pipes while the wait polls the
+/// child against the deadline. The limits are hang guards, far above any run's time.
+fn output_within(cmd: &mut Command, limit: Duration) -> std::process::Output {
+    use std::io::Read;
+    use std::process::Stdio;
+    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("run hadou");
+    let drain = |mut pipe: Box<dyn Read + Send>| {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            let _ = pipe.read_to_end(&mut bytes);
+            bytes
+        })
+    };
+    let stdout = drain(Box::new(child.stdout.take().unwrap()));
+    let stderr = drain(Box::new(child.stderr.take().unwrap()));
+    let deadline = std::time::Instant::now() + limit;
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for hadou") {
+            break status;
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            let (out, err) = (stdout.join().unwrap_or_default(), stderr.join().unwrap_or_default());
+            panic!(
+                "{cmd:?} ran past {limit:?} and was killed:\n{}{}",
+                String::from_utf8_lossy(&out),
+                String::from_utf8_lossy(&err)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    std::process::Output { status, stdout: stdout.join().unwrap(), stderr: stderr.join().unwrap() }
 }
 
 /// A CSV as (header, rows as column → value).
@@ -62,7 +99,11 @@ fn quick_report_has_every_row() {
     let dir = scratch("quick");
     let out = dir.join("report");
     let start = std::time::Instant::now();
-    let run = hadou().current_dir(&dir).args(["report", "--quick", "--out", "report"]).output().unwrap();
+    // It took 28 s on the loaded 2-core test machine; 20 minutes is only a hang guard.
+    let run = output_within(
+        hadou().current_dir(&dir).args(["report", "--quick", "--out", "report"]),
+        Duration::from_secs(1200),
+    );
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "hadou report failed:\n{stderr}");
     println!("hadou report --quick took {:.1} s", start.elapsed().as_secs_f64());
@@ -174,12 +215,9 @@ fn out_that_is_a_file_is_refused_before_measuring() {
     std::fs::write(&file, b"keep me").unwrap();
     // Refused before any measurement: with no Vulkan driver to find, a run that reached the device
     // would fail on that instead.
-    let run = hadou()
-        .args(["report", "--quick", "--out"])
-        .arg(&file)
-        .env("VK_DRIVER_FILES", dir.join("no_driver.json"))
-        .output()
-        .unwrap();
+    let mut cmd = hadou();
+    cmd.args(["report", "--quick", "--out"]).arg(&file).env("VK_DRIVER_FILES", dir.join("no_driver.json"));
+    let run = output_within(&mut cmd, Duration::from_secs(120));
     assert!(!run.status.success());
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(stderr.contains("not_a_dir") && stderr.contains("not a directory"), "{stderr}");
