@@ -5,14 +5,19 @@
 mod common;
 
 use glam::DVec3;
-use hadou::effects::energy_wave::{emitted, line_integral, raymarch, WaveParams};
+use hadou::effects::energy_wave::{
+    emitted, frame as wave_frame, line_integral, raymarch, WaveFrame, WaveParams, CLAMP_MIN, CLAMP_RATIO,
+    MAX_LENGTH,
+};
 use hadou::passes::energy_wave::wave_params;
 use hadou::scene::Scene;
+use hadou::testing::Comparison;
 use hadou::{Aov, FrameRequest};
 
 /// Relative errors of the energy AOV against the f64 closed form, integrating each pixel ray up to
-/// the GPU's own depth (so this measures the integration, not the raster; depth has its own test).
-fn energy_errors(scene: &Scene, w: u32, h: u32, time: f64) -> Vec<f64> {
+/// the GPU's own depth (so this measures the integration, not the raster; depth has its own test):
+/// every pixel compared (NaN-aware), and the errors themselves for the p99.
+fn energy_errors(scene: &Scene, w: u32, h: u32, time: f64) -> (Comparison, Vec<f64>) {
     let mut rt = common::runtime();
     rt.load_scene(scene.clone()).unwrap();
     assert!(rt.pass_names().contains(&"energy_wave"));
@@ -20,34 +25,33 @@ fn energy_errors(scene: &Scene, w: u32, h: u32, time: f64) -> Vec<f64> {
     req.time = time;
     req.aovs = vec![Aov::Energy, Aov::Depth];
     let frame = rt.render(&req).unwrap();
-    common::assert_clean(&rt);
+    rt.finish();
     let energy = &frame.aov(Aov::Energy).unwrap().data;
     let depth = &frame.aov(Aov::Depth).unwrap().data;
     let waves: Vec<WaveParams> = scene.waves.iter().map(|wv| wave_params(&wv.at(time))).collect();
     let cam = &scene.camera;
+    let mut c = Comparison::new(format!("energy AOV vs f64 at t = {time}, relative"));
     let mut errors = Vec::with_capacity((w * h) as usize);
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
-            let gpu = energy[i];
-            assert!(gpu.is_finite() && gpu >= 0.0, "pixel ({x}, {y}): {gpu}");
+            let gpu = energy[i] as f64;
+            assert!(gpu >= 0.0, "pixel ({x}, {y}): {gpu}");
             let (o, u) = cam.pixel_ray(x, y, w, h);
             let l = (depth[i] as f64).min(cam.far);
             let reference: f64 = waves.iter().map(|p| line_integral(p, o, u, l)).sum();
-            errors.push(if reference > 0.0 {
-                (gpu as f64 - reference).abs() / reference
-            } else {
-                gpu as f64
-            });
+            // Where nothing is integrated the error is H itself (it must be ~0 too).
+            let error = if reference > 0.0 { (gpu - reference).abs() / reference } else { gpu };
+            errors.push(c.error(format_args!("({x}, {y}), gpu {gpu:e}, f64 {reference:e}"), error));
         }
     }
-    errors
+    (c, errors)
 }
 
-fn max_and_p99(mut errors: Vec<f64>) -> (f64, f64) {
+/// The 99th percentile of errors already checked finite (a NaN sorts last with `total_cmp`).
+fn p99(mut errors: Vec<f64>) -> f64 {
     errors.sort_by(|a, b| a.total_cmp(b));
-    let p99 = errors[((errors.len() as f64 * 0.99).ceil() as usize).clamp(1, errors.len()) - 1];
-    (errors[errors.len() - 1], p99)
+    errors[((errors.len() as f64 * 0.99).ceil() as usize).clamp(1, errors.len()) - 1]
 }
 
 /// The issue's bounds: max 1e-4, p99 1e-5. The pixel ray is built in f32 (≈ 3e-7 relative
@@ -58,18 +62,20 @@ fn max_and_p99(mut errors: Vec<f64>) -> (f64, f64) {
 fn energy_aov_matches_f64_with_occluders() {
     let scene = common::load("assets/scenes/energy_wave.toml");
     for time in [0.0, 1.0, 2.0, 3.0] {
-        let (max, p99) = max_and_p99(energy_errors(&scene, 96, 96, time));
-        println!("energy_wave.toml t={time}: max rel {max:.2e}, p99 {p99:.2e}");
-        assert!(max <= 1e-4 && p99 <= 1e-5, "t={time}: max {max:.3e}, p99 {p99:.3e}");
+        let (c, errors) = energy_errors(&scene, 96, 96, time);
+        c.assert_within(1e-4, 96 * 96);
+        let p99 = p99(errors);
+        assert!(p99 <= 1e-5, "t={time}: p99 {p99:.3e}");
     }
 }
 
 #[test]
 fn energy_aov_matches_f64_without_occluders() {
     let scene = common::load("assets/scenes/energy_wave_open.toml");
-    let (max, p99) = max_and_p99(energy_errors(&scene, 96, 96, 1.0));
-    println!("energy_wave_open.toml: max rel {max:.2e}, p99 {p99:.2e}");
-    assert!(max <= 1e-4 && p99 <= 1e-5, "max {max:.3e}, p99 {p99:.3e}");
+    let (c, errors) = energy_errors(&scene, 96, 96, 1.0);
+    c.assert_within(1e-4, 96 * 96);
+    let p99 = p99(errors);
+    assert!(p99 <= 1e-5, "p99 {p99:.3e}");
 }
 
 fn plane_scene(wave: &str) -> Scene {
@@ -92,8 +98,20 @@ fn plane_scene(wave: &str) -> Scene {
     ))
 }
 
+/// The raster's depth bound (`DEPTH_REL_TOL` in tests/gpu_raster.rs: a few dozen f32 steps, with
+/// two orders of magnitude of margin).
+const DEPTH_REL_TOL: f64 = 1e-4;
+
+/// The closed form's bound for ordinary pixel rays, the f32 ray direction included (the issue's
+/// bulk bound, argued above `energy_aov_matches_f64_with_occluders`).
+const BULK: f64 = 1e-5;
+
 /// Depth clipping: with an opaque plane in the way, H equals the f64 integral up to the plane's
-/// distance, found here by an f64 ray–plane intersection (independent of the raster).
+/// distance. Two comparisons, each with its own bound: H against the f64 integral up to the GPU's
+/// depth (the closed form's bulk bound: the clip happens where the depth says), and that depth
+/// against an f64 ray–plane intersection, independent of the raster (the raster's bound). The
+/// plane fills the view (its central 30 × 30 covers the 60° frustum at distance ≈ 11), so every
+/// pixel is compared.
 #[test]
 fn opaque_plane_clips_the_integral() {
     let scene = plane_scene(
@@ -111,18 +129,21 @@ fn opaque_plane_clips_the_integral() {
     let mut rt = common::runtime();
     rt.load_scene(scene.clone()).unwrap();
     let mut req = FrameRequest::new(w, h);
-    req.aovs = vec![Aov::Energy];
+    req.aovs = vec![Aov::Energy, Aov::Depth];
     let frame = rt.render(&req).unwrap();
-    common::assert_clean(&rt);
+    rt.finish();
     let energy = &frame.aov(Aov::Energy).unwrap().data;
+    let depth = &frame.aov(Aov::Depth).unwrap().data;
     let inst = &scene.instances[0].transform;
     let p0 = inst.transform_point(DVec3::ZERO);
     let n = inst.transform_normal(DVec3::Y);
     let params = wave_params(&scene.waves[0].at(0.0));
     let cam = &scene.camera;
-    let (mut clipped, mut worst) = (0, 0f64);
+    let mut clipped = Comparison::new("clipped energy vs f64 up to the GPU depth, relative");
+    let mut distance = Comparison::new("GPU depth vs the f64 plane distance, relative");
     for y in 0..h {
         for x in 0..w {
+            let i = (y * w + x) as usize;
             let (o, u) = cam.pixel_ray(x, y, w, h);
             let denom = u.dot(n);
             let t_plane = (p0 - o).dot(n) / denom;
@@ -130,26 +151,31 @@ fn opaque_plane_clips_the_integral() {
             let hit = o + u * t_plane;
             let local = inst.inverse.transform_point3(hit);
             if !(t_plane > 0.0 && local.x.abs() < 15.0 && local.z.abs() < 15.0) {
+                clipped.exclude();
+                distance.exclude();
                 continue;
             }
-            clipped += 1;
-            let reference = line_integral(&params, o, u, t_plane);
             let unclipped = line_integral(&params, o, u, cam.far);
-            assert!(unclipped > reference * 1.001, "the plane must clip something at ({x}, {y})");
-            let rel = (energy[(y * w + x) as usize] as f64 - reference).abs() / reference;
-            worst = worst.max(rel);
+            let at_plane = line_integral(&params, o, u, t_plane);
+            assert!(unclipped > at_plane * 1.001, "the plane must clip something at ({x}, {y})");
+            let gpu_depth = depth[i] as f64;
+            distance.rel(format_args!("({x}, {y})"), gpu_depth, t_plane);
+            let reference = line_integral(&params, o, u, gpu_depth.min(cam.far));
+            clipped.rel(format_args!("({x}, {y})"), energy[i] as f64, reference);
         }
     }
-    println!("{clipped} clipped pixels, worst rel {worst:.2e}");
-    assert!(clipped > 1000);
-    // Depth comes from the raster (≤ 1e-5 relative, see gpu_raster) and dH/dL·L/H ≤ 1 here.
-    assert!(worst <= 1e-4, "worst {worst:.3e}");
+    distance.assert_within(DEPTH_REL_TOL, (w * h) as usize);
+    clipped.assert_within(BULK, (w * h) as usize);
 }
 
-/// A surface at distance 0 (the camera on the occluder) gives H = 0; the camera far away and
-/// inside the beam stay finite.
+/// Three cameras, far = 1e6 and no surface: 1e5 units from M, 50 behind M looking along the beam,
+/// and at M looking along it (inside the beam). The energy and HDR AOVs stay finite and
+/// non-negative everywhere, and the energy matches f64 up to the far plane within the bulk bound.
+/// (A surface at distance 0 cannot come from the raster, which clips at the near plane; H = 0 at
+/// L = 0 and L < 0 is asserted exactly through the same GLSL function in
+/// `hard_rays_on_the_gpu_match_f64_on_the_same_inputs`.)
 #[test]
-fn extreme_cameras_stay_finite() {
+fn extreme_cameras_stay_finite_and_match_f64() {
     for (camera, look) in [
         ([0.0, 0.0, 1e5], [0.0, 0.0, 0.0]),
         ([-50.0, 0.0, 0.0], [10.0, 0.0, 0.0]),
@@ -170,11 +196,11 @@ fn extreme_cameras_stay_finite() {
             "#
         ));
         let mut rt = common::runtime();
-        rt.load_scene(scene).unwrap();
+        rt.load_scene(scene.clone()).unwrap();
         let mut req = FrameRequest::new(33, 33);
         req.aovs = vec![Aov::Energy, Aov::Hdr];
         let frame = rt.render(&req).unwrap();
-        common::assert_clean(&rt);
+        rt.finish();
         for aov in [Aov::Energy, Aov::Hdr] {
             let data = &frame.aov(aov).unwrap().data;
             assert!(
@@ -182,10 +208,84 @@ fn extreme_cameras_stay_finite() {
                 "camera {camera:?}: {aov:?} has NaN/Inf/negative"
             );
         }
+        let energy = &frame.aov(Aov::Energy).unwrap().data;
+        let params = wave_params(&scene.waves[0].at(0.0));
+        let cam = &scene.camera;
+        let mut c =
+            Comparison::new(format!("camera {camera:?}: energy vs f64 up to the far plane, relative"));
+        for y in 0..33 {
+            for x in 0..33 {
+                let (o, u) = cam.pixel_ray(x, y, 33, 33);
+                c.rel(
+                    format_args!("({x}, {y})"),
+                    energy[(y * 33 + x) as usize] as f64,
+                    line_integral(&params, o, u, cam.far),
+                );
+            }
+        }
+        c.assert_within(BULK, 33 * 33);
     }
 }
 
-/// The ray-marched baseline in the pass matches its f64 twin (same midpoint samples).
+/// Units in the last place of an f32 ray march, per sample (see [`raymarch_bound`]).
+struct MarchUlps {
+    /// Rounding of the sample's own arithmetic, relative to the sample.
+    fixed: f64,
+    /// Error of the sample's position per unit of s (s·u·per_s), relative to its distance r.
+    per_s: f64,
+    /// Error of the position per unit of |O − M| (inputs rounded after the reference's), over r.
+    per_om: f64,
+}
+
+/// The pass against f64 on the exact camera ray and wave. On top of the twin's 10u fixed and 12u
+/// per unit s (tests/energy_wave_math.rs): Vulkan allows 2.5 ulp for a division and 2 for the
+/// inversesqrt behind sqrt (3u each: fixed 16); the GPU's pixel ray (`camera_pixel_ray`: ndc,
+/// rounded lens vectors, normalize) is off by ≤ 21u and D by ≤ 2u, moving a sample by 23u·s
+/// (per_s 12 + 23 → 40 with the slower ops); q₀ and R rounded to f32 move it by ≤ √2·u·|O − M|.
+const GPU_MARCH: MarchUlps = MarchUlps { fixed: 16.0, per_s: 40.0, per_om: 2.0 };
+
+/// A first-order bound on the relative error of an f32 ray march (GLSL `wave_raymarch`) against
+/// `raymarch_frame` in f64; the derivation (u = 2⁻²⁴ per op) is at the same function in
+/// tests/energy_wave_math.rs: a sample t_i off by ≤ t_i·u·(fixed + (per_s·s_i + per_om·|O − M|)/r_i),
+/// r_i its smaller distance, and the running sum by ≤ u·Σ S_k; relative to S, plus 2u for ·ds.
+fn raymarch_bound(f: &WaveFrame, u: DVec3, l: f64, steps: u32, offset: f64, k: &MarchUlps) -> f64 {
+    if l.is_nan() || l <= 0.0 || steps == 0 {
+        return 0.0;
+    }
+    let ulp = 2f64.powi(-24);
+    let ds = l.min(MAX_LENGTH) / steps as f64;
+    let floor = f64::max(CLAMP_RATIO * ds, CLAMP_MIN);
+    let om = (f.q0 * f.q0 + f.r.length_squared()).sqrt();
+    let (c, ud, e2) = (f.d.cross(u), u.dot(f.d), f.core * f.core);
+    let (mut sum, mut partials, mut weighted) = (0.0, 0.0, 0.0);
+    for i in 0..steps {
+        let s = (i as f64 + offset) * ds;
+        let q = f.q0 + s * ud;
+        let pc = f.r + s * c;
+        let r2 = pc.dot(pc);
+        let rm = f64::max((q * q + r2 + e2).sqrt(), floor);
+        let qt = f.qt + s * ud;
+        let dl2 = if q <= 0.0 {
+            q * q + r2
+        } else if f.finite && qt >= 0.0 {
+            qt * qt + r2
+        } else {
+            r2
+        };
+        let rl = f64::max((dl2 + e2).sqrt(), floor);
+        let t = f.a / rm + f.b / rl;
+        weighted += t * (k.fixed + (k.per_s * s + k.per_om * om) / f64::min(rm, rl));
+        sum += t;
+        partials += sum;
+    }
+    if sum == 0.0 {
+        return 0.0;
+    }
+    ulp * ((weighted + partials) / sum + 2.0)
+}
+
+/// The ray-marched baseline in the pass matches its f64 twin (same midpoint samples), every pixel
+/// within its derived bound (`raymarch_bound` with `GPU_MARCH`).
 #[test]
 fn raymarch_method_matches_its_f64_twin() {
     let scene = plane_scene(
@@ -206,22 +306,30 @@ fn raymarch_method_matches_its_f64_twin() {
     let mut req = FrameRequest::new(w, h);
     req.aovs = vec![Aov::Energy, Aov::Depth];
     let frame = rt.render(&req).unwrap();
-    common::assert_clean(&rt);
+    rt.finish();
     let energy = &frame.aov(Aov::Energy).unwrap().data;
     let depth = &frame.aov(Aov::Depth).unwrap().data;
     let params = wave_params(&scene.waves[0].at(0.0));
-    let mut worst = 0f64;
+    let mut march = Comparison::new("ray-marched energy vs f64, error / per-pixel bound");
+    let mut relative = Comparison::new("ray-marched energy vs f64, relative (printed)");
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
             let (o, u) = scene.camera.pixel_ray(x, y, w, h);
             let l = (depth[i] as f64).min(scene.camera.far);
             let reference = raymarch(&params, o, u, l, 32, 0.5);
-            worst = worst.max((energy[i] as f64 - reference).abs() / reference);
+            let bound = raymarch_bound(&wave_frame(&params, o), u, l, 32, 0.5, &GPU_MARCH);
+            let gpu = energy[i] as f64;
+            let rel = relative.rel(format_args!("({x}, {y})"), gpu, reference);
+            march.error(
+                format_args!("({x}, {y}): gpu {gpu:e}, f64 {reference:e}, bound {bound:.2e}"),
+                rel / bound,
+            );
         }
     }
-    // 32 samples each with a few f32 roundings: well under 1e-4 relative.
-    assert!(worst <= 1e-4, "worst {worst:.3e}");
+    println!("{}", relative.summary());
+    // The plane fills the view: every pixel is compared.
+    march.assert_within(1.0, (w * h) as usize);
 }
 
 #[test]
@@ -236,16 +344,17 @@ fn plan_runs_the_pass_only_with_waves() {
     rt.load_scene(common::load("assets/scenes/energy_wave.toml")).unwrap();
     assert_eq!(rt.pass_names(), vec!["raster", "energy_wave", "tonemap"]);
     rt.render(&req).unwrap();
-    common::assert_clean(&rt);
+    rt.finish();
 }
 
 /// Hard rays on the GPU through the probe kernel (the pass's own GLSL), compared with the f64
 /// closed form on exactly the f32 inputs the GPU received (`GpuWave::to_frame`): rays passing
 /// 1e-1 … 1e-7 × |O − M| from M, exactly through M, the camera at M, parallel and anti-parallel to
-/// D down to 1e-6, in the plane I, the camera inside the beam and 1e5 away, L = 0, the clip at the
-/// plane I, the tip inside the clip interval. The f32 twin measures ≤ 5e-7 on these; the bound
-/// is the issue's bulk bound, 1e-5 (f32 keeps 6e-8 per operation; the closed form takes a few
-/// dozen operations with no cancellation left, see energy_wave_f32.rs).
+/// D down to 1e-6, in the plane I, the camera inside the beam and 1e5 away, the clip at the plane
+/// I, the tip inside the clip interval; and L = 0 and L < 0 (the camera on the occluder), where H
+/// must be exactly +0. The f32 twin measures ≤ 5e-7 on these; the bound is the issue's bulk
+/// bound, 1e-5 (f32 keeps 6e-8 per operation; the closed form takes a few dozen operations with
+/// no cancellation left, see energy_wave_f32.rs).
 #[test]
 fn hard_rays_on_the_gpu_match_f64_on_the_same_inputs() {
     use hadou::effects::energy_wave::line_integral_frame;
@@ -294,7 +403,9 @@ fn hard_rays_on_the_gpu_match_f64_on_the_same_inputs() {
             10.0,
         );
         add("1e5 from M", w.origin + DVec3::new(0.0, 0.6, 0.8) * 1e5, DVec3::new(0.0, -0.6, -0.8), 2e5);
+        // The camera on the occluder: nothing to integrate, H exactly 0 (also for a negative L).
         add("L = 0", w.origin + side * 3.0, -side, 0.0);
+        add("L < 0", w.origin + side * 3.0, -side, -1.0);
         let o = w.origin + DVec3::new(-7.0, 2.0, 1.0);
         let u = DVec3::new(1.0, 0.1, 0.05).normalize();
         let s_plane = -(o - w.origin).dot(w.direction) / u.dot(w.direction);
@@ -308,17 +419,22 @@ fn hard_rays_on_the_gpu_match_f64_on_the_same_inputs() {
     let rays: Vec<ProbeRay> = cases.iter().map(|c| c.2).collect();
     // The probe evaluates every (ray, wave) pair; case i is ray i with wave i, the diagonal.
     let all = rt.energy_probe(&waves, &rays, ProbeMethod::Analytic).unwrap();
-    let mut worst = 0f64;
+    rt.finish();
+    let mut hard = Comparison::new("hard rays on the GPU vs f64 on the same inputs, relative");
+    let mut at_zero = 0;
     for (i, (name, g, ray)) in cases.iter().enumerate() {
         let gpu = all[i * cases.len() + i] as f64;
+        assert!(gpu >= 0.0, "{name}: {gpu}");
+        if ray.l <= 0.0 {
+            assert_eq!(gpu.to_bits(), 0f64.to_bits(), "{name}: H must be exactly +0, got {gpu:e}");
+            at_zero += 1;
+            continue;
+        }
         let fair = line_integral_frame(&g.to_frame(), widen(ray.u), ray.l as f64);
-        assert!(gpu.is_finite() && gpu >= 0.0, "{name}: {gpu}");
-        let rel = if fair == 0.0 { gpu } else { (gpu - fair).abs() / fair };
-        worst = worst.max(rel);
-        assert!(rel <= 1e-5, "{name}: gpu {gpu:e} vs f64 {fair:e}, rel {rel:.2e}");
+        hard.rel(name, gpu, fair);
     }
-    println!("{} hard rays on the GPU, worst rel {worst:.2e}", cases.len());
-    common::assert_clean(&rt);
+    assert_eq!(at_zero, 8, "L = 0 and L < 0 for each of the 4 waves");
+    hard.assert_within(1e-5, cases.len() - at_zero);
 }
 
 /// `cutoff`: HDR gains colour × intensity × max(H − cutoff, 0) (`energy_wave::emitted`), the
@@ -343,7 +459,7 @@ fn cutoff_emits_only_the_energy_above_it() {
             req.aovs.push(Aov::Energy);
         }
         let frame = rt.render(&req).unwrap();
-        common::assert_clean(&rt);
+        rt.finish();
         frame
     };
     let (lit, base) = (render(&with), render(&without));
@@ -354,27 +470,44 @@ fn cutoff_emits_only_the_energy_above_it() {
     let p = wave_params(&state);
     let cam = &with.camera;
     let (mut above, mut below) = (0, 0);
+    let mut kept = Comparison::new("energy AOV vs f64 with a cutoff, relative");
+    let mut hdr_error = Comparison::new("HDR with the wave vs without + emitted, error / bound");
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
             let (o, u) = cam.pixel_ray(x, y, w, h);
             let hf = line_integral(&p, o, u, (depth[i] as f64).min(cam.far));
-            assert!((energy[i] as f64 - hf).abs() <= 1e-4 * hf, "({x}, {y}): the energy AOV keeps H");
+            kept.rel(format_args!("({x}, {y})"), energy[i] as f64, hf);
             let e = emitted(hf, state.cutoff);
-            if hf > state.cutoff * (1.0 + 1e-4) {
+            // H on the GPU is within 1e-4·H of hf: beyond that margin the side of the cutoff is known.
+            let side = if hf > state.cutoff * (1.0 + 1e-4) {
                 above += 1;
+                "above"
             } else if hf < state.cutoff * (1.0 - 1e-4) {
                 below += 1;
-            }
+                "below"
+            } else {
+                "at"
+            };
             for c in 0..3 {
                 let (got, base) = (hdr[4 * i + c] as f64, hdr0[4 * i + c] as f64);
+                if side == "below" {
+                    // max(H − cutoff, 0) = 0 exactly and the pass stores c + 0: the same half.
+                    assert_eq!(got.to_bits(), base.to_bits(), "({x}, {y}) channel {c}: below the cutoff");
+                }
                 let k = state.emission[c];
                 let want = base + k * e;
-                let tol = 2f64.powi(-10) * want.max(got) + k * 1e-4 * hf;
-                assert!((got - want).abs() <= tol, "({x}, {y}) channel {c}: {got} vs {want} (H {hf})");
+                let larger = if got > want { got } else { want };
+                let tol = 2f64.powi(-10) * larger + k * 1e-4 * hf;
+                hdr_error.error(
+                    format_args!("({x}, {y}) channel {c}, {side} the cutoff: {got} vs {want} (H {hf})"),
+                    (got - want).abs() / tol,
+                );
             }
         }
     }
     println!("cutoff: {above} pixels above it, {below} below");
+    kept.assert_within(1e-4, (w * h) as usize);
+    hdr_error.assert_within(1.0, (3 * w * h) as usize);
     assert!(above > 100 && below > 100, "{above} above, {below} below: both sides must be seen");
 }
