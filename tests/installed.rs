@@ -29,6 +29,8 @@ impl Installed {
         Installed { dir, exe }
     }
 
+    /// With HADOU_VALIDATION=1: `render`, `profile` and `report` exit non-zero on any validation
+    /// error or warning (objects leaked at device destroy included), so a success is a clean log.
     fn command(&self, args: &[&str]) -> Command {
         let mut cmd = Command::new(&self.exe);
         cmd.args(args)

@@ -158,6 +158,9 @@ mod cli {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
+    /// Every run with HADOU_VALIDATION=1 (`common::cli::hadou`; the A/B children inherit it):
+    /// `profile` exits non-zero on any validation error or warning, so each success asserted
+    /// here is also a clean validation log (tests/cli.rs shows the check failing a run).
     #[test]
     fn profile_keeps_raw_samples_and_ab_interleaves_runs() {
         let dir = scratch("ab");
