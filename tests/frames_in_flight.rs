@@ -226,7 +226,7 @@ fn box_distance(transform: DMat4, o: DVec3, u: DVec3) -> Option<f64> {
     let inv = transform.inverse();
     let (lo, lu) = (inv.transform_point3(o), inv.transform_vector3(u));
     let (a, b) = ((DVec3::NEG_ONE - lo) / lu, (DVec3::ONE - lo) / lu);
-    let (near, far) = (a.min(b).max_element(), a.max(b).min_element());
+    let (near, far) = (DVec3::min(a, b).max_element(), DVec3::max(a, b).min_element());
     (near <= far && far > 0.0).then_some(near)
 }
 
@@ -279,9 +279,13 @@ fn check_energy(i: usize, scene: &Scene, energy: &AovImage, distance: &AovImage)
         for x in 0..W {
             let k = (y * W + x) as usize;
             let (o, u) = cam.pixel_ray(x, y, W, H);
-            let reference = line_integral(&params, o, u, (distance.data[k] as f64).min(cam.far));
+            let d = distance.data[k] as f64;
+            let reference = line_integral(&params, o, u, d.min(cam.far));
             let got = energy.data[k] as f64;
-            if reference > 0.0 {
+            if d.is_nan() {
+                // f64::min would turn a NaN distance into `far`: a failure of its own.
+                c.error(format_args!("({x}, {y}): distance NaN"), f64::NAN);
+            } else if reference > 0.0 {
                 c.rel(format_args!("({x}, {y})"), got, reference);
             } else {
                 c.error(format_args!("({x}, {y}) where f64 is 0"), got.abs());

@@ -193,7 +193,9 @@ fn spawn_and_despawn_over_three_hundred_frames() {
             for x in 0..W {
                 let k = (y * W + x) as usize;
                 let (o, u) = cam.pixel_ray(x, y, W, H);
-                let l = (distance.data[k] as f64).min(cam.far);
+                let d = distance.data[k] as f64;
+                assert!(!d.is_nan(), "frame {i} ({x}, {y}): distance NaN");
+                let l = d.min(cam.far);
                 let reference: f64 =
                     world.waves.iter().map(|w| line_integral(&wave_params(&w.at(0.0)), o, u, l)).sum();
                 let got = energy.data[k] as f64;
