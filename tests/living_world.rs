@@ -225,7 +225,7 @@ fn check_translucent_blocks(
     rt: &mut hadou::Runtime,
     frames: &[(usize, hadou::scene::Scene, hadou::renderer::AovReadback)],
 ) {
-    use hadou::report::translucency::{abs_stats, samples, world_voxel};
+    use hadou::report::translucency::{abs_stats, sample_set, world_voxel, MAX_SKIPPED_SHARE};
     let (mut errors, mut skipped) = (Vec::new(), 0);
     for (i, world, readback) in frames {
         let (thickness, depth) = (readback.aov(Aov::Thickness).unwrap(), readback.aov(Aov::Depth).unwrap());
@@ -235,7 +235,8 @@ fn check_translucent_blocks(
         let alone = rt.render(&request).unwrap();
         assert!(common::same_bits(&thickness, alone.aov(Aov::Thickness).unwrap()), "frame {i}: thickness");
         assert!(common::same_bits(&depth, alone.aov(Aov::Depth).unwrap()), "frame {i}: depth");
-        let (found, left_out) = samples(world, (W, H), &thickness.data, &depth.data).unwrap();
+        let set = sample_set(world, (W, H), &thickness.data, &depth.data).unwrap();
+        let (found, left_out) = (set.samples, set.skipped);
         skipped += left_out;
         assert!(found.len() >= 3, "frame {i}: its block shows on only {} pixels", found.len());
         for s in &found {
@@ -249,7 +250,8 @@ fn check_translucent_blocks(
         errors.len()
     );
     assert!(errors.len() >= 300, "only {} translucent pixels compared", errors.len());
-    assert!(16 * skipped <= errors.len() + skipped, "{skipped} of {} left out", errors.len() + skipped);
+    let looked_at = errors.len() + skipped;
+    assert!(skipped as f64 <= MAX_SKIPPED_SHARE * looked_at as f64, "{skipped} of {looked_at} left out");
     assert!(p95 <= 1.0, "thickness p95 {p95:.3} voxels");
 }
 
@@ -625,14 +627,16 @@ fn a_moving_translucent_object_keeps_its_thickness() {
         }
         let scene = live.renderer().scene().unwrap().clone();
         let (thickness, depth) = (&out.aov(Aov::Thickness).unwrap().data, &out.aov(Aov::Depth).unwrap().data);
-        let (samples, _) = report::samples(&scene, (w, h), thickness, depth).unwrap();
+        // ≥ 300 translucent pixels compared, ≤ 1/16 left out as silhouettes (sample_set's cap).
+        let set = report::sample_set(&scene, (w, h), thickness, depth).unwrap();
+        println!("frame {frame}: {}", set.assert_usable(300));
+        let samples = set.samples;
         let voxel = report::world_voxel(&scene, 0).unwrap();
         let (mean, p95, max) = abs_stats(samples.iter().map(|s| (s.gpu - s.exact) / voxel));
         println!(
             "frame {frame}: {} px, |error| mean {mean:.3}, p95 {p95:.3}, max {max:.2} voxels",
             samples.len()
         );
-        assert!(samples.len() > 300, "frame {frame}: the block must be in view");
         assert!(p95 <= 1.0, "frame {frame}: thickness p95 {p95:.3} voxels");
         checked += 1;
     }
