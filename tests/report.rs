@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::cli::scratch;
+use common::cli::{output_within, scratch};
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -19,42 +19,6 @@ fn hadou() -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
     cmd.current_dir(common::root()).env("HADOU_VALIDATION", "1").env("XDG_RUNTIME_DIR", "/tmp");
     cmd
-}
-
-/// `cmd`'s output, as `Command::output` gives it, but a run past `limit` is killed and fails the
-/// test (a hung `hadou` must not hang the suite): threads drain the pipes while the wait polls the
-/// child against the deadline. The limits are hang guards, far above any run's time.
-fn output_within(cmd: &mut Command, limit: Duration) -> std::process::Output {
-    use std::io::Read;
-    use std::process::Stdio;
-    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("run hadou");
-    let drain = |mut pipe: Box<dyn Read + Send>| {
-        std::thread::spawn(move || {
-            let mut bytes = Vec::new();
-            let _ = pipe.read_to_end(&mut bytes);
-            bytes
-        })
-    };
-    let stdout = drain(Box::new(child.stdout.take().unwrap()));
-    let stderr = drain(Box::new(child.stderr.take().unwrap()));
-    let deadline = std::time::Instant::now() + limit;
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("wait for hadou") {
-            break status;
-        }
-        if std::time::Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            let (out, err) = (stdout.join().unwrap_or_default(), stderr.join().unwrap_or_default());
-            panic!(
-                "{cmd:?} ran past {limit:?} and was killed:\n{}{}",
-                String::from_utf8_lossy(&out),
-                String::from_utf8_lossy(&err)
-            );
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    std::process::Output { status, stdout: stdout.join().unwrap(), stderr: stderr.join().unwrap() }
 }
 
 /// A CSV as (header, rows as column → value).

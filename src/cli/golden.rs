@@ -80,6 +80,11 @@ pub fn run(args: TestArgs) -> anyhow::Result<ExitCode> {
         };
         case.seconds = t.elapsed().as_secs_f64();
     }
+    // Objects still alive at vkDestroyDevice are reported only then: a leak fails the run (and
+    // blesses nothing), as a message during a scene fails that scene.
+    if let Some(rt) = runtime.take() {
+        super::finish_validated(rt)?;
+    }
     if args.bless && !cases.iter().any(|c| matches!(c.outcome, Outcome::Error(_))) {
         blessed.commit()?;
     }
