@@ -2,29 +2,57 @@
 //! hit mask, depth and normals on the metaball scene, the intersection curve with a raster cube,
 //! the energy wave clipped by a metaball, 10,000 balls piled into one tile, and the hard cases
 //! (camera inside a support or the surface, a group behind the camera, balls on the near
-//! plane). Lavapipe with validation on; every case asserts a clean validation log.
+//! plane). Lavapipe with validation on; every runtime's log is checked after its device is
+//! destroyed (`common::runtime`).
 //!
 //! Where f32 may legitimately disagree with f64 is stated by the tangency band
-//! (`metaballs_f32::tangency(..).in_band()`, see its module docs): band pixels are counted and
-//! printed, and excluded from the comparisons; everywhere else the GPU must agree.
+//! (`metaballs_f32::tangency(..).in_band()`, see its module docs): band pixels are counted,
+//! excluded from the comparisons and capped at a share of the pixels; everywhere else the GPU
+//! must agree, within a per-pixel bound derived from the band's f32 error model (`f32_bound`),
+//! on at least a stated number of compared pixels (`hadou::testing::Comparison`).
 
 mod common;
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use hadou::effects::energy_wave::line_integral;
-use hadou::effects::metaballs::MetaballGroupParams;
-use hadou::effects::metaballs_compare::{
-    compare_metaballs, pixel_reference, MetaballErrorStats, MetaballFrame, PixelReference,
-};
+use hadou::effects::metaballs::{cast, gradient, CastMethod, Kernel, MetaHit, MetaballGroupParams};
+use hadou::effects::metaballs_compare::{compare_metaballs, MetaballFrame};
+use hadou::effects::metaballs_f32::{tangency, BAND_C};
+use hadou::effects::metaballs_trace::{TRACE_BISECT, TRACE_MIN_STEP};
 use hadou::effects::raycast::SceneCaster;
 use hadou::passes::energy_wave::wave_params;
 use hadou::passes::metaballs::{CLIP_STEPS, CLIP_STEPS_MAX, DROPPED, HITS, STREAMED};
 use hadou::passes::plan;
 use hadou::scene::Scene;
-use hadou::{Aov, FrameOutput, FrameRequest};
+use hadou::testing::Comparison;
+use hadou::{Aov, AovImage, FrameOutput, FrameRequest};
 
-fn reference(groups: &[MetaballGroupParams], o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> PixelReference {
-    pixel_reference(groups, o, d, t_min, t_max)
+/// The band pixels allowed, as a share of a frame's pixels. A ray is in the band when it passes
+/// within δ/‖∇F‖ (δ = 16·ε_f32·(S + X·G): ~10⁻⁵ world units here) of grazing the surface, or
+/// starts or ends within δ of it; a pixel is ~0.05–0.2 units across in these scenes, so a
+/// silhouette or an intersection curve puts ~10⁻⁴ of its pixels in the band: ~one pixel per frame.
+/// 1% is a hundred times more, yet small enough that the band cannot hollow out a comparison.
+const BAND_SHARE: f64 = 0.01;
+
+/// What the f64 reference sees on one pixel's ray: the nearest hit over the groups (with the
+/// group that made it) and whether any group's ray is in the tangency band.
+struct Reference {
+    hit: Option<(usize, MetaHit)>,
+    band: bool,
+}
+
+fn reference(groups: &[MetaballGroupParams], o: DVec3, d: DVec3, t_min: f64, t_max: f64) -> Reference {
+    let mut hit: Option<(usize, MetaHit)> = None;
+    let mut band = false;
+    for (k, g) in groups.iter().enumerate() {
+        if let Some(h) = cast(g, o, d, t_min, t_max) {
+            if hit.as_ref().is_none_or(|(_, best)| h.t < best.t) {
+                hit = Some((k, h));
+            }
+        }
+        band |= tangency(g, o, d, t_min, t_max).in_band();
+    }
+    Reference { hit, band }
 }
 
 /// The camera's near plane measured along the pixel ray (the pass's t_min).
@@ -39,6 +67,7 @@ fn render(scene: &Scene, w: u32, h: u32, time: f64, aovs: &[Aov]) -> FrameOutput
     req.time = time;
     req.aovs = aovs.to_vec();
     let frame = rt.render(&req).unwrap();
+    // Checked again after the device is destroyed (leaks), when `rt` drops.
     common::assert_clean(&rt);
     frame
 }
@@ -55,66 +84,251 @@ fn groups_at(scene: &Scene, time: f64) -> Vec<MetaballGroupParams> {
     scene.metaballs.iter().map(|g| g.at(time)).collect()
 }
 
-/// The frame's depth/normal vs the f64 reference on every pixel (`compare_metaballs`), t_max = the
-/// GPU raster's own distance.
-fn compare(scene: &Scene, w: u32, h: u32, time: f64) -> (MetaballErrorStats, FrameOutput) {
-    let frame = render(scene, w, h, time, &[Aov::Depth, Aov::Normal, Aov::Hdr]);
-    let raster = raster_only(scene, w, h);
-    let normal = frame.aov(Aov::Normal).unwrap();
-    assert!(frame.aov(Aov::Hdr).unwrap().data.iter().all(|v| v.is_finite()), "HDR holds NaN/Inf");
-    assert!(normal.data.iter().all(|v| v.is_finite()), "normal holds NaN/Inf");
-    let aovs = MetaballFrame {
-        depth: frame.aov(Aov::Depth).unwrap(),
-        raster_depth: raster.aov(Aov::Depth).unwrap(),
-        normal: Some(normal),
+/// How far an f32 cast may lie from the exact hit of `g` at world distance `t` on a ray outside
+/// the tangency band: (relative depth, normal angle in radians), from the f32 error model of the
+/// band (`metaballs_f32` module docs). In object space (t′ = t·t_scale, unit direction), over the
+/// balls whose support holds the hit (R_max the largest radius):
+/// - g = F − T is evaluated to within δ = BAND_C·ε·(S + X·G), with S ≤ T + Σ|q|·B (B the largest
+///   chord Bernstein coefficient: 104/45 for wyvill6, 8/5 for murakami4; restricting a chord only
+///   averages them), X ≤ ‖o′‖ + t′ + 2R_max and G = Σ|q|γ/R. Outside the band the root is simple
+///   and no extremum comes within δ of zero, so δ moves it by at most δ/|g′(t′)|;
+/// - the clipping answers the middle of a bracket ≤ 2⁻²² of an interval that lies in one support
+///   chord (≤ 2R_max): 2⁻²²·R_max more; the group's method adds its own term (`method_term`);
+/// - t = t′/t_scale, in f32 and stored: 4ε relative.
+///
+/// The normal ∝ −∇F at the f32 hit: the offset Δt′ above turns it by ≤ ‖∇²F‖·Δt′/‖∇F‖ (the
+/// Hessian's Frobenius norm at the hit, twice for its change over Δt′); ∇F in f32 sums terms of
+/// size ≤ G (BAND_C·ε·G) at a position rounded to ε·X per coordinate (2ε·X·‖∇²F‖); M⁻ᵀ into the
+/// world turns an angle by at most cond(M); normalising adds 2ε. (The same model is checked ray
+/// by ray on the shader's cast itself in tests/metaballs_gpu.rs.)
+fn f32_bound(g: &MetaballGroupParams, o: DVec3, d: DVec3, t: f64) -> (f64, f64) {
+    let eps = f64::from(f32::EPSILON);
+    let ray = g.transform.ray_to_object(o, d);
+    let tp = t * ray.t_scale;
+    let p = ray.origin + ray.dir * tp;
+    let b_max = match g.kernel {
+        Kernel::Wyvill6 => 104.0 / 45.0,
+        Kernel::Murakami4 => 1.6,
     };
-    let c = compare_metaballs(scene, time, aovs).unwrap();
-    assert_eq!(c.nan_depth, 0, "depth NaN");
-    for m in &c.mismatches {
-        println!("mismatch: {m:?}");
+    let gamma = g.kernel.max_slope();
+    let (mut s, mut gs, mut r_max) = (g.threshold, 0.0, 0.0);
+    let mut hessian = DMat3::ZERO;
+    for b in g.balls.iter().filter(|b| (p - b.centre).length() < b.radius) {
+        s += b.q.abs() * b_max;
+        gs += b.q.abs() * gamma / b.radius;
+        if b.radius > r_max {
+            r_max = b.radius;
+        }
+        // ∇²(q·f(‖x‖²/R²)) = q·(2f′(s)·I/R² + 4f″(s)·x xᵀ/R⁴).
+        let (x, r2) = (p - b.centre, b.radius * b.radius);
+        let rp = x.length_squared() / r2;
+        let f2 = match g.kernel {
+            Kernel::Wyvill6 => -8.0 / 3.0 * rp + 34.0 / 9.0,
+            Kernel::Murakami4 => 2.0,
+        };
+        let outer = DMat3::from_cols(x * x.x, x * x.y, x * x.z);
+        hessian += DMat3::from_diagonal(DVec3::splat(2.0 * b.q * g.kernel.df(rp) / r2))
+            + outer * (4.0 * b.q * f2 / (r2 * r2));
     }
-    (c, frame)
+    let h = 2.0 * frobenius(hessian);
+    let x = ray.origin.length() + tp + 2.0 * r_max;
+    let grad = gradient(g, p);
+    let dt = BAND_C * eps * (s + x * gs) / grad.dot(ray.dir).abs()
+        + 2f64.powi(-22) * r_max
+        + method_term(g, ray.t_scale);
+    let normal = h * dt + BAND_C * eps * gs + 2.0 * eps * x * h;
+    let m = DMat3::from_mat4(g.transform.matrix);
+    (dt / tp + 4.0 * eps, condition(m) * normal / grad.length() + 2.0 * eps)
 }
 
-/// The issue's bounds: mismatched hits ≤ 0.01% of the pixels outside the band (at 96×96 that is
-/// none), depth ≤ 1e-4 relative, normals ≤ 0.5°. The normal AOV is RGBA16F: each component is
-/// rounded to 11 significant bits (relative error ≤ 2⁻¹¹), which turns a unit vector by at most
-/// √3·2⁻¹¹ rad ≈ 0.05°; the f32 cast's own normal (gradient in f32 at a root accurate to ~1e-6)
-/// adds far less, so 0.5° leaves a factor of ten.
-fn assert_bounds(label: &str, c: &MetaballErrorStats) {
-    println!(
-        "{label}: {} px, gpu hits {}, reference hits {}, tangency band {} px, mismatched {}, \
-         worst depth {:.2e} rel, worst normal {:.3}°",
-        c.pixels, c.gpu_hits, c.ref_hits, c.band, c.mismatched, c.depth_max_rel, c.normal_max_deg
-    );
-    let outside = (c.pixels - c.band) as f64;
-    assert!(c.mismatched as f64 <= 1e-4 * outside, "{label}: {} mismatched hits", c.mismatched);
-    assert!(c.depth_max_rel <= 1e-4, "{label}: depth {:.3e}", c.depth_max_rel);
-    assert!(c.normal_max_deg <= 0.5, "{label}: normal {:.3}°", c.normal_max_deg);
+/// A cast method's own distance from the root (object units): sphere tracing bisects a bracket
+/// one least step wide (TRACE_MIN_STEP·T/L, L ≥ the group's least |q|γ/R) 16 times, so its
+/// middle is within 2⁻¹⁷ of that (metaballs_math.rs); clipping with a tolerance answers the middle
+/// of a bracket up to that wide (world units).
+fn method_term(g: &MetaballGroupParams, t_scale: f64) -> f64 {
+    match g.method {
+        CastMethod::Bezier { tolerance } => 0.5 * tolerance * t_scale,
+        CastMethod::SphereTrace { .. } => {
+            let l_min = g
+                .balls
+                .iter()
+                .map(|b| b.q.abs() * g.kernel.max_slope() / b.radius)
+                .fold(f64::INFINITY, f64::min);
+            TRACE_MIN_STEP * g.threshold / l_min * 0.5f64.powi(TRACE_BISECT as i32 + 1)
+        }
+    }
+}
+
+/// The normal AOV is RGBA16F: each component rounded to 11 significant bits (relative error
+/// ≤ 2⁻¹¹, so the vector moves by ≤ 2⁻¹¹ of its length and turns by ≤ 2⁻¹¹ rad), components below
+/// the least normal half (6.1·10⁻⁵) by ≤ 2⁻²⁵ absolutely (2⁻²⁴ for all three, to spare).
+const NORMAL_AOV_STEP: f64 = 1.0 / 2048.0 + 1.0 / 16_777_216.0;
+
+/// cond₂(M) = σ_max/σ_min, each by 64 power iterations on MᵀM (and on its inverse).
+fn condition(m: DMat3) -> f64 {
+    let sigma_max = |a: DMat3| {
+        let ata = a.transpose() * a;
+        let mut v = DVec3::new(0.6, 0.5, 0.62).normalize();
+        for _ in 0..64 {
+            v = (ata * v).normalize();
+        }
+        (ata * v).length().sqrt()
+    };
+    sigma_max(m) * sigma_max(m.inverse())
+}
+
+fn frobenius(m: DMat3) -> f64 {
+    (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
+}
+
+/// The angle between two vectors in radians, accurate near 0 (atan2 of |a × b| and a·b).
+fn angle(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b))
+}
+
+/// A frame's metaball depth (and normals) against the f64 reference on every pixel.
+struct Checked {
+    /// 1 where GPU and reference disagree about a metaball hit (tolerance 0); band pixels excluded.
+    hit_miss: Comparison,
+    /// |t_gpu − t|/t over its `f32_bound`, on the hits both see.
+    depth: Comparison,
+    /// The pass's contract (metaballs_f32 module docs): depth ≤ 1e-4 relative.
+    contract_depth: Comparison,
+    /// With a normal AOV: the angle over its `f32_bound` plus the RGBA16F step, and in degrees
+    /// (contract 0.5°).
+    normal: Option<(Comparison, Comparison)>,
+    ref_hits: usize,
+    gpu_hits: usize,
+}
+
+impl Checked {
+    /// Asserts every comparison: band (and other left-out pixels) ≤ `left_out` of the pixels,
+    /// hit/miss equal on every other pixel, depth and normals within their bounds on at least
+    /// `min_hits` pixels.
+    #[track_caller]
+    fn assert(&self, min_hits: usize, left_out: f64) {
+        self.hit_miss.assert_excluded_at_most(left_out);
+        let pixels = self.hit_miss.compared() + self.hit_miss.excluded();
+        self.hit_miss.assert_within(0.0, pixels - (left_out * pixels as f64) as usize);
+        self.depth.assert_within(1.0, min_hits);
+        self.contract_depth.assert_within(1e-4, min_hits);
+        if let Some((bound, contract)) = &self.normal {
+            bound.assert_within(1.0, min_hits);
+            contract.assert_within(0.5, min_hits);
+        }
+    }
+}
+
+/// The frame's metaballs against the f64 reference on every pixel: t_max is the GPU raster's own
+/// distance (`raster`), and a pixel shows a metaball where its depth differs from it. Band pixels
+/// and those `leave_out(o, d, t_min, t_max)` names are excluded.
+fn check(
+    label: &str,
+    scene: &Scene,
+    time: f64,
+    (depth, raster, normal): (&AovImage, &AovImage, Option<&AovImage>),
+    leave_out: impl Fn(DVec3, DVec3, f64, f64) -> bool,
+) -> Checked {
+    let (w, h) = (depth.width, depth.height);
+    let groups = groups_at(scene, time);
+    let cam = &scene.camera;
+    let new = |what: &str| Comparison::new(format!("{label}: {what}"));
+    let mut c = Checked {
+        hit_miss: new("metaball hit/miss differs from f64"),
+        depth: new("depth vs f64 / its bound"),
+        contract_depth: new("depth vs f64, relative"),
+        normal: normal.map(|_| (new("normal vs f64 / its bound"), new("normal vs f64, degrees"))),
+        ref_hits: 0,
+        gpu_hits: 0,
+    };
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let (o, d) = cam.pixel_ray(x, y, w, h);
+            let (t_min, t_max) = (near_along(scene, d), (raster.data[i] as f64).min(cam.far));
+            let r = reference(&groups, o, d, t_min, t_max);
+            let gpu_hit = depth.data[i].to_bits() != raster.data[i].to_bits();
+            c.ref_hits += usize::from(r.hit.is_some());
+            c.gpu_hits += usize::from(gpu_hit);
+            let at = format_args!("({x}, {y}): gpu {}, raster {}", depth.data[i], raster.data[i]);
+            if depth.data[i].is_nan() {
+                // Never acceptable, not even where the comparison leaves the pixel out.
+                c.hit_miss.error(at, f64::NAN);
+                continue;
+            }
+            if r.band || leave_out(o, d, t_min, t_max) {
+                c.hit_miss.exclude();
+                continue;
+            }
+            c.hit_miss.error(at, f64::from(u8::from(gpu_hit != r.hit.is_some())));
+            let (Some((k, hit)), true) = (r.hit, gpu_hit) else { continue };
+            let (bound_t, bound_n) = f32_bound(&groups[k], o, d, hit.t);
+            let gpu_t = depth.data[i] as f64;
+            c.depth.error(at, (gpu_t - hit.t).abs() / hit.t / bound_t);
+            c.contract_depth.rel(at, gpu_t, hit.t);
+            if let (Some(image), Some((bound, contract))) = (normal, c.normal.as_mut()) {
+                // The pass writes the normal facing the camera.
+                let n = if hit.normal.dot(d) > 0.0 { -hit.normal } else { hit.normal };
+                let g = DVec3::from_array([0, 1, 2].map(|ch| image.at(x, y, ch) as f64));
+                bound.error(at, angle(g, n) / (bound_n + NORMAL_AOV_STEP));
+                contract.error(at, angle(g, n).to_degrees());
+            }
+        }
+    }
+    println!("{label}: {} px, reference hits {}, gpu hits {}", w * h, c.ref_hits, c.gpu_hits);
+    c
+}
+
+/// Renders `scene` (depth, normal, HDR) and its raster alone, and checks the metaballs.
+fn compare(label: &str, scene: &Scene, w: u32, h: u32, time: f64) -> (Checked, FrameOutput, FrameOutput) {
+    let frame = render(scene, w, h, time, &[Aov::Depth, Aov::Normal, Aov::Hdr]);
+    let raster = raster_only(scene, w, h);
+    for aov in [Aov::Hdr, Aov::Normal] {
+        assert!(frame.aov(aov).unwrap().data.iter().all(|v| v.is_finite()), "{label}: {aov:?} holds NaN/Inf");
+    }
+    assert!(!frame.aov(Aov::Depth).unwrap().data.iter().any(|v| v.is_nan()), "{label}: depth holds NaN");
+    let images = (frame.aov(Aov::Depth).unwrap(), raster.aov(Aov::Depth).unwrap(), frame.aov(Aov::Normal));
+    let c = check(label, scene, time, images, |_, _, _, _| false);
+    (c, frame, raster)
 }
 
 #[test]
 fn depth_and_normals_match_the_f64_reference() {
     let scene = common::load("assets/scenes/metaballs.toml");
     for time in [0.0, 0.5, 1.0] {
-        let (c, frame) = compare(&scene, 96, 96, time);
-        assert_bounds(&format!("metaballs.toml t={time}"), &c);
-        assert!(c.ref_hits > 1000, "the groups must fill part of the frame");
+        let label = format!("metaballs.toml t={time}");
+        let (c, frame, raster) = compare(&label, &scene, 96, 96, time);
+        // The three groups fill ~15% of the frame (1,358 of 9,216 px when written).
+        c.assert(1000, BAND_SHARE);
         assert_eq!(frame.stats.counter(DROPPED), 0);
         assert_eq!(frame.stats.counter(HITS) as usize, c.gpu_hits);
         println!(
             "  clipping: {} hits, {:.2} steps per hit, at most {}",
             frame.stats.counter(HITS),
-            frame.stats.counter(CLIP_STEPS) as f64 / frame.stats.counter(HITS).max(1) as f64,
+            frame.stats.counter(CLIP_STEPS) as f64 / frame.stats.counter(HITS) as f64,
             frame.stats.counter(CLIP_STEPS_MAX)
         );
+        if time == 0.0 {
+            // `compare_metaballs` (what `hadou report` and the benchmark use) counts the same.
+            let aovs = MetaballFrame {
+                depth: frame.aov(Aov::Depth).unwrap(),
+                raster_depth: raster.aov(Aov::Depth).unwrap(),
+                normal: frame.aov(Aov::Normal),
+            };
+            let stats = compare_metaballs(&scene, time, aovs).unwrap();
+            assert_eq!(
+                (stats.pixels, stats.band, stats.ref_hits, stats.gpu_hits, stats.mismatched, stats.nan_depth),
+                (96 * 96, c.hit_miss.excluded(), c.ref_hits, c.gpu_hits, 0, 0)
+            );
+            assert_eq!(stats.depth_max_rel.to_bits(), c.contract_depth.worst().to_bits());
+        }
     }
 }
 
 /// A metaball group half inside a raster cube: the depth AOV follows min(cube, metaballs) of the
 /// f64 references (`SceneCaster` for the cube), so the intersection curve lies where the f64
 /// reference puts it. Pixels on the cube's silhouette (centre and corner rays disagree about
-/// hitting it: raster coverage rules decide there) and band pixels are left out.
+/// hitting it: raster coverage rules decide there) and band pixels are left out, both capped.
 #[test]
 fn intersection_with_a_raster_cube_follows_the_reference() {
     let scene = common::parse(
@@ -158,9 +372,17 @@ fn intersection_with_a_raster_cube_follows_the_reference() {
         let (o, d) = cam.ray_through(px, py, w, h);
         caster.cast(o, d).map(|hit| hit.t).filter(|&t| t <= cam.far)
     };
-    // Per pixel: which surface the reference sees (0 none, 1 cube, 2 metaball) and its distance.
+    // Per pixel: which surface the reference sees (0 none, 1 cube, 2 metaball).
     let mut kind = vec![0u8; (w * h) as usize];
-    let (mut checked, mut silhouette, mut band, mut worst) = (0, 0, 0, 0f64);
+    // Pixels the reference sees nothing on must be empty (1 where the GPU shows something).
+    let mut empty = Comparison::new("empty pixels: the GPU shows a surface");
+    // The raster distance as in tests/gpu_raster.rs (DEPTH_REL_TOL): f32 keeps 2⁻²⁴ per operation
+    // and the transform, interpolation and length take a few dozen: 1e-4 relative leaves a
+    // hundredfold margin.
+    let mut cube = Comparison::new("cube pixels: depth vs SceneCaster, relative");
+    let mut metaball = Comparison::new("metaball pixels: depth vs f64 / its bound");
+    let mut contract = Comparison::new("metaball pixels: depth vs f64, relative (contract 1e-4)");
+    let (mut silhouette, mut band) = (Comparison::new("cube silhouette"), Comparison::new("tangency band"));
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
@@ -170,28 +392,35 @@ fn intersection_with_a_raster_cube_follows_the_reference() {
                 .map(|(dx, dy)| cube_t(x as f64 + dx, y as f64 + dy).is_some());
             let t_cube = centre.unwrap_or(f64::INFINITY);
             let r = reference(&groups, o, d, near_along(&scene, d), t_cube.min(cam.far));
-            let (t_ref, k) = match (r.hit, centre) {
-                (Some((t, _)), _) => (t, 2),
-                (None, Some(t)) => (t, 1),
-                (None, None) => (f64::INFINITY, 0),
+            kind[i] = match (&r.hit, centre) {
+                (Some(_), _) => 2,
+                (None, Some(_)) => 1,
+                (None, None) => 0,
             };
-            kind[i] = k;
-            if corners.iter().any(|&c| c != centre.is_some()) {
-                silhouette += 1;
+            let on_silhouette = corners.iter().any(|&c| c != centre.is_some());
+            if on_silhouette {
+                silhouette.exclude();
                 continue;
             }
+            silhouette.error("-", 0.0);
             if r.band {
-                band += 1;
+                band.exclude();
                 continue;
             }
-            checked += 1;
+            band.error("-", 0.0);
             let gpu = depth[i] as f64;
-            if t_ref.is_infinite() {
-                assert!(gpu.is_infinite(), "({x}, {y}): gpu {gpu}, reference sees nothing");
-            } else {
-                let rel = (gpu - t_ref).abs() / t_ref;
-                assert!(rel <= 1e-4, "({x}, {y}): gpu {gpu}, reference {t_ref} (kind {k})");
-                worst = worst.max(rel);
+            let at = format_args!("({x}, {y})");
+            match (r.hit, centre) {
+                (Some((k, hit)), _) => {
+                    metaball.error(at, (gpu - hit.t).abs() / hit.t / f32_bound(&groups[k], o, d, hit.t).0);
+                    contract.rel(at, gpu, hit.t);
+                }
+                (None, Some(t)) => {
+                    cube.rel(at, gpu, t);
+                }
+                (None, None) => {
+                    empty.error(at, f64::from(u8::from(!gpu.is_infinite())));
+                }
             }
         }
     }
@@ -206,12 +435,18 @@ fn intersection_with_a_raster_cube_follows_the_reference() {
             }
         }
     }
-    println!(
-        "cube + metaballs: {checked} px checked, worst depth {worst:.2e} rel; {silhouette} cube-silhouette \
-         px and {band} band px left out; {curve} px along the intersection curve"
-    );
-    assert!(curve >= 20, "the metaballs must cut into the cube visibly");
-    assert!(kind.iter().filter(|&&k| k == 2).count() > 500 && kind.iter().filter(|&&k| k == 1).count() > 500);
+    println!("cube + metaballs: {curve} px along the intersection curve");
+    // The cube spans about half the frame: its outline, ≲ 4·96 px long, is at most ~4% of the
+    // pixels (206 of 9,216 when written); 5% caps it.
+    silhouette.assert_excluded_at_most(0.05);
+    band.assert_excluded_at_most(BAND_SHARE);
+    // Each surface covers a good part of the frame (cube 658, metaballs 2,151 and nothing 6,199
+    // of the 9,216 px when written).
+    cube.assert_within(1e-4, 500);
+    metaball.assert_within(1.0, 500);
+    contract.assert_within(1e-4, 500);
+    empty.assert_within(0.0, 500);
+    assert!(curve >= 20, "the metaballs must cut into the cube visibly: {curve} px of curve");
 }
 
 /// The energy wave integrates up to the metaball: its AOV matches the f64 integral up to the f64
@@ -249,34 +484,40 @@ fn metaballs_clip_the_energy_wave() {
     let groups = groups_at(&scene, 0.0);
     let wave = wave_params(&scene.waves[0].at(0.0));
     let cam = &scene.camera;
-    let (mut hits, mut clipped, mut band, mut worst) = (0, 0, 0, 0f64);
+    let mut clipped = 0;
+    let mut integral =
+        Comparison::new("energy on metaball pixels vs the f64 integral to the f64 hit, relative");
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
-            assert!(energy[i].is_finite() && energy[i] >= 0.0);
+            assert!(energy[i].is_finite() && energy[i] >= 0.0, "({x}, {y}): energy {}", energy[i]);
             let (o, d) = cam.pixel_ray(x, y, w, h);
             let r = reference(&groups, o, d, near_along(&scene, d), cam.far);
             if r.band {
-                band += 1;
+                integral.exclude();
                 continue;
             }
-            let Some((t, _)) = r.hit else { continue };
-            hits += 1;
-            let h_ref = line_integral(&wave, o, d, t);
+            let Some((_, hit)) = r.hit else { continue };
+            let h_ref = line_integral(&wave, o, d, hit.t);
             if line_integral(&wave, o, d, cam.far) > 1.01 * h_ref {
                 clipped += 1;
             }
-            worst = worst.max((energy[i] as f64 - h_ref).abs() / h_ref);
+            integral.rel(format_args!("({x}, {y})"), energy[i] as f64, h_ref);
         }
     }
-    println!("wave behind metaballs: {hits} metaball px ({clipped} clipped), {band} band px, worst {worst:.2e} rel");
-    assert!(hits > 500 && clipped > 200, "the wave must pass behind the metaballs");
-    assert!(worst <= 1e-4, "worst {worst:.3e}");
+    println!("wave behind metaballs: {clipped} clipped metaball px");
+    integral.assert_excluded_at_most(BAND_SHARE);
+    // 1e-4: the bound tests/gpu_energy_wave.rs argues for H itself (the pixel ray in f32, the
+    // closed form); the clip point's own error (the metaball depth, within `f32_bound`) moves H
+    // by the integrand there times ~10⁻⁵ of the distance, not added here.
+    integral.assert_within(1e-4, 500);
+    assert!(clipped > 200, "the wave must pass behind the metaballs: {clipped} px clipped");
 }
 
 /// 10,000 balls piled into one 16×16 tile: every point of the pile lies in dozens of supports.
 /// No validation error, nothing NaN, and every surface the f64 reference sees (outside the band)
-/// the GPU shows, at the reference's depth: the crowded casts are streamed, none dropped.
+/// the GPU shows, at the reference's depth and normal: the crowded casts are streamed, none
+/// dropped.
 #[test]
 fn ten_thousand_balls_in_one_tile() {
     let scene = common::parse(
@@ -293,58 +534,31 @@ fn ten_thousand_balls_in_one_tile() {
     // 48×48 (2.9 px per unit at the pile): the pile, 5.2 units across with its supports, covers
     // ~15 px around the centre of tile (1, 1).
     let (w, h) = (48u32, 48u32);
-    let frame = render(&scene, w, h, 0.0, &[Aov::Depth, Aov::Normal, Aov::Hdr]);
-    for aov in [Aov::Depth, Aov::Normal, Aov::Hdr] {
-        assert!(frame.aov(aov).unwrap().data.iter().all(|v| !v.is_nan()), "{aov:?} holds NaN");
-    }
+    let (c, frame, _) = compare("10,000 balls", &scene, w, h, 0.0);
     let depth = &frame.aov(Aov::Depth).unwrap().data;
-    let groups = groups_at(&scene, 0.0);
-    let cam = &scene.camera;
-    let (mut ref_hits, mut gpu_hits, mut unexplained, mut band, mut worst) = (0, 0, 0u64, 0, 0f64);
-    for y in 0..h {
-        for x in 0..w {
-            let i = (y * w + x) as usize;
-            let gpu_hit = depth[i].is_finite();
-            gpu_hits += gpu_hit as usize;
-            if !(16..32).contains(&x) || !(16..32).contains(&y) {
-                assert!(!gpu_hit, "({x}, {y}) outside the pile's tile");
-                continue;
-            }
-            let (o, d) = cam.pixel_ray(x, y, w, h);
-            let r = reference(&groups, o, d, near_along(&scene, d), cam.far);
-            ref_hits += r.hit.is_some() as usize;
-            if r.band {
-                band += 1;
-                continue;
-            }
-            match (r.hit, gpu_hit) {
-                (Some(_), false) => unexplained += 1,
-                (Some((t, _)), true) => worst = worst.max((depth[i] as f64 - t).abs() / t),
-                (None, true) => panic!("({x}, {y}): the GPU hits {}, the reference misses", depth[i]),
-                (None, false) => {}
-            }
+    for (i, v) in depth.iter().enumerate() {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        if !(16..32).contains(&x) || !(16..32).contains(&y) {
+            assert!(v.is_infinite(), "({x}, {y}) outside the pile's tile shows {v}");
         }
     }
-    println!(
-        "10,000 balls: reference hits {ref_hits}, gpu hits {gpu_hits}, band {band}, dropped-surface count \
-         {}, reference hits the GPU missed {unexplained}, worst depth {worst:.2e} rel",
-        frame.stats.counter(DROPPED)
-    );
-    assert!(ref_hits > 100);
-    assert_eq!((unexplained, frame.stats.counter(DROPPED)), (0, 0), "every surface found");
+    // 203 reference hits when written, all inside the tile.
+    c.assert(150, BAND_SHARE);
+    assert_eq!(frame.stats.counter(DROPPED), 0, "every surface found, none dropped");
     assert!(frame.stats.counter(STREAMED) > 0, "the pile crowds more than 32 supports on a point");
-    assert!(worst <= 1e-4, "worst {worst:.3e}");
 }
 
-/// Every `stride`-th pixel each way of a depth AOV against the f64 reference of `groups`: hits
-/// the reference has, those the GPU missed, band pixels and the worst relative depth error. A GPU
-/// hit where the reference misses fails at once.
-#[derive(Default)]
+/// A depth AOV (no raster: t_max = far) against the f64 reference of `groups`: every pixel whose
+/// ray provably misses (`provable_miss`, cheap) and every `stride`-th pixel each way of the others
+/// (the f64 reference, costly), band pixels excluded. Counts the pixels where the reference hits
+/// and the GPU shows nothing; GPU hits where the reference misses are errors of 1 (tolerance 0);
+/// the depths of the hits both see are compared.
 struct Tally {
-    ref_hits: u64,
     missed: u64,
-    band: u64,
-    worst: f64,
+    sampled_hits: u64,
+    phantom: Comparison,
+    depth: Comparison,
+    contract: Comparison,
 }
 
 fn tally(
@@ -357,22 +571,50 @@ fn tally(
 ) -> Tally {
     let (w, h) = size;
     let cam = &scene.camera;
-    let mut t = Tally::default();
-    for y in (0..h).step_by(stride) {
-        for x in (0..w).step_by(stride) {
+    let new = |what: &str| Comparison::new(format!("{label}: {what}"));
+    let mut t = Tally {
+        missed: 0,
+        sampled_hits: 0,
+        phantom: new("GPU hit where the reference misses"),
+        depth: new("depth vs f64 / its bound"),
+        contract: new("depth vs f64, relative (contract 1e-4)"),
+    };
+    for y in 0..h {
+        for x in 0..w {
             let i = (y * w + x) as usize;
             let (o, d) = cam.pixel_ray(x, y, w, h);
-            let r = reference(groups, o, d, near_along(scene, d), cam.far);
-            if r.band {
-                t.band += 1;
+            let gpu = depth[i] as f64;
+            let at = format_args!("({x}, {y}): gpu {gpu}");
+            if gpu.is_nan() {
+                t.phantom.error(at, f64::NAN);
                 continue;
             }
-            t.ref_hits += r.hit.is_some() as u64;
-            match (r.hit, depth[i].is_finite()) {
-                (Some(_), false) => t.missed += 1,
-                (Some((ref_t, _)), true) => t.worst = t.worst.max((depth[i] as f64 - ref_t).abs() / ref_t),
-                (None, true) => panic!("{label} ({x}, {y}): the GPU hits {}, the reference misses", depth[i]),
-                (None, false) => {}
+            if groups.iter().all(|g| provable_miss(g, o, d)) {
+                t.phantom.error(at, if gpu.is_infinite() { 0.0 } else { 1.0 });
+                continue;
+            }
+            if x as usize % stride != 0 || y as usize % stride != 0 {
+                continue;
+            }
+            let r = reference(groups, o, d, near_along(scene, d), cam.far);
+            if r.band {
+                t.phantom.exclude();
+                continue;
+            }
+            match r.hit {
+                None => {
+                    // NaN is neither infinite nor a hit: it fails here too.
+                    t.phantom.error(at, if gpu.is_infinite() { 0.0 } else { 1.0 });
+                }
+                Some((k, hit)) => {
+                    t.sampled_hits += 1;
+                    if gpu.is_infinite() {
+                        t.missed += 1;
+                    } else {
+                        t.depth.error(at, (gpu - hit.t).abs() / hit.t / f32_bound(&groups[k], o, d, hit.t).0);
+                        t.contract.rel(at, gpu, hit.t);
+                    }
+                }
             }
         }
     }
@@ -403,56 +645,62 @@ fn one_group_scene(camera: &str, near: f64, balls: &str, wave: bool) -> Scene {
 
 /// Camera inside a support sphere, inside the surface, a group behind the camera, a ball centred
 /// on the near plane and one whose support touches it: no NaN in any AOV, and the GPU agrees with
-/// the reference outside the band.
+/// the reference outside the band (capped) on every pixel.
 #[test]
 fn hard_cases_stay_finite_and_agree() {
+    // (label, camera, near, balls, reference hits at least: 1,600, 1,600, 0, 1,600 and 724 of
+    // the 1,600 px when written).
     let cases = [
         (
             "camera inside a support",
             "position = [0, 0, 3]\nlook_at = [0, 0, 0]",
             0.1,
             "{ centre = [0, 0, 0], radius = 4 }, { centre = [1.5, 0.5, 0], radius = 2 }",
+            1500,
         ),
         (
             "camera inside the surface",
             "position = [0, 0, 0.8]\nlook_at = [0, 0, 0]",
             0.1,
             "{ centre = [0, 0, 0], radius = 4 }, { centre = [1.2, 0, 0], radius = 2.5 }",
+            1500,
         ),
         (
             "group behind the camera",
             "position = [0, 0, 10]\nlook_at = [0, 0, 0]",
             0.1,
             "{ centre = [0, 0, 14], radius = 2 }, { centre = [1, 0, 15], radius = 2 }",
+            0,
         ),
         (
             "ball centred on the near plane",
             "position = [0, 0, 10]\nlook_at = [0, 0, 0]",
             0.5,
             "{ centre = [0, 0, 9.5], radius = 1 }, { centre = [0.6, 0, 9], radius = 0.8 }",
+            1500,
         ),
         (
             "support touching the near plane",
             "position = [0, 0, 10]\nlook_at = [0, 0, 0]",
             0.5,
             "{ centre = [0, 0, 8.5], radius = 1 }",
+            600,
         ),
     ];
-    for (label, camera, near, balls) in cases {
+    for (label, camera, near, balls, min_hits) in cases {
         for wave in [false, true] {
+            let label = format!("{label}{}", if wave { " + wave" } else { "" });
             let scene = one_group_scene(camera, near, balls, wave);
-            let (c, frame) = compare(&scene, 40, 40, 0.0);
-            assert_bounds(&format!("{label}{}", if wave { " + wave" } else { "" }), &c);
+            let (c, frame, _) = compare(&label, &scene, 40, 40, 0.0);
+            c.assert(min_hits, BAND_SHARE);
             if wave {
                 let frame = render(&scene, 40, 40, 0.0, &[Aov::Energy]);
                 let energy = &frame.aov(Aov::Energy).unwrap().data;
                 assert!(energy.iter().all(|v| v.is_finite() && *v >= 0.0), "{label}: energy NaN/Inf");
             }
             assert_eq!(frame.stats.counter(DROPPED), 0, "{label}");
-            if label == "group behind the camera" {
-                assert_eq!(c.gpu_hits, 0);
-            } else {
-                assert!(c.ref_hits > 0, "{label}: the case must show a surface");
+            if min_hits == 0 {
+                assert_eq!((c.gpu_hits, c.ref_hits), (0, 0), "{label}: nothing in front of the camera");
             }
         }
     }
@@ -471,7 +719,8 @@ fn growing_tile_lists_rebind() {
     req.width = 320;
     req.height = 320;
     let grown = rt.render(&req).unwrap();
-    common::assert_clean(&rt);
+    // The log after the device is destroyed (leaks included).
+    rt.finish();
     let fresh = render(&scene, 320, 320, 0.0, &[Aov::Depth]);
     let (a, b) = (&grown.aov(Aov::Depth).unwrap().data, &fresh.aov(Aov::Depth).unwrap().data);
     assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()), "grown lists differ from fresh ones");
@@ -493,6 +742,27 @@ fn plan_runs_metaballs_after_raster_and_before_the_wave() {
     let mut rt = common::runtime();
     rt.load_scene(common::load("assets/scenes/metaballs.toml")).unwrap();
     assert_eq!(rt.pass_names(), vec!["raster", "metaballs", "tonemap"]);
+    // Loading built every pass: the log after the device is destroyed (leaks included).
+    rt.finish();
+}
+
+/// Whether a ray provably misses `g`: the positive q of the balls whose support it crosses sum to
+/// less than T (f ≤ 1), with a margin T − Σq⁺ far above the f32 field error (δ ≈ 10⁻⁵ here), so
+/// neither f64 nor an f32 cast can find a root on it.
+fn provable_miss(g: &MetaballGroupParams, o: DVec3, d: DVec3) -> bool {
+    let ray = g.transform.ray_to_object(o, d);
+    let reach: f64 = g
+        .balls
+        .iter()
+        .filter(|b| {
+            let oc = ray.origin - b.centre;
+            let along = oc.dot(ray.dir);
+            // The closest approach of the whole line (conservative: also behind the camera).
+            oc.length_squared() - along * along < b.radius * b.radius
+        })
+        .map(|b| if b.q > 0.0 { b.q } else { 0.0 })
+        .sum();
+    reach < g.threshold - 0.1
 }
 
 /// More than MB_MAX_RAY_BALLS (32) supports along one ray. Forty balls staggered along the view
@@ -500,8 +770,12 @@ fn plan_runs_metaballs_after_raster_and_before_the_wave() {
 /// search goes on past the first 32 entries, round by round, and finds the surface the reference
 /// finds. Forty concentric balls put 40 supports on every point of the blob, and fogs of 48 and
 /// 500 faint balls (Σq = 0.35 < T: no surface of their own) put all their supports on every ray
-/// through them (the camera inside them all) in front of two dense balls: no window of 32 slots holds them, so those casts go
-/// on streamed from the tile's run — and every surface the reference sees is found, none dropped.
+/// through them (the camera inside them all) in front of two dense balls: no window of 32 slots
+/// holds them, so those casts go on streamed from the tile's run — and every surface the
+/// reference sees is found, none dropped. Pixels whose rays cross no dense ball's support are
+/// provable misses (`provable_miss`) and must show nothing; the others are checked against the
+/// f64 reference: all of them, except for the fog of 500, where a ray costs ~0.2 s (1,000
+/// pieces of 500 chords): one pixel in four there (every other each way), ~90 surface pixels.
 #[test]
 fn more_than_32_supports_on_a_ray() {
     let staggered: Vec<String> = (0..40)
@@ -534,30 +808,33 @@ fn more_than_32_supports_on_a_ray() {
     let close = "position = [0, 0, 3]\nlook_at = [0, 0, 0]";
     // Inside every support of the fog (its centres within 0.52 of (0, 0, 0.8), radii ≥ 2).
     let inside_fog = "position = [0.2, 0.3, 2.2]\nlook_at = [0, 0, -1.3]";
+    // (label, camera, balls, reference hits at least: 156, 912, 372 and 373 of the 1,600 px
+    // when written).
     let cases = [
-        ("staggered", close, staggered),
-        ("concentric", close, concentric),
-        ("fog of 48", inside_fog, fog(48)),
-        ("fog of 500", inside_fog, fog(500)),
+        ("staggered", close, staggered, 120),
+        ("concentric", close, concentric, 700),
+        ("fog of 48", inside_fog, fog(48), 300),
+        ("fog of 500", inside_fog, fog(500), 300),
     ];
-    for (label, camera, balls) in cases {
+    for (label, camera, balls, min_hits) in cases {
+        let stride = if balls.len() > 100 { 2 } else { 1 };
+        let min_hits = min_hits / (stride * stride);
         let scene = one_group_scene(camera, 0.1, &balls.join(", "), false);
         let (w, h) = (40u32, 40u32);
-        // The f64 reference of a ray through 500 supports costs ~0.2 s (1,000 pieces of 500
-        // chords): every fourth pixel each way of that case is checked, every pixel of the others.
-        let stride = if balls.len() > 100 { 4 } else { 1 };
         let frame = render(&scene, w, h, 0.0, &[Aov::Depth]);
         let depth = &frame.aov(Aov::Depth).unwrap().data;
-        let Tally { ref_hits, missed, band, worst } =
-            tally(&scene, &groups_at(&scene, 0.0), depth, (w, h), stride, label);
+        let groups = groups_at(&scene, 0.0);
+        let Tally { missed, sampled_hits, phantom, depth: depth_cmp, contract } =
+            tally(&scene, &groups, depth, (w, h), stride, label);
         let (dropped, streamed) = (frame.stats.counter(DROPPED), frame.stats.counter(STREAMED));
         println!(
-            "{label}: reference hits {ref_hits}, missed {missed}, dropped {dropped}, streamed {streamed}, band \
-             {band}, worst depth {worst:.2e}"
+            "{label}: reference hits {sampled_hits}, missed {missed}, dropped {dropped}, streamed {streamed}"
         );
-        assert!(ref_hits as usize > 100 / (stride * stride), "{label}");
-        assert_eq!((missed, dropped), (0, 0), "{label}: every surface found");
-        assert!(worst <= 1e-4, "{label}: worst {worst:.3e}");
+        assert_eq!((missed, dropped), (0, 0), "{label}: every surface checked is found, none dropped");
+        phantom.assert_excluded_at_most(BAND_SHARE);
+        phantom.assert_within(0.0, 0);
+        depth_cmp.assert_within(1.0, min_hits);
+        contract.assert_within(1e-4, min_hits);
         // The staggered balls never crowd one point; every other case must take the streamed path.
         assert_eq!(streamed == 0, label == "staggered", "{label}: {streamed} streamed casts");
     }
@@ -565,17 +842,14 @@ fn more_than_32_supports_on_a_ray() {
 
 /// The sphere-tracing baseline in the pass (every group of assets/scenes/metaballs.toml with
 /// method = "sphere_trace", 64 steps) against the exact f64 reference, where its f64 twin
-/// (`metaballs_trace::trace`) says the method itself gets the exact answer. Left out: band pixels;
-/// pixels where the twin misses the exact answer (runs out of steps, or skips a sliver: hit/miss
-/// or depth beyond 1e-6 differ); pixels within 2⁻¹⁰ of tangency (where a sliver may be skipped,
-/// see metaballs_trace.rs), and pixels whose twin needs more than 56 of the 64 steps (the f32
-/// march rounds differently and may need a few more). Everywhere else the GPU must meet the
-/// Bézier bounds: mismatched hits ≤ 0.01%, depth ≤ 1e-4, normals ≤ 0.5° (the bisection's own error,
-/// ≤ 2⁻²⁶·T/L, is far below).
+/// (`metaballs_trace::trace`) says the method itself gets the exact answer. Left out (capped at
+/// 5% of the pixels): band pixels; pixels where the twin misses the exact answer (runs out of
+/// steps, or skips a sliver: hit/miss differ, or its depth lies beyond its own bracket bound,
+/// `method_term`); pixels within 2⁻¹⁰ of tangency (where a sliver may be skipped, see
+/// metaballs_trace.rs), and pixels whose twin needs so many of the 64 steps that the f32 march may run out (below).
+/// Everywhere else the GPU must meet the f32 bounds with the trace's bracket (`f32_bound`).
 #[test]
 fn sphere_tracing_matches_its_f64_twin() {
-    use hadou::effects::metaballs::{CastMethod, MetaballGroupParams};
-    use hadou::effects::metaballs_f32::tangency;
     use hadou::effects::metaballs_trace::trace;
     let steps = 64;
     let mut scene = common::load("assets/scenes/metaballs.toml");
@@ -583,91 +857,83 @@ fn sphere_tracing_matches_its_f64_twin() {
     let (w, h) = (96u32, 96u32);
     let frame = render(&scene, w, h, 0.0, &[Aov::Depth, Aov::Normal]);
     let raster = raster_only(&scene, w, h);
-    let depth = &frame.aov(Aov::Depth).unwrap().data;
-    let raster = &raster.aov(Aov::Depth).unwrap().data;
-    let normal = frame.aov(Aov::Normal).unwrap();
-    let groups: Vec<MetaballGroupParams> = groups_at(&scene, 0.0);
-    let cam = &scene.camera;
-    let (mut checked, mut left_out, mut mismatched, mut worst_t, mut worst_n) = (0, 0, 0, 0f64, 0f64);
-    for y in 0..h {
-        for x in 0..w {
-            let i = (y * w + x) as usize;
-            assert!(!depth[i].is_nan());
-            let (o, d) = cam.pixel_ray(x, y, w, h);
-            let (t_min, t_max) = (near_along(&scene, d), (raster[i] as f64).min(cam.far));
-            let r = reference(&groups, o, d, t_min, t_max);
-            let method_limited = groups.iter().any(|g| {
-                let tw = trace(g, o, d, t_min, t_max, steps);
-                let exact = hadou::effects::metaballs::cast(g, o, d, t_min, t_max);
-                let depth_differs = match (tw.hit, exact) {
-                    (Some(a), Some(b)) => (a.t - b.t).abs() > 1e-6 * b.t,
-                    (None, None) => false,
-                    _ => true,
-                };
-                tw.exhausted
-                    || tw.steps > steps - 8
-                    || depth_differs
-                    || tangency(g, o, d, t_min, t_max).margin <= 2f64.powi(-10)
-            });
-            if r.band || method_limited {
-                left_out += 1;
-                continue;
-            }
-            checked += 1;
-            let gpu_hit = depth[i].to_bits() != raster[i].to_bits();
-            if gpu_hit != r.hit.is_some() {
-                mismatched += 1;
-                println!("mismatch at ({x}, {y}): gpu {}, reference {:?}", depth[i], r.hit);
-                continue;
-            }
-            if let Some((t, n)) = r.hit {
-                worst_t = worst_t.max((depth[i] as f64 - t).abs() / t);
-                let n = if n.dot(d) > 0.0 { -n } else { n };
-                let g = DVec3::new(
-                    normal.at(x, y, 0) as f64,
-                    normal.at(x, y, 1) as f64,
-                    normal.at(x, y, 2) as f64,
-                );
-                worst_n = worst_n.max(g.normalize().dot(n).clamp(-1.0, 1.0).acos().to_degrees());
-            }
-        }
-    }
+    let groups = groups_at(&scene, 0.0);
+    // The f32 march differs from the twin's by rounding: each step |F − T|/L is off by ≤ δ/L
+    // (δ = 16ε·(S + X·G), the band's f32 error, with S and G over all the group's balls and X to
+    // the twin's hit), so 64 steps fall short by ≤ 64·δ/L: by ⌈64·δ/(2⁻¹⁰·T)⌉ least steps at most.
+    // A hit whose twin needs more than 64 minus that (and one to spare) may run out on the GPU.
+    // (Where the twin misses, running out changes nothing: both miss.)
+    let spare = |g: &MetaballGroupParams, o: DVec3, d: DVec3, t_hit: f64| {
+        let ray = g.transform.ray_to_object(o, d);
+        let b_max = if g.kernel == Kernel::Wyvill6 { 104.0 / 45.0 } else { 1.6 };
+        let s: f64 = g.threshold + g.balls.iter().map(|b| b.q.abs() * b_max).sum::<f64>();
+        let gs: f64 = g.balls.iter().map(|b| b.q.abs() * g.kernel.max_slope() / b.radius).sum();
+        let x = ray.origin.length() + t_hit * ray.t_scale;
+        let delta = BAND_C * f64::from(f32::EPSILON) * (s + x * gs);
+        (f64::from(steps) * delta / (TRACE_MIN_STEP * g.threshold)).ceil() as u32 + 1
+    };
+    let method_limited = std::cell::Cell::new(0usize);
+    let leave_out = |o: DVec3, d: DVec3, t_min: f64, t_max: f64| {
+        let limited = groups.iter().any(|g| {
+            let tw = trace(g, o, d, t_min, t_max, steps);
+            let exact = cast(g, o, d, t_min, t_max);
+            let ts = g.transform.ray_to_object(o, d).t_scale;
+            let depth_differs = match (tw.hit, exact) {
+                // Beyond the trace's own bracket (object units, mapped to world) and f64 rounding.
+                (Some(a), Some(b)) => {
+                    (a.t - b.t).abs() > method_term(g, ts) / ts * (1.0 + 1e-9) + 1e-12 * b.t
+                }
+                (None, None) => false,
+                _ => true,
+            };
+            tw.exhausted
+                || tw.hit.is_some_and(|h| tw.steps + spare(g, o, d, h.t) > steps)
+                || depth_differs
+                || tangency(g, o, d, t_min, t_max).margin <= 2f64.powi(-10)
+        });
+        method_limited.set(method_limited.get() + usize::from(limited));
+        limited
+    };
+    let images = (frame.aov(Aov::Depth).unwrap(), raster.aov(Aov::Depth).unwrap(), frame.aov(Aov::Normal));
+    let c = check("sphere tracing (64 steps)", &scene, 0.0, images, leave_out);
     println!(
-        "sphere tracing ({steps} steps): {checked} px checked, {left_out} left out, {mismatched} mismatched, \
-         worst depth {worst_t:.2e} rel, worst normal {worst_n:.3}°; {} px ran out of steps",
+        "sphere tracing: {} method-limited px; {} px ran out of steps",
+        method_limited.get(),
         frame.stats.counter(DROPPED)
     );
-    assert!(checked > 8000, "{checked}");
-    assert!(mismatched as f64 <= 1e-4 * checked as f64, "{mismatched} mismatched");
-    assert!(worst_t <= 1e-4 && worst_n <= 0.5, "depth {worst_t:.2e}, normal {worst_n:.3}°");
+    // Left out: 191 of the 9,216 px when written (2%); 5% caps it. ~1,350 hits when written.
+    c.assert(1000, 0.05);
     assert!(frame.stats.counter(HITS) > 1000);
 }
 
 /// The dense fluid of assets/scenes/metaballs_dense.toml at 48×48, its golden size: ~140 supports
 /// on every point inside, tile runs of 1,520–2,720 balls, so most casts stream, walking long runs
-/// many times. Every surface the f64 reference finds is found (its rim pixels were missed while
-/// lavapipe's loop limit cut the streamed walks short, silently), nothing dropped.
+/// many times. Every surface the f64 reference finds (outside the band, capped) is found (its rim
+/// pixels were missed while lavapipe's loop limit cut the streamed walks short, silently), at its
+/// depth and normal; nothing dropped.
 #[test]
 fn dense_fluid_finds_every_surface() {
     let scene = hadou::scene::load_scene(std::path::Path::new("assets/scenes/metaballs_dense.toml")).unwrap();
-    let (c, frame) = compare(&scene, 48, 48, 0.0);
+    let (c, frame, _) = compare("dense fluid", &scene, 48, 48, 0.0);
     let (dropped, streamed) = (frame.stats.counter(DROPPED), frame.stats.counter(STREAMED));
-    println!(
-        "dense fluid: reference hits {}, gpu hits {}, band {}, mismatched {}, dropped {dropped}, streamed {streamed}",
-        c.ref_hits, c.gpu_hits, c.band, c.mismatched
-    );
-    assert!(c.ref_hits > 700 && streamed > 1000, "the fluid fills the frame and crowds its rays");
-    assert_eq!((c.mismatched, dropped), (0, 0), "every surface found");
-    assert_bounds("dense fluid", &c);
+    println!("dense fluid: dropped {dropped}, streamed {streamed}");
+    assert!(streamed > 1000, "the fluid crowds its rays: {streamed} streamed");
+    assert_eq!(dropped, 0, "every surface found");
+    // 825 of the 2,304 px hit when written.
+    c.assert(700, BAND_SHARE);
 }
 
 /// Past any work budget the pass is not silent: 100,000 concentric balls of q = 1.5/100,000 have
 /// the field of one ball of q = 1.5 (the reference), and a ray through them walks a run of
 /// 100,000 entries per streamed walk — on lavapipe, past the 65,535 loop iterations Mesa allows a
-/// SIMD group. Every pixel where the reference hits is either hit at its depth or counted in
-/// `metaballs.dropped`.
+/// SIMD group. Every GPU hit is at the reference's depth, no GPU hit where it misses, and the
+/// pixels where the reference hits but the GPU shows nothing are counted: `metaballs.dropped`
+/// counts pixels too (one per pixel whose walk was cut, in each pass that cut it), so it is at
+/// least their number. At least 50 surface pixels are accounted for either way (on lavapipe all
+/// of them are dropped: the limit cuts every walk through the pile; a device without a loop limit
+/// shows them all).
 #[test]
-fn no_silent_miss_past_the_loop_limit() {
+fn a_surface_lost_past_the_loop_limit_is_counted_as_dropped() {
     const N: usize = 100_000;
     let camera = "position = [0, 0.5, 4.5]\nlook_at = [0, 0, 0]";
     let mut scene = one_group_scene(camera, 0.1, "{ centre = [0, 0, 0], radius = 2, q = 1.5 }", false);
@@ -678,13 +944,16 @@ fn no_silent_miss_past_the_loop_limit() {
     let (w, h) = (16u32, 16u32);
     let frame = render(&scene, w, h, 0.0, &[Aov::Depth]);
     let depth = &frame.aov(Aov::Depth).unwrap().data;
-    let Tally { ref_hits, missed, band, worst } = tally(&scene, &single, depth, (w, h), 1, "concentric");
+    let Tally { missed, sampled_hits, phantom, depth: _, contract } =
+        tally(&scene, &single, depth, (w, h), 1, "100,000 concentric balls");
     let dropped = frame.stats.counter(DROPPED);
-    println!("{N} concentric balls: reference hits {ref_hits}, missed {missed}, dropped {dropped}, band {band}, worst {worst:.2e}");
-    assert!(ref_hits > 50);
-    assert!(missed <= dropped, "{missed} surfaces missed, only {dropped} counted as dropped");
+    println!("{N} concentric balls: reference hits {sampled_hits}, missed {missed}, dropped {dropped}");
+    assert!(missed <= dropped, "{missed} surface pixels missed, only {dropped} pixels counted as dropped");
+    phantom.assert_excluded_at_most(BAND_SHARE);
+    phantom.assert_within(0.0, 0);
     // Σ of 100,000 equal f32 terms: relative error ≤ n·ε_f32 ≈ 6e-3 of the field, which moves the
     // root by at most that over the field's slope near the surface (≥ the threshold per unit
     // radius here): 1e-2 relative.
-    assert!(worst <= 1e-2, "worst {worst:.3e}");
+    contract.assert_within(1e-2, 0);
+    assert!(sampled_hits > 50, "the pile must cover the frame: {sampled_hits} surface pixels");
 }
