@@ -104,6 +104,8 @@ pub struct GpuWave {
     pub flags: [u32; 4],
 }
 
+crate::gpu::layout::gpu_layout!(GpuWave as "Wave" { dir, rperp, strength, flags });
+
 const _: () = assert!(core::mem::size_of::<GpuWave>() == 64);
 const _: () = assert!(core::mem::align_of::<GpuWave>() == 4);
 const _: () = assert!(core::mem::offset_of!(GpuWave, dir) == 0);

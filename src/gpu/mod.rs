@@ -8,6 +8,7 @@ pub mod context;
 pub mod error;
 #[doc(hidden)]
 pub mod fullscreen;
+pub(crate) mod layout;
 #[doc(hidden)]
 pub mod memory;
 #[doc(hidden)]

@@ -28,6 +28,10 @@ pub struct Interface {
     pub push_bytes: u32,
 }
 
+#[cfg(test)]
+const OP_NAME: u32 = 5;
+#[cfg(test)]
+const OP_MEMBER_NAME: u32 = 6;
 const OP_TYPE_INT: u32 = 21;
 const OP_TYPE_FLOAT: u32 = 22;
 const OP_TYPE_VECTOR: u32 = 23;
@@ -64,6 +68,12 @@ struct Module {
     constants: HashMap<u32, u32>,
     decorations: HashMap<(u32, u32), u32>,
     member_offsets: HashMap<(u32, u32), u32>,
+    /// Debug names (OpName) and member names (OpMemberName): present because shaders are
+    /// compiled with debug info (`gpu::shader`); read by the tests' struct check (`gpu::layout`).
+    #[cfg(test)]
+    names: HashMap<u32, String>,
+    #[cfg(test)]
+    member_names: HashMap<(u32, u32), String>,
     /// (result type, id, storage class).
     variables: Vec<(u32, u32, u32)>,
 }
@@ -93,6 +103,14 @@ fn parse(name: &str, words: &[u32]) -> GpuResult<Module> {
             OP_DECORATE if args.len() >= 2 => {
                 m.decorations.insert((args[0], args[1]), args.get(2).copied().unwrap_or(0));
             }
+            #[cfg(test)]
+            OP_NAME if args.len() >= 2 => {
+                m.names.insert(args[0], literal_string(&args[1..]));
+            }
+            #[cfg(test)]
+            OP_MEMBER_NAME if args.len() >= 3 => {
+                m.member_names.insert((args[0], args[1]), literal_string(&args[2..]));
+            }
             OP_MEMBER_DECORATE if args.len() >= 4 && args[2] == DECORATION_OFFSET => {
                 m.member_offsets.insert((args[0], args[1]), args[3]);
             }
@@ -103,9 +121,55 @@ fn parse(name: &str, words: &[u32]) -> GpuResult<Module> {
     Ok(m)
 }
 
+#[cfg(test)]
+/// A SPIR-V literal string: UTF-8 bytes packed little-endian into words, NUL-terminated.
+fn literal_string(words: &[u32]) -> String {
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).take_while(|&b| b != 0).collect();
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
 impl Module {
     fn ty(&self, id: u32) -> Option<&(u32, Vec<u32>)> {
         self.types.get(&id)
+    }
+
+    #[cfg(test)]
+    /// A type as GLSL spells it: `float`, `uvec4`, `mat4`, `Light[8]`, `vec4[]`, a struct's name.
+    fn glsl_type(&self, id: u32) -> String {
+        let Some((op, args)) = self.ty(id) else { return format!("?{id}") };
+        let scalar_prefix = |id: u32| match self.ty(id) {
+            Some((OP_TYPE_FLOAT, a)) if a[0] == 32 => "",
+            Some((OP_TYPE_FLOAT, a)) if a[0] == 64 => "d",
+            Some((OP_TYPE_INT, a)) if a[1] == 0 => "u",
+            Some((OP_TYPE_INT, _)) => "i",
+            _ => "?",
+        };
+        match *op {
+            OP_TYPE_FLOAT if args[0] == 32 => "float".into(),
+            OP_TYPE_FLOAT => "double".into(),
+            OP_TYPE_INT if args[1] == 0 => "uint".into(),
+            OP_TYPE_INT => "int".into(),
+            OP_TYPE_VECTOR => format!("{}vec{}", scalar_prefix(args[0]), args[1]),
+            OP_TYPE_MATRIX => {
+                let (column, columns) = (args[0], args[1]);
+                let (prefix, rows) = match self.ty(column) {
+                    Some((OP_TYPE_VECTOR, c)) => (scalar_prefix(c[0]), c[1]),
+                    _ => ("?", 0),
+                };
+                if rows == columns {
+                    format!("{prefix}mat{columns}")
+                } else {
+                    format!("{prefix}mat{columns}x{rows}")
+                }
+            }
+            OP_TYPE_ARRAY => {
+                let length = self.constants.get(&args[1]).copied().unwrap_or(0);
+                format!("{}[{length}]", self.glsl_type(args[0]))
+            }
+            OP_TYPE_RUNTIME_ARRAY => format!("{}[]", self.glsl_type(args[0])),
+            OP_TYPE_STRUCT => self.names.get(&id).cloned().unwrap_or_else(|| format!("struct{id}")),
+            _ => format!("?{id}"),
+        }
     }
 
     /// The descriptor type of a variable of pointee type `id` in storage class `class`.
@@ -206,6 +270,52 @@ pub fn reflect(name: &str, words: &[u32]) -> GpuResult<Interface> {
     }
     interface.bindings.sort_by_key(|b| b.binding);
     Ok(interface)
+}
+
+#[cfg(test)]
+/// One member of a struct as a shader lays it out.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ReflectedMember {
+    pub name: String,
+    pub offset: u32,
+    /// As GLSL spells it (`vec4`, `uvec4`, `mat4`, `Light[8]`).
+    pub glsl: String,
+}
+
+#[cfg(test)]
+/// A struct type of a module (a block's type or a struct inside one), with its debug name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ReflectedStruct {
+    pub name: String,
+    pub members: Vec<ReflectedMember>,
+}
+
+#[cfg(test)]
+/// Every named struct type of one SPIR-V module that has explicit member offsets (the structs
+/// inside buffer blocks and push constants: what a Rust `#[repr(C)]` twin must match). A struct
+/// used under two layouts (std140 and std430) appears once per layout, under the same name.
+pub fn structs(name: &str, words: &[u32]) -> GpuResult<Vec<ReflectedStruct>> {
+    let m = parse(name, words)?;
+    let mut ids: Vec<u32> =
+        m.types.iter().filter(|(_, (op, _))| *op == OP_TYPE_STRUCT).map(|(&id, _)| id).collect();
+    ids.sort_unstable();
+    let mut out = Vec::new();
+    for id in ids {
+        let (_, members) = &m.types[&id];
+        if members.is_empty() || !m.member_offsets.contains_key(&(id, 0)) {
+            continue;
+        }
+        let Some(struct_name) = m.names.get(&id) else { continue };
+        let members = (0..members.len() as u32)
+            .map(|i| ReflectedMember {
+                name: m.member_names.get(&(id, i)).cloned().unwrap_or_default(),
+                offset: m.member_offsets.get(&(id, i)).copied().unwrap_or(0),
+                glsl: m.glsl_type(members[i as usize]),
+            })
+            .collect();
+        out.push(ReflectedStruct { name: struct_name.clone(), members });
+    }
+    Ok(out)
 }
 
 /// The layout bindings of shaders used together (vertex + fragment), with the stages that see

@@ -13,10 +13,12 @@ use crate::targets::Target;
 /// Push constants of shaders/composite.frag (size checked against the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
+pub(crate) struct Params {
     exposure: f32,
     mode: u32,
 }
+
+crate::gpu::layout::gpu_layout!(Params as "Params" { exposure, mode });
 
 /// What the shader writes for a colour format (see `ExternalColor`).
 pub fn mode_for(format: vk::Format) -> u32 {

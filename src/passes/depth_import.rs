@@ -39,13 +39,15 @@ pub fn store_depth(z: f64, convention: DepthConvention) -> f64 {
 /// Push constants of shaders/depth_import.comp (size checked against the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
+pub(crate) struct Params {
     right: [f32; 4],
     up: [f32; 4],
     forward: [f32; 4],
     dims: [u32; 4],
     planes: [f32; 4],
 }
+
+crate::gpu::layout::gpu_layout!(Params as "Params" { right, up, forward, dims, planes });
 
 /// Runs first in an embedded frame whose game hands its depth (`FrameInputs::depth`). The game's
 /// depth image is the frame's `GameDepth` target, imported for that frame only: its view is bound

@@ -16,12 +16,14 @@ use crate::targets::Target;
 /// Push constants of shaders/depth_out.frag (size checked against the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
+pub(crate) struct Params {
     right: [f32; 4],
     up: [f32; 4],
     forward: [f32; 4],
     planes: [f32; 4],
 }
+
+crate::gpu::layout::gpu_layout!(Params as "Params" { right, up, forward, planes });
 
 /// A storage image read by the fragment shader.
 const FRAGMENT_STORAGE_READ: ImageAccess = ImageAccess {

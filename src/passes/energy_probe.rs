@@ -26,10 +26,12 @@ pub enum ProbeMethod {
 /// Push constants of shaders/energy_probe.comp (size checked against the shader).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ProbeParams {
+pub(crate) struct ProbeParams {
     counts: [u32; 4],
     offset: [f32; 4],
 }
+
+crate::gpu::layout::gpu_layout!(ProbeParams as "ProbeParams" { counts, offset });
 
 /// One ray: unit direction `u` (camera-relative, as the pass builds it) and clip distance `l`.
 #[derive(Clone, Copy, Debug, PartialEq)]

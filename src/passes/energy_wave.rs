@@ -24,6 +24,8 @@ pub struct WaveStyle {
     pub method: [u32; 4],
 }
 
+crate::gpu::layout::gpu_layout!(WaveStyle as "WaveStyle" { emission, method });
+
 /// Push constants: the camera frame for the pixel rays (size checked against
 /// shaders/energy_wave.comp when the pipeline is made).
 #[repr(C)]
@@ -39,6 +41,8 @@ pub struct RayParams {
     /// x: the camera's far distance (L where no surface is hit).
     pub far: [f32; 4],
 }
+
+crate::gpu::layout::gpu_layout!(RayParams as "RayParams" { right, up, forward, dims, far });
 
 const _: () = {
     assert!(std::mem::size_of::<WaveStyle>() == 32);

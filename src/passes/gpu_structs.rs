@@ -1,6 +1,7 @@
 //! Structs shared with GLSL (shaders/common/frame.glsl). Each is bound as a typed buffer range, so
-//! its size is checked against the shader's layout whenever it is bound (`gpu::reflect`); the offset
-//! assertions below pin the members inside it.
+//! its size is checked against the shader's layout whenever it is bound (`gpu::reflect`); its
+//! `gpu_layout!` declaration has every member's name, offset and GLSL type checked against every
+//! shader that uses it (`passes::shader_structs`).
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DMat4, DVec3};
@@ -16,6 +17,8 @@ pub struct GpuLight {
     pub radiance: [f32; 4],
 }
 
+crate::gpu::layout::gpu_layout!(GpuLight as "Light" { direction, radiance });
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct FrameUniforms {
@@ -28,6 +31,8 @@ pub struct FrameUniforms {
     pub lights: [GpuLight; MAX_LIGHTS],
 }
 
+crate::gpu::layout::gpu_layout!(FrameUniforms as "FrameUniforms" { view_proj, camera_pos, ambient, background, counts, lights });
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct InstanceData {
@@ -36,6 +41,8 @@ pub struct InstanceData {
     /// x: instance id (scene order), y: material id.
     pub ids: [u32; 4],
 }
+
+crate::gpu::layout::gpu_layout!(InstanceData as "InstanceData" { model, normal_matrix, ids });
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -47,6 +54,8 @@ pub struct MaterialData {
     /// rgb (translucent): extinction σ per world unit; 0 for lambert.
     pub sigma: [f32; 4],
 }
+
+crate::gpu::layout::gpu_layout!(MaterialData as "MaterialData" { albedo, kind, sigma });
 
 /// `MaterialData::kind` values. Keep in sync with shaders/common/frame.glsl.
 pub const MATERIAL_LAMBERT: u32 = 0;

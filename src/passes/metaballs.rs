@@ -102,6 +102,8 @@ pub struct MetaballParams {
     pub range: [f32; 4],
 }
 
+crate::gpu::layout::gpu_layout!(MetaballParams as "MetaballParams" { right, up, forward, dims, range });
+
 const _: () = assert!(std::mem::size_of::<MetaballParams>() == 80);
 
 /// Indices into the stats buffer. Keep in sync with STAT_* in shaders/metaballs.comp.

@@ -167,3 +167,5 @@ pub trait Pass: Send {
     /// After the frame recorded in `slot` has finished: adds what the pass counted on the device.
     fn finished(&self, _slot: usize, _stats: &mut FrameStats) {}
 }
+#[cfg(test)]
+mod shader_structs;

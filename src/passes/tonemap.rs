@@ -17,11 +17,13 @@ pub struct TonemapPass {
 /// Push constants of shaders/tonemap.comp (size checked against the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
+pub(crate) struct Params {
     exposure: f32,
     width: u32,
     height: u32,
 }
+
+crate::gpu::layout::gpu_layout!(Params as "Params" { exposure, width, height });
 
 impl TonemapPass {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {

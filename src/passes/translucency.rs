@@ -119,6 +119,8 @@ pub struct LightViewData {
     pub dir: [f32; 4],
 }
 
+crate::gpu::layout::gpu_layout!(LightViewData as "LightViewData" { centre, right, up, dir });
+
 /// The translucency pass's uniforms (size checked against shaders/translucency.comp when bound).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -140,6 +142,8 @@ pub struct TranslucencyParams {
     /// The pixels [x, z) × [y, w) the main dispatch covers (`translucent_pixels`).
     pub rect: [u32; 4],
 }
+
+crate::gpu::layout::gpu_layout!(TranslucencyParams as "TranslucencyParams" { right, up, forward, camera, radiance, view, dims, lut, rect });
 
 const _: () = {
     assert!(std::mem::size_of::<LutRecord>() == 48);
