@@ -213,8 +213,11 @@ impl Renderer {
                 .is_some_and(|l| l.pass_list().any(|p| p.images().iter().any(|u| u.target == target)))
     }
 
-    /// Uploads the scene and builds the passes it needs (pipelines are built here, never per
-    /// frame, through the pipeline cache), replacing any scene loaded before. The old scene's
+    /// Uploads the scene and builds the passes it needs (pipelines are built here, through the
+    /// pipeline cache; only the depth-import and composite pipelines of an embedded frame wait
+    /// for the first frame that brings an external depth or colour target, and no later frame,
+    /// update or resize builds one — `tests/embedding.rs` counts), replacing any scene loaded
+    /// before. The old scene's
     /// objects are retired with the frames that may still use them: no device wait. Baked tables
     /// are uploaded through a one-off command buffer on the context's queue, waited for by its
     /// own fence: call it while nothing else submits to that queue.
