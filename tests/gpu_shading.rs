@@ -422,7 +422,10 @@ impl Ldr {
             );
             self.off_by_one += usize::from(code != r.round());
             self.wide += usize::from(b >= 0.5);
-            self.worst_b = self.worst_b.max(b);
+            // NaN-propagating (a NaN b must not hide behind the running maximum).
+            if b.is_nan() || b > self.worst_b {
+                self.worst_b = b;
+            }
         }
     }
 

@@ -236,7 +236,10 @@ fn hollow_shapes_within_the_bound_and_a_voxel_at_p95() {
                             err <= bound,
                             "{name} res {res} {label}: {a} → {b}: LUT {d}, exact {exact}, bound {bound}"
                         );
-                        worst = worst.max(err / bound);
+                        // Printed only (asserted above); NaN-propagating all the same.
+                        if (err / bound).is_nan() || err / bound > worst {
+                            worst = err / bound;
+                        }
                     }
                     errors.push(err / hw);
                 }
