@@ -158,6 +158,7 @@ impl Game {
     }
 
     fn resize(&mut self, hadou: &mut Renderer, extent: vk::Extent2D) {
+        // SAFETY: the game's live device.
         unsafe { self.vk.device.device_wait_idle() }.unwrap();
         let (color, depth) = Self::images(&self.vk, extent);
         self.vk.destroy_image(std::mem::replace(&mut self.color, color));
@@ -350,6 +351,8 @@ mod calls {
         out: *mut vk::Pipeline,
     ) -> vk::Result {
         let real = count(device, |c| c.pipelines += u64::from(n));
+        // SAFETY: the real entry point loaded for this device, called with the caller's arguments
+        // unchanged (the caller upholds that call's contract).
         unsafe { (real.graphics)(device, cache, n, infos, allocator, out) }
     }
 
@@ -362,6 +365,7 @@ mod calls {
         out: *mut vk::Pipeline,
     ) -> vk::Result {
         let real = count(device, |c| c.pipelines += u64::from(n));
+        // SAFETY: as in create_graphics_pipelines.
         unsafe { (real.compute)(device, cache, n, infos, allocator, out) }
     }
 
@@ -373,11 +377,13 @@ mod calls {
         timeout: u64,
     ) -> vk::Result {
         let real = count(device, |c| c.fence_waits += 1);
+        // SAFETY: as in create_graphics_pipelines.
         unsafe { (real.wait_for_fences)(device, n, fences, all, timeout) }
     }
 
     unsafe extern "system" fn device_wait_idle(device: vk::Device) -> vk::Result {
         let real = count(device, |c| c.device_idle += 1);
+        // SAFETY: as in create_graphics_pipelines.
         unsafe { (real.device_wait_idle)(device) }
     }
 
@@ -396,6 +402,7 @@ mod calls {
             c.query_reads += 1;
             c.query_waits += u64::from(flags.contains(vk::QueryResultFlags::WAIT));
         });
+        // SAFETY: as in create_graphics_pipelines.
         unsafe { (real.query_results)(device, pool, first, n, size, data, stride, flags) }
     }
 }
@@ -755,10 +762,14 @@ fn from_raw_names_a_missing_feature() {
     let game = Game::new(extent(8, 8), false);
     let mut raw = game.vk.hadou_raw();
     raw.enabled = EnabledFeatures { host_query_reset: false, ..EnabledFeatures::REQUIRED };
+    // SAFETY: the game's valid handles; `enabled` understates the device (a feature it has left
+    // out), which from_raw refuses before creating anything.
     let err = unsafe { GpuContext::from_raw(raw) }.err().expect("refused").to_string();
     assert!(err.contains("hostQueryReset"), "{err}");
     let mut raw = game.vk.hadou_raw();
     raw.queue_family = 99;
+    // SAFETY: the game's valid handles; the family that is not the device's is refused by from_raw's
+    // bounds check before any call uses it.
     let err = unsafe { GpuContext::from_raw(raw) }.err().expect("refused").to_string();
     assert!(err.contains("queue family"), "{err}");
     let hadou = embed(&game, scene(false));

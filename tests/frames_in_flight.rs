@@ -337,6 +337,8 @@ fn a_new_depth_view_every_frame() {
         let cmd = host.begin(slot);
         // The slot's previous frame finished: its view may go, and a new one is made.
         if let Some(old) = views[slot].take() {
+            // SAFETY: the only frame that used the view (the slot's previous one) finished: begin
+            // waited for its fence.
             unsafe { device.destroy_image_view(old, None) };
         }
         let info = vk::ImageViewCreateInfo::default()
@@ -344,6 +346,7 @@ fn a_new_depth_view_every_frame() {
             .view_type(vk::ImageViewType::TYPE_2D)
             .format(vk::Format::D32_SFLOAT)
             .subresource_range(range);
+        // SAFETY: the image is live on this device (dropped after the views are destroyed).
         let view = unsafe { device.create_image_view(&info, None) }.unwrap();
         reused += usize::from(!handles.insert(vk::Handle::as_raw(view)));
         views[slot] = Some(view);
@@ -357,6 +360,7 @@ fn a_new_depth_view_every_frame() {
                 .image(depth.raw)
                 .subresource_range(range);
             let barriers = [barrier];
+            // SAFETY: cmd is recording (host.begin); the image is live; `barriers` outlives the call.
             unsafe {
                 device.cmd_pipeline_barrier2(
                     cmd,
@@ -366,6 +370,8 @@ fn a_new_depth_view_every_frame() {
         }
         let stored = hadou::passes::depth_import::store_depth(plane(i), convention);
         let clear = vk::ClearDepthStencilValue { depth: stored as f32, stencil: 0 };
+        // SAFETY: cmd is recording, outside rendering; the image is live and in TRANSFER_DST layout
+        // (the barrier of its first frame, and every frame leaves it there).
         unsafe { device.cmd_clear_depth_stencil_image(cmd, depth.raw, layout, &clear, &[range]) };
         let inputs = FrameInputs {
             extent,
@@ -393,6 +399,7 @@ fn a_new_depth_view_every_frame() {
     }
     drop(readbacks);
     host.destroy();
+    // SAFETY: every frame finished (host.destroy waited for all), and the device lives on in hadou.
     views.into_iter().flatten().for_each(|v| unsafe { device.destroy_image_view(v, None) });
     drop(images);
     drop(memory);

@@ -346,6 +346,7 @@ impl Game {
 
     fn ensure(&mut self, format: vk::Format, extent: vk::Extent2D) -> Result<(), String> {
         if self.painter.as_ref().is_none_or(|p| p.color_format != format) {
+            // SAFETY: the game's live device.
             unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
             if let Some(p) = self.painter.take() {
                 p.destroy(&self.vk);
@@ -353,6 +354,7 @@ impl Game {
             self.painter = Some(Painter::new(&self.vk, format, DEPTH_FORMAT, false)?);
         }
         if self.depth.as_ref().is_none_or(|d| d.extent != extent) {
+            // SAFETY: the game's live device.
             unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
             if let Some(d) = self.depth.take() {
                 self.vk.destroy_image(d);
@@ -486,6 +488,7 @@ impl Game {
     /// hadou's objects first, then the game's, then the device (`from_raw`'s ownership rule).
     pub fn destroy(self) -> std::sync::Arc<super::gpu::Messages> {
         let Game { vk, hadou, painter, depth, offscreen, pending, .. } = self;
+        // SAFETY: the game's device is live until `vk.destroy()` below.
         unsafe {
             let _ = vk.device.device_wait_idle();
         }

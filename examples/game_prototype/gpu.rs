@@ -37,7 +37,10 @@ unsafe extern "system" fn on_message(
     let messages = unsafe { &*(user as *const Messages) };
     let counter = if error { &messages.errors } else { &messages.warnings };
     counter.fetch_add(1, Ordering::Relaxed);
+    // SAFETY: the loader passes null or callback data valid for this call; its `pMessage` is null or
+    // a NUL-terminated string valid for the call too.
     let text = unsafe { data.as_ref() }
+        // SAFETY: as above.
         .and_then(|d| unsafe { d.message_as_c_str() })
         .map(|m| m.to_string_lossy().into_owned())
         .unwrap_or_default();
@@ -87,6 +90,7 @@ impl GameVk {
         device_extensions: &[*const c_char],
         can_present: &dyn Fn(&ash::Entry, &ash::Instance, vk::PhysicalDevice, u32) -> bool,
     ) -> Result<Self, String> {
+        // SAFETY: loads the system's libvulkan, whose load-time initializers have no preconditions.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| format!("no Vulkan loader: {e}"))?;
         let messages = Arc::new(Messages::default());
         let app = vk::ApplicationInfo::default()
@@ -104,6 +108,8 @@ impl GameVk {
         if validation {
             info = info.push_next(&mut features);
         }
+        // SAFETY: everything `info` points at (application info, layer and extension names, the
+        // validation features) outlives the call; the caller's extension names are static strings.
         let instance =
             unsafe { entry.create_instance(&info, None) }.map_err(|e| format!("vkCreateInstance: {e}"))?;
         let debug_instance = ash::ext::debug_utils::Instance::new(&entry, &instance);
@@ -118,13 +124,18 @@ impl GameVk {
             )
             .pfn_user_callback(Some(on_message))
             .user_data(Arc::as_ptr(&messages) as *mut c_void);
+        // SAFETY: the callback's `user_data` is `messages`, which GameVk keeps until `destroy`
+        // destroys the messenger.
         let messenger = unsafe { debug_instance.create_debug_utils_messenger(&messenger_info, None) }
             .map_err(|e| format!("vkCreateDebugUtilsMessengerEXT: {e}"))?;
         let debug = Some((debug_instance, messenger));
+        // SAFETY: plain query on the instance just created.
         let physicals = unsafe { instance.enumerate_physical_devices() }.map_err(|e| e.to_string())?;
         let mut found = None;
         for physical in physicals {
+            // SAFETY: plain queries; `physical` was enumerated from this instance.
             let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+            // SAFETY: as above.
             let api = unsafe { instance.get_physical_device_properties(physical) }.api_version;
             if api < vk::API_VERSION_1_3 {
                 continue;
@@ -157,24 +168,32 @@ impl GameVk {
             .queue_create_infos(&queues)
             .enabled_extension_names(device_extensions)
             .push_next(&mut f2);
+        // SAFETY: `physical` and `queue_family` come from this instance's queries; everything `info`
+        // points at outlives the call (device extension names: static strings). A device lacking a
+        // feature fails the call with an Err.
         let device = unsafe { instance.create_device(physical, &info, None) }
             .map_err(|e| format!("vkCreateDevice: {e}"))?;
+        // SAFETY: the device was created with one queue of `queue_family`.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: the device was just created; the pool is destroyed by `destroy`.
         let pool = unsafe { device.create_command_pool(&pool_info, None) }.map_err(|e| e.to_string())?;
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(pool)
             .command_buffer_count(FRAMES_IN_FLIGHT as u32);
+        // SAFETY: the pool was just created on this device; it frees the buffers when destroyed.
         let cmds = unsafe { device.allocate_command_buffers(&alloc) }.map_err(|e| e.to_string())?;
         let mut slots = Vec::new();
         for cmd in cmds {
+            // SAFETY: valid device; the fences are destroyed by `destroy`.
             let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
                 .map_err(|e| e.to_string())?;
             slots.push((cmd, fence, false));
         }
         let (cmd, fence, _) = slots[0];
+        // SAFETY: plain query; `physical` comes from this instance.
         let memory_props = unsafe { instance.get_physical_device_memory_properties(physical) };
         Ok(GameVk {
             entry,
@@ -216,6 +235,7 @@ impl GameVk {
         let (cmd, fence, pending) = self.slots[slot];
         let start = std::time::Instant::now();
         if pending {
+            // SAFETY: the slot's fence was submitted (pending); it is reset only after the wait.
             unsafe {
                 self.device.wait_for_fences(&[fence], true, u64::MAX).map_err(|e| e.to_string())?;
                 self.device.reset_fences(&[fence]).map_err(|e| e.to_string())?;
@@ -238,6 +258,8 @@ impl GameVk {
     /// Ends and submits the slot being recorded with its own fence; does not wait.
     pub fn submit_slot(&mut self) -> Result<(), String> {
         let start = std::time::Instant::now();
+        // SAFETY: the slot's command buffer is recording (begin_slot); its fence is unsignalled and
+        // unused (created so, or reset after its wait); the submit arrays outlive the call.
         unsafe {
             self.device.end_command_buffer(self.cmd).map_err(|e| e.to_string())?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
@@ -254,6 +276,7 @@ impl GameVk {
         for slot in 0..self.slots.len() {
             let (_, fence, pending) = self.slots[slot];
             if pending {
+                // SAFETY: the slot's fence was submitted (pending); it is reset only after the wait.
                 unsafe {
                     self.device.wait_for_fences(&[fence], true, u64::MAX).map_err(|e| e.to_string())?;
                     self.device.reset_fences(&[fence]).map_err(|e| e.to_string())?;
@@ -265,6 +288,8 @@ impl GameVk {
     }
 
     pub fn begin(&self) -> Result<(), String> {
+        // SAFETY: the command buffer is not pending: the slot's previous frame was waited for
+        // (begin_slot, or the caller's swapchain fence for begin_waited_slot).
         unsafe {
             self.device
                 .reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())
@@ -283,6 +308,8 @@ impl GameVk {
         signal: vk::Semaphore,
         fence: vk::Fence,
     ) -> Result<(), String> {
+        // SAFETY: the command buffer is recording (begin); the semaphores and the unsignalled fence
+        // are the caller's swapchain frame's, on this device; the submit arrays outlive the call.
         unsafe {
             self.device.end_command_buffer(self.cmd).map_err(|e| e.to_string())?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
@@ -304,6 +331,8 @@ impl GameVk {
         wait: Option<(vk::Semaphore, vk::PipelineStageFlags2)>,
         signal: Option<vk::Semaphore>,
     ) -> Result<(), String> {
+        // SAFETY: the command buffer is recording (begin); the current fence is unsignalled and
+        // unused, and is waited for and reset before returning; the submit arrays outlive the call.
         unsafe {
             self.device.end_command_buffer(self.cmd).map_err(|e| e.to_string())?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
@@ -352,6 +381,8 @@ impl GameVk {
             .array_layers(1)
             .samples(vk::SampleCountFlags::TYPE_1)
             .usage(usage);
+        // SAFETY: every object is created on this device and used only after it is created; the
+        // memory is a fresh allocation of a type the image allows; destroy_image frees them.
         unsafe {
             let image = self.device.create_image(&info, None).map_err(|e| e.to_string())?;
             let req = self.device.get_image_memory_requirements(image);
@@ -372,6 +403,8 @@ impl GameVk {
 
     pub fn create_host_buffer(&self, size: u64) -> Result<HostBuffer, String> {
         let info = vk::BufferCreateInfo::default().size(size).usage(vk::BufferUsageFlags::TRANSFER_DST);
+        // SAFETY: as in create_image; the mapping covers `size` bytes of host-coherent memory and
+        // lives until destroy_buffer frees the memory.
         unsafe {
             let buffer = self.device.create_buffer(&info, None).map_err(|e| e.to_string())?;
             let req = self.device.get_buffer_memory_requirements(buffer);
@@ -396,6 +429,8 @@ impl GameVk {
         let region = vk::BufferImageCopy::default()
             .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(aspect).layer_count(1))
             .image_extent(vk::Extent3D { width: image.extent.width, height: image.extent.height, depth: 1 });
+        // SAFETY: the command buffer is recording; image and buffer are live until the frame is
+        // waited for, and the caller sized the buffer for the whole image.
         unsafe {
             self.device.cmd_copy_image_to_buffer(
                 self.cmd,
@@ -411,6 +446,7 @@ impl GameVk {
             .dst_stage_mask(vk::PipelineStageFlags2::HOST)
             .dst_access_mask(vk::AccessFlags2::HOST_READ);
         let dep = vk::DependencyInfo::default().memory_barriers(std::slice::from_ref(&to_host));
+        // SAFETY: the command buffer is recording; `dep` outlives the call.
         unsafe { self.device.cmd_pipeline_barrier2(self.cmd, &dep) };
     }
 
@@ -433,10 +469,13 @@ impl GameVk {
             .image(image)
             .subresource_range(range(format));
         let dep = vk::DependencyInfo::default().image_memory_barriers(std::slice::from_ref(&barrier));
+        // SAFETY: the command buffer is recording; the image is the caller's live image.
         unsafe { self.device.cmd_pipeline_barrier2(self.cmd, &dep) };
     }
 
     pub fn destroy_image(&self, image: GameImage) {
+        // SAFETY: the image was made by create_image on this device and is taken by value; callers
+        // destroy it only after the frames using it finished (a device or slot wait).
         unsafe {
             self.device.destroy_image_view(image.view, None);
             self.device.destroy_image(image.image, None);
@@ -445,6 +484,7 @@ impl GameVk {
     }
 
     pub fn destroy_buffer(&self, buffer: HostBuffer) {
+        // SAFETY: as in destroy_image (freeing the memory also unmaps it).
         unsafe {
             self.device.destroy_buffer(buffer.buffer, None);
             self.device.free_memory(buffer.memory, None);
@@ -453,6 +493,9 @@ impl GameVk {
 
     /// Destroys the device and instance. Everything made on them (hadou included) is gone already.
     pub fn destroy(self) {
+        // SAFETY: after the idle wait nothing runs on the device; everything else made on it
+        // (hadou included) was destroyed before (the caller's order); the messenger goes before
+        // the instance, and `messages` outlives it.
         unsafe {
             let _ = self.device.device_wait_idle();
             for (_, fence, _) in &self.slots {

@@ -63,6 +63,7 @@ fn start(window: &Window) -> Result<Running, String> {
                 }
             }
             let loader = ash::khr::surface::Instance::new(entry, instance);
+            // SAFETY: plain query; `physical` and the surface come from this instance.
             unsafe { loader.get_physical_device_surface_support(physical, family, surface.get()) }
                 .unwrap_or(false)
         };
@@ -122,6 +123,7 @@ impl Running {
     }
 
     fn stop(mut self) {
+        // SAFETY: the game's device is live until `self.game.destroy()` below.
         unsafe {
             let _ = self.game.vk.device.device_wait_idle();
         }

@@ -136,6 +136,9 @@ impl Painter {
         let vs = compile(&compiler, VERTEX, shaderc::ShaderKind::Vertex, "game_box.vert")?;
         let fs = compile(&compiler, FRAGMENT, shaderc::ShaderKind::Fragment, "game_box.frag")?;
         let d = &g.device;
+        // SAFETY: every object is created on the game's live device; everything the create infos
+        // point at outlives its call; the shader modules are destroyed only after the pipeline call
+        // (a pipeline keeps its own copy); `destroy` frees pipeline and layout.
         unsafe {
             let ranges = [vk::PushConstantRange::default()
                 .stage_flags(vk::ShaderStageFlags::VERTEX)
@@ -244,6 +247,9 @@ impl Painter {
             max_depth: 1.0,
         };
         let view_proj = camera.view_projection(extent.width, extent.height);
+        // SAFETY: the game's command buffer is recording, outside rendering; the views are live
+        // until the frame is waited for and in the attachment layouts (the caller's contract); each
+        // push is the `Draw` struct the layout's range was sized for.
         unsafe {
             d.cmd_begin_rendering(g.cmd, &info);
             d.cmd_set_viewport(g.cmd, 0, &[viewport]);
@@ -266,6 +272,8 @@ impl Painter {
     }
 
     pub fn destroy(&self, g: &GameVk) {
+        // SAFETY: made on this device by `new`; callers destroy it once no frame using it is pending
+        // (after a device idle wait, or frames each waited for).
         unsafe {
             g.device.destroy_pipeline(self.pipeline, None);
             g.device.destroy_pipeline_layout(self.layout, None);

@@ -34,8 +34,10 @@ impl FrameCommands {
             .command_pool(commands.pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
+        // SAFETY: the pool was just created on this device; it frees the buffer when destroyed.
         commands.cmd =
             unsafe { ctx.device.allocate_command_buffers(&alloc) }.vk("vkAllocateCommandBuffers")?[0];
+        // SAFETY: valid device; destroyed by Drop.
         commands.fence =
             unsafe { ctx.device.create_fence(&vk::FenceCreateInfo::default(), None) }.vk("vkCreateFence")?;
         ctx.name_object(commands.pool, &format!("{name} pool"));
@@ -67,6 +69,8 @@ impl FrameCommands {
     /// Ends recording and submits with the fence, without waiting. `last_pass` names the pass
     /// for a device-lost error.
     pub fn submit(&mut self, ctx: &GpuContext, last_pass: &str) -> GpuResult<()> {
+        // SAFETY: the command buffer is recording (begin was called); the fence is unsignalled and
+        // not in use (created so, or reset by wait); the submit arrays outlive the call.
         unsafe {
             ctx.device.end_command_buffer(self.cmd).map_err(|r| lost(r, "vkEndCommandBuffer", last_pass))?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];

@@ -176,6 +176,7 @@ impl GpuContext {
         };
         // SAFETY: valid handles from above.
         let props = unsafe { instance.get_physical_device_properties(candidate.physical) };
+        // SAFETY: the device was created with one queue of `candidate.queue_family` (create_device).
         let queue = unsafe { device.get_device_queue(candidate.queue_family, 0) };
         let debug_device =
             debug_instance.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
@@ -384,6 +385,8 @@ fn create_instance(
     match unsafe { debug.create_debug_utils_messenger(&messenger_create_info(log), None) } {
         Ok(messenger) => Ok((instance, Some(debug), messenger)),
         Err(result) => {
+            // SAFETY: nothing was created from the instance (the messenger failed), and it is not
+            // used again.
             unsafe { instance.destroy_instance(None) };
             Err(GpuError::Vk { call: "vkCreateDebugUtilsMessengerEXT", result })
         }
@@ -443,6 +446,7 @@ fn choose_device(
     let mut refused = Vec::new();
     let mut best: Option<Candidate> = None;
     for physical in physicals {
+        // SAFETY: `physical` was just enumerated from this instance.
         let props = unsafe { instance.get_physical_device_properties(physical) };
         let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let label = format!("{name} ({})", kind_name(props.device_type));
@@ -506,6 +510,7 @@ fn check_device(
     if props.limits.timestamp_compute_and_graphics == vk::FALSE {
         return Err("no timestamps on graphics and compute queues".into());
     }
+    // SAFETY: plain query; `physical` comes from this instance.
     let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
     let needed = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
     families
@@ -529,6 +534,7 @@ fn check_present(
     if !supported.unwrap_or(false) {
         return Err(format!("queue family {family} cannot present to the window surface"));
     }
+    // SAFETY: plain query; `physical` comes from this instance.
     let exts = unsafe { instance.enumerate_device_extension_properties(physical) }.unwrap_or_default();
     if !exts.iter().any(|e| e.extension_name_as_c_str() == Ok(ash::khr::swapchain::NAME)) {
         return Err("lacks VK_KHR_swapchain".into());

@@ -123,6 +123,7 @@ impl Memory {
         // SAFETY: valid device; the buffer is freed by its Drop.
         let raw = unsafe { ctx.device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         let mut buffer = Buffer { raw, size, name: name.into(), allocation: None, releaser: ctx.releaser() };
+        // SAFETY: `raw` was just created on this device.
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
         let allocation = self.allocate(name, requirements, location, true)?;
         // SAFETY: fresh allocation satisfying the requirements.
@@ -172,8 +173,10 @@ impl Memory {
             allocation: None,
             releaser: ctx.releaser(),
         };
+        // SAFETY: `raw` was just created on this device.
         let requirements = unsafe { ctx.device.get_image_memory_requirements(raw) };
         let allocation = self.allocate(name, requirements, MemoryLocation::GpuOnly, false)?;
+        // SAFETY: fresh allocation satisfying the requirements; the image has no memory bound yet.
         let bound = unsafe { ctx.device.bind_image_memory(raw, allocation.memory(), allocation.offset()) };
         image.allocation = Some(allocation);
         bound.vk("vkBindImageMemory")?;
@@ -182,6 +185,8 @@ impl Memory {
             .view_type(vk::ImageViewType::TYPE_2D)
             .format(format)
             .subresource_range(subresource_range(format));
+        // SAFETY: the image is live with its memory bound; the view is destroyed before the image
+        // (its Drop retires both, view first).
         image.view = unsafe { ctx.device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
         ctx.name_object(raw, name);
         ctx.name_object(image.view, &format!("{name} view"));

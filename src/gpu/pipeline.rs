@@ -117,6 +117,8 @@ fn layouts(
     if push_bytes > 0 {
         layout_info = layout_info.push_constant_ranges(&ranges);
     }
+    // SAFETY: the set layout was just created on this device; `layout_info`'s arrays outlive the
+    // call; freed by the pipeline's Drop.
     p.layout =
         unsafe { ctx.device.create_pipeline_layout(&layout_info, None) }.vk("vkCreatePipelineLayout")?;
     ctx.name_object(p.set_layout, &format!("{} set layout", p.name));

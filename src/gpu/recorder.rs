@@ -40,6 +40,8 @@ impl Recorder<'_> {
 
     /// The push constants of `pipeline`, for the stages its shaders read them in.
     pub fn push_constants(&self, pipeline: &Pipeline, bytes: &[u8]) {
+        // SAFETY: recording; the layout is live until the frame's fence, and `bytes` is the Rust
+        // push-constant struct whose size `layouts` checked against the shaders (not re-checked here).
         unsafe {
             self.device().cmd_push_constants(self.cmd, pipeline.layout, pipeline.push_stages, 0, bytes)
         };
@@ -72,6 +74,8 @@ impl Recorder<'_> {
 
     /// A compute dispatch whose workgroup counts are read from `buffer` at `offset`.
     pub fn dispatch_indirect(&self, buffer: vk::Buffer, offset: u64) {
+        // SAFETY: recording with a compute pipeline bound; the caller's buffer is live until the
+        // frame's fence.
         unsafe { self.device().cmd_dispatch_indirect(self.cmd, buffer, offset) };
     }
 
@@ -93,6 +97,8 @@ impl Recorder<'_> {
             .aspect_mask(vk::ImageAspectFlags::COLOR)
             .level_count(1)
             .layer_count(1);
+        // SAFETY: recording; the image is live until the frame's fence and in GENERAL layout (the
+        // caller's contract); `value` and `range` outlive the call.
         unsafe {
             self.device().cmd_clear_color_image(
                 self.cmd,
@@ -118,6 +124,7 @@ impl Recorder<'_> {
 
     /// Dispatches enough `group`-sized workgroups to cover width × height.
     pub fn dispatch_2d(&self, width: u32, height: u32, group: (u32, u32)) {
+        // SAFETY: recording with a compute pipeline and its set bound.
         unsafe { self.device().cmd_dispatch(self.cmd, width.div_ceil(group.0), height.div_ceil(group.1), 1) };
     }
 
@@ -174,6 +181,8 @@ impl Recorder<'_> {
             min_depth: 0.0,
             max_depth: 1.0,
         };
+        // SAFETY: recording, outside a render pass; the attachment views are live until the frame's
+        // fence, and `info`'s attachment arrays outlive the call.
         unsafe {
             self.device().cmd_begin_rendering(self.cmd, &info);
             self.device().cmd_set_viewport(self.cmd, 0, &[viewport]);
@@ -182,6 +191,7 @@ impl Recorder<'_> {
     }
 
     pub fn end_rendering(&self) {
+        // SAFETY: recording inside the rendering begun by begin_rendering_views.
         unsafe { self.device().cmd_end_rendering(self.cmd) };
     }
 
@@ -194,6 +204,8 @@ impl Recorder<'_> {
         first_instance: u32,
         instances: u32,
     ) {
+        // SAFETY: recording inside rendering with a graphics pipeline bound; both buffers are live
+        // until the frame's fence.
         unsafe {
             self.device().cmd_bind_vertex_buffers(self.cmd, 0, &[vertices.raw], &[0]);
             self.device().cmd_bind_index_buffer(self.cmd, indices.raw, 0, vk::IndexType::UINT32);
@@ -203,6 +215,7 @@ impl Recorder<'_> {
 
     /// A full-screen triangle (no vertex buffer: the vertex shader makes it from gl_VertexIndex).
     pub fn draw_fullscreen(&self) {
+        // SAFETY: recording inside rendering with a graphics pipeline bound; no buffers are read.
         unsafe { self.device().cmd_draw(self.cmd, 3, 1, 0, 0) };
     }
 
@@ -215,6 +228,9 @@ impl Recorder<'_> {
                 vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::DEPTH).layer_count(1),
             )
             .image_extent(vk::Extent3D { width: image.extent.width, height: image.extent.height, depth: 1 });
+        // SAFETY: recording, outside rendering; buffer and image are live until the frame's fence;
+        // the image is in TRANSFER_DST layout and the buffer holds `row_length` × height texels (the
+        // caller's contract).
         unsafe {
             self.device().cmd_copy_buffer_to_image(
                 self.cmd,
@@ -233,6 +249,9 @@ impl Recorder<'_> {
                 vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1),
             )
             .image_extent(vk::Extent3D { width: image.extent.width, height: image.extent.height, depth: 1 });
+        // SAFETY: recording, outside rendering; image and buffer are live until the frame's fence;
+        // the image is in TRANSFER_SRC layout and the buffer holds the whole image (the caller's
+        // contract).
         unsafe {
             self.device().cmd_copy_image_to_buffer(
                 self.cmd,

@@ -75,10 +75,12 @@ pub unsafe extern "system" fn messenger_callback(
     }
     // SAFETY: the context keeps the log alive until after the messenger is destroyed.
     let log = unsafe { &*(user_data as *const ValidationLog) };
+    // SAFETY: non-null (checked above); the loader's callback data is valid for this call.
     let data = unsafe { &*data };
     let text = if data.p_message.is_null() {
         String::from("(no message)")
     } else {
+        // SAFETY: non-null; pMessage is a NUL-terminated string valid for this call (Vulkan spec).
         unsafe { CStr::from_ptr(data.p_message) }.to_string_lossy().into_owned()
     };
     if severity.intersects(

@@ -97,6 +97,9 @@ impl PixelCopier {
             dst.copy_from_slice(rgba);
         }
         let buffer = staging.buffer;
+        // SAFETY: the slot's command buffer is not pending (its fence was waited in acquire, as for
+        // `staging` above); the staging buffer holds the image's bytes; the image, semaphores and
+        // fence come from the presenter's acquire on this copier's device.
         unsafe { self.record_and_submit(queue, self.slots[slot].cmd, buffer, acquired) }
     }
 

@@ -41,8 +41,8 @@
 //!         create_surface: &create_surface,
 //!     };
 //!     let (ctx, surface) = GpuContext::new_presenting(&ContextOptions::from_env(), &request)?;
-//!     // SAFETY: surface and device come from ctx; `Presenter::destroy` runs before ctx is dropped.
 //!     let config = PresentConfig::default();
+//!     // SAFETY: surface and device come from ctx; `Presenter::destroy` runs before ctx is dropped.
 //!     let presenter = unsafe {
 //!         Presenter::new(&ctx.entry, &ctx.instance, ctx.physical_device, &ctx.device, surface, config)?
 //!     };

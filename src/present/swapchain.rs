@@ -163,6 +163,8 @@ impl Presenter {
         let Some(chain) = &self.chain else { return Ok(None) };
         // SAFETY: handles owned by this presenter; the fence was signalled at creation or submitted.
         unsafe { self.device.wait_for_fences(&[fence], true, u64::MAX) }.vk("vkWaitForFences")?;
+        // SAFETY: the swapchain is this presenter's; `sem` has no pending operation: the submission
+        // that waited on it last (the caller's, as `Acquired::wait`) finished with the fence above.
         let acquired = unsafe {
             self.swapchain_fn.acquire_next_image(chain.swapchain, u64::MAX, sem, vk::Fence::null())
         };
@@ -181,6 +183,7 @@ impl Presenter {
             self.stale = true;
         }
         // Reset only now that a submission with the fence will follow.
+        // SAFETY: the fence is this presenter's and signalled (waited above), so no submission uses it.
         unsafe { self.device.reset_fences(&[fence]) }.vk("vkResetFences")?;
         let i = index as usize;
         Ok(Some(Acquired {
@@ -226,6 +229,7 @@ impl Presenter {
             unsafe { self.surface_fn.get_physical_device_surface_capabilities(self.physical, self.surface) }
                 .vk("vkGetPhysicalDeviceSurfaceCapabilitiesKHR")?;
         let Some(extent) = choose_extent(&caps, window) else { return Ok(false) };
+        // SAFETY: the device outlives the presenter (`new`'s contract).
         unsafe { self.device.device_wait_idle() }.vk("vkDeviceWaitIdle")?;
         let old = self.chain.take();
         let created = self.create_chain(&caps, extent, old.as_ref().map(|c| c.swapchain));
@@ -245,6 +249,7 @@ impl Presenter {
         extent: vk::Extent2D,
         old: Option<vk::SwapchainKHR>,
     ) -> GpuResult<Chain> {
+        // SAFETY: plain queries; physical device and surface come from this presenter's instance.
         let (formats, modes) = unsafe {
             (
                 self.surface_fn.get_physical_device_surface_formats(self.physical, self.surface),
@@ -314,6 +319,7 @@ impl Presenter {
             extent,
         };
         let filled = (|| {
+            // SAFETY: `swapchain` was just created on this device.
             chain.images =
                 unsafe { self.swapchain_fn.get_swapchain_images(swapchain) }.vk("vkGetSwapchainImagesKHR")?;
             for &image in &chain.images {
@@ -322,9 +328,12 @@ impl Presenter {
                     .view_type(vk::ImageViewType::TYPE_2D)
                     .format(format.format)
                     .subresource_range(color_range());
+                // SAFETY: the image belongs to the live swapchain; destroy_chain destroys the view
+                // before the swapchain.
                 chain.views.push(
                     unsafe { self.device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?,
                 );
+                // SAFETY: valid device; destroyed by destroy_chain.
                 let sem = unsafe { self.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) };
                 chain.rendered.push(sem.vk("vkCreateSemaphore")?);
             }

@@ -22,11 +22,14 @@ impl Host {
         let info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(ctx.queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: hadou's live device; the pool is destroyed by `destroy`, before the context.
         let pool = unsafe { device.create_command_pool(&info, None) }.unwrap();
         let alloc =
             vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(slots as u32);
+        // SAFETY: the pool was just created on this device; it frees the buffers when destroyed.
         let cmds = unsafe { device.allocate_command_buffers(&alloc) }.unwrap();
         let fences = (0..slots)
+            // SAFETY: valid device; the fences are destroyed by `destroy`.
             .map(|_| unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.unwrap())
             .collect();
         Host { device, queue: ctx.queue, pool, cmds, fences, submitted: vec![false; slots] }
@@ -36,6 +39,7 @@ impl Host {
     pub fn begin(&mut self, slot: usize) -> vk::CommandBuffer {
         self.wait(slot);
         let cmd = self.cmds[slot];
+        // SAFETY: the slot's previous submission finished (waited above), so the buffer is not pending.
         unsafe {
             self.device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).unwrap();
             self.device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).unwrap();
@@ -46,6 +50,8 @@ impl Host {
     pub fn submit(&mut self, slot: usize) {
         let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmds[slot])];
         let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmds)];
+        // SAFETY: the slot's buffer is recording (begin); its fence is unsignalled and unused (created
+        // so, or reset by wait); single-threaded, so the queue is externally synchronized.
         unsafe {
             self.device.end_command_buffer(self.cmds[slot]).unwrap();
             self.device.queue_submit2(self.queue, &submit, self.fences[slot]).unwrap();
@@ -55,6 +61,7 @@ impl Host {
 
     pub fn wait(&mut self, slot: usize) {
         if std::mem::take(&mut self.submitted[slot]) {
+            // SAFETY: the fence is this host's and was submitted with the slot's frame.
             unsafe {
                 self.device.wait_for_fences(&[self.fences[slot]], true, u64::MAX).unwrap();
                 self.device.reset_fences(&[self.fences[slot]]).unwrap();
@@ -68,6 +75,8 @@ impl Host {
 
     pub fn destroy(mut self) {
         self.wait_all();
+        // SAFETY: every submitted slot was waited for (wait_all), so nothing uses the fences or the
+        // pool's buffers; the device is still live (the caller destroys the host before the context).
         unsafe {
             self.fences.iter().for_each(|&f| self.device.destroy_fence(f, None));
             self.device.destroy_command_pool(self.pool, None);

@@ -53,6 +53,8 @@ impl ViewerGpu {
         let mut presenter = unsafe {
             Presenter::new(&ctx.entry, &ctx.instance, ctx.physical_device, &ctx.device, surface, config)
         }?;
+        // SAFETY: as above, ctx's handles; `frames` is the presenter's frames in flight, and the
+        // copier is destroyed (Drop below) before the runtime drops the device.
         let copier = match unsafe {
             PixelCopier::new(&ctx.instance, ctx.physical_device, &ctx.device, ctx.queue_family, frames)
         } {

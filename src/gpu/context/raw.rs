@@ -88,6 +88,7 @@ impl GpuContext {
             let why = format!("supports Vulkan {}, hadou needs 1.3", version_string(props.api_version));
             return Err(GpuError::NoSuitableDevice { filter: String::new(), devices: vec![(name, why)] });
         }
+        // SAFETY: as above, the caller guarantees the physical device comes from this instance.
         let families =
             unsafe { raw.instance.get_physical_device_queue_family_properties(raw.physical_device) };
         let family = families.get(raw.queue_family as usize).ok_or_else(|| GpuError::Limit {
@@ -115,6 +116,8 @@ impl GpuContext {
                 message: format!("{} >= the family's {} queues", raw.queue_index, family.queue_count),
             });
         }
+        // SAFETY: `RawVulkan::queue_index` names a queue of that family the game created the device
+        // with (the caller's contract); the check above only bounds it by the family's queue count.
         let queue = unsafe { raw.device.get_device_queue(raw.queue_family, raw.queue_index) };
         let info = device_info(&raw.instance, raw.physical_device, &props);
         let (debug_instance, debug_device) = if raw.debug_utils {
