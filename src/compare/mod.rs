@@ -8,7 +8,9 @@
 //!   an infinity against anything else fails, and a NaN in either file fails the comparison.
 //!   The images differ when more than `pixels` (a fraction) of the pixels fail, or on any NaN.
 //!
-//! A size, channel or format mismatch and an unreadable file are errors, not differences.
+//! A size, channel or format mismatch and an unreadable file are errors, not differences, and so
+//! is an image larger than the pixel budget ([`DEFAULT_MAX_PIXELS`]), found from its header before
+//! anything is decoded.
 
 mod hdr;
 mod ldr;
@@ -16,7 +18,9 @@ mod load;
 
 use std::path::{Path, PathBuf};
 
-pub use load::{decode, load, Channel, HdrImage, LdrImage, Loaded};
+pub use load::{
+    decode, decode_with, load, load_with, Channel, HdrImage, LdrImage, Loaded, PixelBudget, DEFAULT_MAX_PIXELS,
+};
 
 /// The tolerances of one comparison; every default is 0 (bit-exact).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Deserialize)]
@@ -144,9 +148,20 @@ pub enum CompareError {
     },
 }
 
-/// Compares the images in files `a` and `b` (both PNG or both OpenEXR).
+/// Compares the images in files `a` and `b` (both PNG or both OpenEXR) within the default pixel
+/// budget.
 pub fn compare_files(a: &Path, b: &Path, tol: &Tolerance) -> Result<Comparison, CompareError> {
-    compare_loaded((a, &load(a)?), (b, &load(b)?), tol)
+    compare_files_with(a, b, tol, &PixelBudget::default())
+}
+
+/// Compares the images in files `a` and `b`, each checked against `budget` before decoding.
+pub fn compare_files_with(
+    a: &Path,
+    b: &Path,
+    tol: &Tolerance,
+    budget: &PixelBudget,
+) -> Result<Comparison, CompareError> {
+    compare_loaded((a, &load_with(a, budget)?), (b, &load_with(b, budget)?), tol)
 }
 
 /// Compares two decoded images; the paths name them in errors.
