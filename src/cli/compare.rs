@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
-use hadou::compare::{compare_files, Tolerance};
+use hadou::compare::{compare_files_with, PixelBudget, Tolerance, DEFAULT_MAX_PIXELS};
 
 #[derive(Args, Debug)]
 pub struct CompareArgs {
@@ -23,6 +23,10 @@ pub struct CompareArgs {
     /// NaN and infinity mismatches at 1) for EXRs, through the magma colour map.
     #[arg(long, value_name = "FILE.png")]
     heatmap: Option<PathBuf>,
+    /// The largest image decoded, in pixels (width × height), checked from each file's header
+    /// before decoding; larger is an error (exit 2).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PIXELS, value_parser = super::parse_max_pixels)]
+    max_pixels: u64,
 }
 
 /// Parses repeated `--threshold NAME=VALUE` into a tolerance.
@@ -35,15 +39,21 @@ pub fn tolerance(thresholds: &[String]) -> anyhow::Result<Tolerance> {
 }
 
 pub fn run(args: CompareArgs) -> anyhow::Result<ExitCode> {
+    // File names reach the terminal only escaped.
+    run_escaped(args).map_err(super::escaped_error)
+}
+
+fn run_escaped(args: CompareArgs) -> anyhow::Result<ExitCode> {
     let tol = tolerance(&args.thresholds)?;
     if let Some(heat) = &args.heatmap {
         super::check_outputs(&[heat.as_path()], &[args.a.clone(), args.b.clone()])?;
     }
-    let result = compare_files(&args.a, &args.b, &tol)?;
+    let budget = PixelBudget { max_pixels: args.max_pixels };
+    let result = compare_files_with(&args.a, &args.b, &tol, &budget)?;
     if let Some(heat) = &args.heatmap {
         write_heatmap(heat, &result)?;
     }
-    println!("{}", result.summary(&args.a, &args.b));
+    println!("{}", super::escape_controls(&result.summary(&args.a, &args.b)));
     Ok(if result.same { ExitCode::SUCCESS } else { ExitCode::from(1) })
 }
 

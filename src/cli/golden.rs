@@ -2,6 +2,13 @@
 //! rendered and compared with its references `REFS/NAME.png` and `REFS/NAME.AOV.exr` under the
 //! sidecar `REFS/NAME.test.toml` (size, time, AOVs, tolerance; see `golden_case`). Exit 0 when
 //! every scene passes (or is skipped), 1 when one differs or lacks a reference, 2 on an error.
+//!
+//! Its outputs follow `render`'s rules (`hadou::output`), checked before the GPU starts: the
+//! JUnit report, the files `--out` may write and, with `--bless`, the references are never an
+//! input (a scene, a file it reads, a sidecar, a reference compared against) nor a special file.
+//! `--bless` replaces all references or none. Nothing named `*.toml` in DIR is passed over in
+//! silence: one that is not a regular file is an error row, and look-alikes (`*.TOML`, glTF
+//! files, a stray `*.test.toml`) are named on stderr as not tested.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -9,7 +16,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use hadou::compare::{compare_loaded, decode, Comparison};
+use hadou::compare::{compare_loaded, decode_with, load_with, Comparison, PixelBudget, DEFAULT_MAX_PIXELS};
 use hadou::output::{self, OutputSet};
 use hadou::{FrameRequest, Runtime, RuntimeOptions};
 
@@ -31,50 +38,183 @@ pub struct TestArgs {
     /// For each scene that differs, write its render and heat maps here.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// The largest image rendered or compared, in pixels (width × height); a reference whose
+    /// header claims more is an error before it is decoded.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PIXELS, value_parser = super::parse_max_pixels)]
+    max_pixels: u64,
 }
 
-/// The scenes of `dir`, sorted by name.
-fn scenes(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+/// What `DIR` holds: the scene entries (`*.toml` but `*.test.toml`), each with why it cannot be
+/// rendered when it is not a regular file, and the entries that look like scenes but are not
+/// tested (said on stderr, not skipped silently).
+struct Listing {
+    scenes: Vec<(PathBuf, Option<String>)>,
+    notes: Vec<String>,
+}
+
+/// The scenes of `dir`, sorted by name. Every `*.toml` is a scene, whatever bytes its name holds;
+/// one that is not a regular file (a directory, FIFO, symlink to nothing) is listed with why, to
+/// be reported as an error rather than left out.
+fn scenes(dir: &Path, refs: &Path) -> anyhow::Result<Listing> {
     let entries =
         std::fs::read_dir(dir).with_context(|| format!("cannot read the folder {}", dir.display()))?;
-    let mut out = Vec::new();
+    let refs_here = std::fs::canonicalize(refs).ok() == std::fs::canonicalize(dir).ok();
+    let mut listing = Listing { scenes: Vec::new(), notes: Vec::new() };
+    let mut sidecars = Vec::new();
     for entry in entries {
         let path = entry.with_context(|| format!("cannot read the folder {}", dir.display()))?.path();
-        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
-        if name.ends_with(".toml") && !name.ends_with(".test.toml") && path.is_file() {
-            out.push(path);
+        let file = path.file_name().unwrap_or_default();
+        let bytes = file.as_encoded_bytes();
+        let shown = super::escape_os(file);
+        if bytes.ends_with(b".test.toml") {
+            sidecars.push((path.clone(), shown));
+        } else if bytes.ends_with(b".toml") {
+            let problem = match std::fs::metadata(&path) {
+                Ok(m) if m.is_file() => None,
+                Ok(m) => Some(format!(
+                    "{}: is {}, not a regular file (expected a scene file)",
+                    path.display(),
+                    super::golden_case::file_kind(m.file_type())
+                )),
+                Err(_) if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_symlink()) => {
+                    Some(format!("{}: is a symlink to nothing (expected a scene file)", path.display()))
+                }
+                Err(e) => Some(format!("{}: cannot read: {e}", path.display())),
+            };
+            listing.scenes.push((path, problem));
+        } else {
+            let lower = String::from_utf8_lossy(bytes).to_lowercase();
+            if lower.ends_with(".toml") {
+                listing.notes.push(format!("{shown}: not tested (scenes end in `.toml`, in lower case)"));
+            } else if lower.ends_with(".gltf") || lower.ends_with(".glb") {
+                listing.notes.push(format!(
+                    "{shown}: not tested (only `*.toml` scenes are; place a glTF file in one with [[gltf]] path = …)"
+                ));
+            }
         }
     }
-    out.sort();
-    if out.is_empty() {
+    listing.scenes.sort();
+    // A `*.test.toml` in DIR is a sidecar only when DIR is the references folder and its scene is
+    // here; any other is said, not silently passed over.
+    for (path, shown) in sidecars {
+        let stem = path.file_name().unwrap_or_default().as_encoded_bytes();
+        let stem = &stem[..stem.len() - b".test.toml".len()];
+        let has_scene =
+            listing.scenes.iter().any(|(s, _)| s.file_stem().is_some_and(|x| x.as_encoded_bytes() == stem));
+        if !(refs_here && has_scene) {
+            listing.notes.push(format!(
+                "{shown}: not tested (a `.test.toml` file is a sidecar, not a scene; {})",
+                if refs_here {
+                    "no scene of this name is here"
+                } else {
+                    "sidecars go in the references folder"
+                }
+            ));
+        }
+    }
+    listing.notes.sort();
+    if listing.scenes.is_empty() {
         bail!("{}: no scene files (*.toml)", dir.display());
     }
-    Ok(out)
+    Ok(listing)
 }
 
 pub fn run(args: TestArgs) -> anyhow::Result<ExitCode> {
+    // File names reach the terminal only escaped.
+    run_escaped(args).map_err(super::escaped_error)
+}
+
+/// The render and heat map `--out` keeps for a reference that differs: `OUT/FILE` and
+/// `OUT/STEM.heat.png`.
+fn out_files(out: &Path, reference: &Path) -> (PathBuf, PathBuf) {
+    let file = reference.file_name().unwrap_or_default();
+    let stem = reference.file_stem().unwrap_or_default();
+    (out.join(file), out.join(super::golden_case::with_suffix(stem, ".heat.png")))
+}
+
+/// Refuses, before the GPU starts, outputs that would replace an input or a special file: the
+/// JUnit report, every file `--out` may write, and with `--bless` every reference. Inputs are
+/// the scenes and the files they read, the sidecars, and (when not blessing) the references.
+fn check_outputs(cases: &[Case], args: &TestArgs) -> anyhow::Result<()> {
+    let mut inputs: Vec<PathBuf> = Vec::new();
+    let mut outputs: Vec<PathBuf> = Vec::new();
+    for case in cases {
+        match &case.loaded {
+            Some(Ok(scene)) => inputs.extend(super::scene_inputs(&case.scene, scene)),
+            _ => inputs.push(case.scene.clone()),
+        }
+        inputs.push(case.sidecar_path.clone());
+        let runs = matches!(case.loaded, Some(Ok(_)));
+        if args.bless && runs {
+            outputs.extend(case.references());
+            continue;
+        }
+        inputs.extend(case.references());
+        if let (Some(out), false) = (&args.out, args.bless) {
+            for reference in case.references() {
+                let (render, heat) = out_files(out, &reference);
+                outputs.extend([render, heat]);
+            }
+        }
+    }
+    outputs.extend(args.junit.iter().cloned());
+    let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
+    super::check_outputs(&outputs, &inputs)
+}
+
+fn run_escaped(args: TestArgs) -> anyhow::Result<ExitCode> {
     let refs = args.refs.clone().unwrap_or_else(|| args.dir.join("references"));
-    let mut cases: Vec<Case> = scenes(&args.dir)?.into_iter().map(|s| Case::new(s, &refs)).collect();
+    let budget = PixelBudget { max_pixels: args.max_pixels };
+    let listing = scenes(&args.dir, &refs)?;
+    for note in &listing.notes {
+        eprintln!("hadou test: {note}");
+    }
+    let mut cases: Vec<Case> = Vec::new();
+    for (scene, problem) in listing.scenes {
+        let mut case = Case::new(scene, &refs);
+        if let Some(why) = problem {
+            case.outcome = Outcome::Error(why);
+        }
+        cases.push(case);
+    }
     // Sidecars first: a malformed one is an error before the GPU starts.
-    for case in &mut cases {
+    for case in cases.iter_mut().filter(|c| matches!(c.outcome, Outcome::NotRun)) {
         case.sidecar = Sidecar::read(&case.sidecar_path)?;
     }
-    let outputs: Vec<PathBuf> = args.junit.iter().cloned().collect();
-    super::check_outputs(&outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(), &[])?;
+    // Then the scenes (what they read are inputs no output may replace).
+    for case in cases.iter_mut().filter(|c| matches!(c.outcome, Outcome::NotRun)) {
+        if case.sidecar.skip.is_none() {
+            case.loaded = Some(hadou::scene::load_scene(&case.scene).map_err(|e| format!("{e:#}")));
+        }
+    }
+    check_outputs(&cases, &args)?;
     let mut runtime: Option<Runtime> = None;
     let mut blessed = OutputSet::default();
+    let mut blessed_paths: Vec<PathBuf> = Vec::new();
     let started = Instant::now();
     for case in &mut cases {
+        if !matches!(case.outcome, Outcome::NotRun) {
+            continue;
+        }
         if let Some(why) = case.sidecar.skip.clone() {
             case.outcome = Outcome::Skipped(why);
             continue;
         }
         let t = Instant::now();
+        let scene = match case.loaded.take() {
+            Some(Ok(scene)) => scene,
+            Some(Err(e)) => {
+                case.outcome = Outcome::Error(e);
+                continue;
+            }
+            None => bail!("{}: the scene was not loaded", case.scene.display()),
+        };
         if runtime.is_none() {
             runtime = Some(Runtime::new(&RuntimeOptions::from_env())?);
         }
         let rt = runtime.as_mut().context("no runtime")?;
-        case.outcome = match run_case(rt, case, &args, &mut blessed) {
+        let mut ctx = Run { args: &args, budget: &budget, blessed: &mut blessed, paths: &mut blessed_paths };
+        case.outcome = match run_case(rt, case, scene, &mut ctx) {
             Ok(outcome) => outcome,
             Err(e) => Outcome::Error(format!("{e:#}")),
         };
@@ -86,7 +226,8 @@ pub fn run(args: TestArgs) -> anyhow::Result<ExitCode> {
         super::finish_validated(rt)?;
     }
     if args.bless && !cases.iter().any(|c| matches!(c.outcome, Outcome::Error(_))) {
-        blessed.commit()?;
+        // All or none: a rename that fails midway puts back those done before it.
+        super::bless::commit(blessed, &blessed_paths)?;
     }
     let table = super::golden_case::table(&cases, args.bless);
     print!("{table}");
@@ -105,20 +246,35 @@ pub fn run(args: TestArgs) -> anyhow::Result<ExitCode> {
     }))
 }
 
+/// What every scene of a run shares.
+struct Run<'a> {
+    args: &'a TestArgs,
+    budget: &'a PixelBudget,
+    blessed: &'a mut OutputSet,
+    paths: &'a mut Vec<PathBuf>,
+}
+
 /// Renders one scene and compares (or stages its references).
 fn run_case(
     rt: &mut Runtime,
     case: &Case,
-    args: &TestArgs,
-    blessed: &mut OutputSet,
+    scene: hadou::scene::Scene,
+    ctx: &mut Run,
 ) -> anyhow::Result<Outcome> {
-    let scene = hadou::scene::load_scene(&case.scene)?;
     let (width, height) = match &case.sidecar.size {
         Some(size) => {
             super::parse_size(size).with_context(|| format!("{}: size", case.sidecar_path.display()))?
         }
         None => (scene.render.width, scene.render.height),
     };
+    // A render the comparison could not decode is refused before it is made.
+    ctx.budget.check(width as u64, height as u64).map_err(|e| {
+        let from = match case.sidecar.size {
+            Some(_) => format!("{}: size", case.sidecar_path.display()),
+            None => format!("{}: [render] size", case.scene.display()),
+        };
+        anyhow::anyhow!("{from}: {e}")
+    })?;
     let aovs = case.sidecar.aovs()?;
     let before = rt.validation_counts();
     rt.load_scene(scene)?;
@@ -144,9 +300,10 @@ fn run_case(
         let image = frame.aov(*aov).context("the frame returned no AOV")?;
         rendered.push((path.clone(), output::encode_exr(&path, aov.name(), image)?));
     }
-    if args.bless {
+    if ctx.args.bless {
         for (path, bytes) in &rendered {
-            blessed.stage(path, bytes)?;
+            ctx.blessed.stage(path, bytes)?;
+            ctx.paths.push(path.clone());
         }
         return Ok(Outcome::Blessed(rendered.len()));
     }
@@ -158,15 +315,15 @@ fn run_case(
             continue;
         }
         let label = PathBuf::from(format!("{} (render of {})", reference.display(), case.name));
-        let want = hadou::compare::load(reference)?;
-        let got = decode(&label, bytes)?;
+        let want = load_with(reference, ctx.budget)?;
+        let got = decode_with(&label, bytes, ctx.budget)?;
         let c = compare_loaded((reference, &want), (&label, &got), &case.sidecar.tolerance)?;
         let file = reference.file_name().unwrap_or_default().to_string_lossy().to_string();
         details.push(format!("{file}: {}", short(&c)));
         if !c.same {
             problems.push(format!("{file}: {}", c.reasons.join("; ")));
-            if let Some(out) = &args.out {
-                write_failure(out, &file, bytes, &c)?;
+            if let Some(out) = &ctx.args.out {
+                write_failure(out, reference, bytes, &c)?;
             }
         }
     }
@@ -183,8 +340,8 @@ fn short(c: &Comparison) -> String {
 }
 
 /// The render and its heat map beside each other in `out`, for a CI's artifacts.
-fn write_failure(out: &Path, file: &str, bytes: &[u8], c: &Comparison) -> anyhow::Result<()> {
-    output::write_atomically(&out.join(file), bytes)?;
-    let stem = file.rsplit_once('.').map(|(s, _)| s).unwrap_or(file);
-    super::compare::write_heatmap(&out.join(format!("{stem}.heat.png")), c)
+fn write_failure(out: &Path, reference: &Path, bytes: &[u8], c: &Comparison) -> anyhow::Result<()> {
+    let (render, heat) = out_files(out, reference);
+    output::write_atomically(&render, bytes)?;
+    super::compare::write_heatmap(&heat, c)
 }

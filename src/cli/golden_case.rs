@@ -35,13 +35,39 @@ pub struct Sidecar {
 }
 
 impl Sidecar {
-    /// The sidecar at `path`, or the defaults when there is none.
+    /// The sidecar at `path`, or the defaults when there is none. Only a regular file is read (a
+    /// FIFO would block forever, a device might never end), and at most `MAX_SIDECAR_BYTES`.
     pub fn read(path: &Path) -> anyhow::Result<Sidecar> {
-        let text = match std::fs::read_to_string(path) {
-            Ok(text) => text,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Sidecar::default()),
+        let meta = match std::fs::metadata(path) {
+            Ok(meta) => meta,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                // A symlink to nothing is a mistake, not "no sidecar".
+                if std::fs::symlink_metadata(path).is_ok() {
+                    anyhow::bail!(
+                        "{}: is a symlink to nothing (expected a sidecar TOML file)",
+                        path.display()
+                    );
+                }
+                return Ok(Sidecar::default());
+            }
             Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
         };
+        if !meta.is_file() {
+            anyhow::bail!(
+                "{}: is {}, not a regular file (expected a sidecar TOML file)",
+                path.display(),
+                file_kind(meta.file_type())
+            );
+        }
+        if meta.len() > MAX_SIDECAR_BYTES {
+            anyhow::bail!(
+                "{}: is {} bytes, more than a sidecar may have ({MAX_SIDECAR_BYTES}; a sidecar is a few lines of TOML)",
+                path.display(),
+                meta.len()
+            );
+        }
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
         let sidecar: Sidecar = toml::from_str(&text).map_err(|e| {
             let at = e.span().map(|s| line_col(&text, s.start)).unwrap_or_default();
             anyhow::anyhow!(
@@ -72,6 +98,29 @@ impl Sidecar {
     }
 }
 
+/// The largest sidecar read: 64 KiB. A sidecar is a handful of lines (this project's are under
+/// 100 bytes); a thousand times that still reads in no time, and a file named `.test.toml` that is
+/// really an image or a log is refused by its size instead of being read whole.
+pub const MAX_SIDECAR_BYTES: u64 = 64 << 10;
+
+/// What a file that is not a regular file is, for messages.
+pub fn file_kind(t: std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if t.is_dir() {
+        "a directory"
+    } else if t.is_fifo() {
+        "a FIFO"
+    } else if t.is_socket() {
+        "a socket"
+    } else if t.is_char_device() {
+        "a character device"
+    } else if t.is_block_device() {
+        "a block device"
+    } else {
+        "not a regular file"
+    }
+}
+
 fn line_col(text: &str, offset: usize) -> String {
     let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
@@ -91,6 +140,9 @@ pub enum Outcome {
 
 #[derive(Debug)]
 pub struct Case {
+    /// The scene's file stem, as the file system has it (references are named from it).
+    pub stem: std::ffi::OsString,
+    /// The stem for people: control characters and odd bytes escaped.
     pub name: String,
     pub scene: PathBuf,
     pub refs: PathBuf,
@@ -98,29 +150,46 @@ pub struct Case {
     pub sidecar: Sidecar,
     pub outcome: Outcome,
     pub seconds: f64,
+    /// The scene, loaded before the GPU starts (its files are inputs that no output may name).
+    pub loaded: Option<Result<hadou::scene::Scene, String>>,
 }
 
 impl Case {
     pub fn new(scene: PathBuf, refs: &Path) -> Case {
-        let name = scene.file_stem().unwrap_or_default().to_string_lossy().to_string();
+        let stem = scene.file_stem().unwrap_or_default().to_os_string();
         Case {
-            sidecar_path: refs.join(format!("{name}.test.toml")),
-            name,
+            sidecar_path: refs.join(with_suffix(&stem, ".test.toml")),
+            name: super::escape_os(&stem),
+            stem,
             scene,
             refs: refs.to_path_buf(),
             sidecar: Sidecar::default(),
             outcome: Outcome::NotRun,
             seconds: 0.0,
+            loaded: None,
         }
     }
 
     pub fn reference_png(&self) -> PathBuf {
-        self.refs.join(format!("{}.png", self.name))
+        self.refs.join(with_suffix(&self.stem, ".png"))
     }
 
     pub fn reference_aov(&self, aov: Aov) -> PathBuf {
-        self.refs.join(format!("{}.{}.exr", self.name, aov.name()))
+        self.refs.join(with_suffix(&self.stem, &format!(".{}.exr", aov.name())))
     }
+
+    /// Every reference file of the scene: the PNG, then one EXR per AOV of its sidecar.
+    pub fn references(&self) -> Vec<PathBuf> {
+        let aovs = self.sidecar.aovs().unwrap_or_default();
+        std::iter::once(self.reference_png()).chain(aovs.into_iter().map(|a| self.reference_aov(a))).collect()
+    }
+}
+
+/// `stem` + `suffix`, without going through text (a stem need not be UTF-8).
+pub fn with_suffix(stem: &std::ffi::OsStr, suffix: &str) -> std::ffi::OsString {
+    let mut name = stem.to_os_string();
+    name.push(suffix);
+    name
 }
 
 /// One row per scene, then the counts.
@@ -152,6 +221,8 @@ pub fn table(cases: &[Case], bless: bool) -> String {
             }
             Outcome::NotRun => ("-", String::new()),
         };
+        // Names and details may hold file names: nothing in them reaches the terminal raw.
+        let detail = super::escape_controls(&detail);
         out += &format!("{:<width$}  {result:<7} {:>7.2}  {detail}\n", c.name, c.seconds);
     }
     let verb = if bless { "blessed" } else { "passed" };

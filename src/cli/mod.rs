@@ -1,6 +1,7 @@
 //! Command-line parsing and dispatch.
 
 mod bake;
+mod bless;
 mod compare;
 mod golden;
 mod golden_case;
@@ -140,4 +141,75 @@ fn finish_validated(runtime: hadou::Runtime) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// `text` with what a terminal would act on written out instead: control characters (C0, DEL,
+/// C1: escape sequences, carriage returns) and the bidirectional overrides that reorder what
+/// follows them, each as `\u{…}`. For file names and messages naming them (a scene may be called
+/// `\x1b]0;…\x07.toml`).
+pub(crate) fn escape_controls(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() || matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}') {
+            out.push_str(&format!("\\u{{{:x}}}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// A file name as text: its UTF-8 parts through `escape_controls`, any other byte as `\xNN`.
+pub(crate) fn escape_os(name: &std::ffi::OsStr) -> String {
+    let mut out = String::new();
+    for chunk in name.as_encoded_bytes().utf8_chunks() {
+        out += &escape_controls(chunk.valid());
+        for b in chunk.invalid() {
+            out += &format!("\\x{b:02x}");
+        }
+    }
+    out
+}
+
+/// The error with its causes joined as `main` prints them (a cause the message already ends with
+/// left out), control characters escaped: a file name cannot write to the terminal.
+pub(crate) fn escaped_error(e: anyhow::Error) -> anyhow::Error {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.ends_with(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    anyhow::Error::msg(escape_controls(&out))
+}
+
+/// Parses `--max-pixels`: a whole number ≥ 1.
+fn parse_max_pixels(text: &str) -> Result<u64, String> {
+    match text.trim().replace('_', "").parse::<u64>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!("`{text}`: expected a whole number of pixels ≥ 1, e.g. 16777216")),
+    }
+}
+
+#[cfg(test)]
+mod escape_tests {
+    use super::*;
+
+    #[test]
+    fn control_characters_and_odd_bytes_are_written_out() {
+        assert_eq!(
+            escape_controls("a\x1b[31mb\u{9b}c\r\u{202e}d é"),
+            "a\\u{1b}[31mb\\u{9b}c\\u{d}\\u{202e}d é"
+        );
+        use std::os::unix::ffi::OsStrExt;
+        let name = std::ffi::OsStr::from_bytes(b"x\xff\x07.toml");
+        assert_eq!(escape_os(name), "x\\xff\\u{7}.toml");
+        let e = escaped_error(anyhow::anyhow!("in\x1bner").context("out\x07er"));
+        assert_eq!(e.to_string(), "out\\u{7}er: in\\u{1b}ner");
+    }
 }
