@@ -33,10 +33,115 @@ pub(super) struct Source<'a> {
     pub buffers: &'a [Vec<u8>],
 }
 
+/// True for an accessor hadou does not read as positions or normals (normalized integers,
+/// `KHR_mesh_quantization`): the primitive is skipped.
+pub(super) fn quantized(a: &gltf::Accessor) -> bool {
+    a.normalized() || a.data_type() != DataType::F32
+}
+
+/// True when `vec3` (for a VEC3 accessor) or `indices` (for a SCALAR one) would go on to read
+/// `a`'s elements rather than refuse its type: only then is `check_declared` the read's first
+/// error.
+pub(super) fn readable(a: &gltf::Accessor) -> bool {
+    match a.dimensions() {
+        Dimensions::Vec3 => !quantized(a),
+        Dimensions::Scalar => matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32),
+        _ => false,
+    }
+}
+
+/// The checks on an accessor's declared count that need none of its data: run before anything
+/// is decoded, so a count no buffer bounds is refused before it is allocated.
+/// The same checks and messages as a read, from the JSON alone (a buffer's data is at least its
+/// declared `byteLength`: `buffers::load` checks that).
+pub(super) fn check_declared(path: &Path, a: &gltf::Accessor, at: &str) -> Result<(), GltfError> {
+    let count = a.count();
+    if count == 0 {
+        return Err(bad(path, at, a, "accessor has count 0 (expected at least one element)"));
+    }
+    match a.view() {
+        Some(view) => {
+            let stride = element_stride(path, at, a, &view)?;
+            declared_range(path, a, at, &view, a.offset(), count, a.size(), stride)?;
+        }
+        None if count > MAX_ZEROS => {
+            let message = format!("{count} elements without a bufferView (hadou reads at most {MAX_ZEROS})");
+            return Err(bad(path, at, a, message));
+        }
+        None => {}
+    }
+    Ok(())
+}
+
+/// The distance between elements in `view`: its byteStride (a multiple of the component size, at
+/// least the element size) or, without one, the element size.
+fn element_stride(
+    path: &Path,
+    at: &str,
+    a: &gltf::Accessor,
+    view: &gltf::buffer::View,
+) -> Result<usize, GltfError> {
+    let (size, component) = (a.size(), a.data_type().size());
+    let stride = view.stride().unwrap_or(size);
+    if stride < size || stride % component != 0 {
+        let message = format!(
+            "buffer view /bufferViews/{} has byteStride {stride} (expected a multiple of {component} and at least the element size {size})",
+            view.index()
+        );
+        return Err(bad(path, at, a, message));
+    }
+    Ok(stride)
+}
+
+/// Checks `count` (≥ 1) elements of `size` bytes, `stride` apart, from byte `offset` of `view`
+/// lie inside the view and the view inside its buffer's declared length (in u128, so no declared
+/// size can overflow the arithmetic); the end of the read within the view.
+#[allow(clippy::too_many_arguments)]
+fn declared_range(
+    path: &Path,
+    a: &gltf::Accessor,
+    at: &str,
+    view: &gltf::buffer::View,
+    offset: usize,
+    count: usize,
+    size: usize,
+    stride: usize,
+) -> Result<u128, GltfError> {
+    let v = view.index();
+    let component = a.data_type().size();
+    if offset % component != 0 {
+        let message = format!("byteOffset {offset} is not a multiple of the component size {component}");
+        return Err(bad(path, at, a, message));
+    }
+    // u128: offset, stride and count are each at most 2⁶⁴, so their sum of products fits.
+    let end = offset as u128 + stride as u128 * (count as u128 - 1) + size as u128;
+    if end > view.length() as u128 {
+        let message = format!(
+            "accessor reads bytes {offset}..{end} of buffer view /bufferViews/{v}, which has {} bytes (count {count}, stride {stride})",
+            view.length()
+        );
+        return Err(bad(path, at, a, message));
+    }
+    let b = view.buffer().index();
+    let view_end = view.offset() as u128 + view.length() as u128;
+    if view_end > view.buffer().length() as u128 {
+        let message = format!(
+            "buffer view /bufferViews/{v} ends at byte {view_end}, past the end of buffer /buffers/{b} ({} bytes)",
+            view.buffer().length()
+        );
+        return Err(bad(path, at, a, message));
+    }
+    Ok(end)
+}
+
+fn bad(path: &Path, at: &str, a: &gltf::Accessor, message: impl std::fmt::Display) -> GltfError {
+    GltfError::at(path, at, format!("accessor /accessors/{}: {message}", a.index()))
+}
+
 impl Source<'_> {
     /// `count` VEC3 FLOAT elements (positions, normals); `at` is the pointer of the reference.
     pub fn vec3(&self, a: &gltf::Accessor, at: &str) -> Result<Vec<[f32; 3]>, ReadError> {
-        if a.normalized() || a.data_type() != DataType::F32 {
+        if quantized(a) {
             return Err(ReadError::Unsupported(format!(
                 "{at}: {} accessor (KHR_mesh_quantization); hadou reads FLOAT",
                 type_name(a.data_type())
@@ -85,17 +190,9 @@ impl Source<'_> {
         if count == 0 {
             return Err(self.bad(at, a, "accessor has count 0 (expected at least one element)").into());
         }
-        let component = a.data_type().size();
         let mut out = match a.view() {
             Some(view) => {
-                let stride = view.stride().unwrap_or(size);
-                if stride < size || stride % component != 0 {
-                    let message = format!(
-                        "buffer view /bufferViews/{} has byteStride {stride} (expected a multiple of {component} and at least the element size {size})",
-                        view.index()
-                    );
-                    return Err(self.bad(at, a, message).into());
-                }
+                let stride = element_stride(self.path, at, a, &view)?;
                 let bytes = self.range(a, at, &view, a.offset(), count, size, stride)?;
                 (0..count).map(|i| decode(&bytes[i * stride..])).collect()
             }
@@ -151,25 +248,12 @@ impl Source<'_> {
         size: usize,
         stride: usize,
     ) -> Result<&'b [u8], ReadError> {
+        let end = declared_range(self.path, a, at, view, offset, count, size, stride)?;
         let v = view.index();
-        let component = a.data_type().size();
-        if offset % component != 0 {
-            let message = format!("byteOffset {offset} is not a multiple of the component size {component}");
-            return Err(self.bad(at, a, message).into());
-        }
-        // u128: offset, stride and count are each at most 2⁶⁴, so their sum of products fits.
-        let end = offset as u128 + stride as u128 * (count as u128 - 1) + size as u128;
-        if end > view.length() as u128 {
-            let message = format!(
-                "accessor reads bytes {offset}..{end} of buffer view /bufferViews/{v}, which has {} bytes (count {count}, stride {stride})",
-                view.length()
-            );
-            return Err(self.bad(at, a, message).into());
-        }
         let b = view.buffer().index();
         let data = &self.buffers[b];
         let view_end = view.offset() as u128 + view.length() as u128;
-        if view_end > data.len() as u128 || view_end > view.buffer().length() as u128 {
+        if view_end > data.len() as u128 {
             let message = format!(
                 "buffer view /bufferViews/{v} ends at byte {view_end}, past the end of buffer /buffers/{b} ({} bytes)",
                 view.buffer().length().min(data.len())
@@ -180,7 +264,7 @@ impl Source<'_> {
     }
 
     fn bad(&self, at: &str, a: &gltf::Accessor, message: impl std::fmt::Display) -> GltfError {
-        GltfError::at(self.path, at, format!("accessor /accessors/{}: {message}", a.index()))
+        bad(self.path, at, a, message)
     }
 }
 

@@ -1,7 +1,9 @@
 //! The bytes of every buffer: the GLB's BIN chunk, a base64 `data:` URI, or a file beside the
-//! glTF. Each is checked to hold at least its declared `byteLength`.
+//! glTF. Each is checked to hold at least its declared `byteLength`. A file URI must lead to a
+//! regular file inside the glTF file's folder (after percent-decoding and resolving symbolic
+//! links): a glTF file names only its own parts, never `/etc/passwd` or `../../secret`.
 
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 
 use base64::Engine;
 
@@ -22,6 +24,16 @@ pub(super) fn load(
 ) -> Result<Buffers, GltfError> {
     let mut data = Vec::new();
     let mut files = Vec::new();
+    // Images are never read (textures are ignored), but a URI leaving the folder is refused all
+    // the same: the file is not one to trust, and a later version reading images stays safe.
+    for image in doc.images() {
+        if let gltf::image::Source::Uri { uri, .. } = image.source() {
+            let at = format!("/images/{}/uri", image.index());
+            if !uri.starts_with("data:") && !uri.contains("://") {
+                inside_folder(path, &at, uri)?;
+            }
+        }
+    }
     for buffer in doc.buffers() {
         let i = buffer.index();
         let bytes = match buffer.source() {
@@ -68,7 +80,7 @@ fn read_uri(path: &Path, i: usize, uri: &str, files: &mut Vec<PathBuf>) -> Resul
             format!("`{uri}`: only data: URIs and relative file paths are read"),
         ));
     }
-    let file = path.parent().unwrap_or(Path::new("")).join(percent_decode(uri));
+    let file = inside_folder(path, &at, uri)?;
     let unreadable = |e: std::io::Error| {
         GltfError::at(path, at.clone(), format!("missing buffer: cannot read {}: {e}", file.display()))
     };
@@ -80,6 +92,57 @@ fn read_uri(path: &Path, i: usize, uri: &str, files: &mut Vec<PathBuf>) -> Resul
     let bytes = std::fs::read(&file).map_err(unreadable)?;
     files.push(file);
     Ok(bytes)
+}
+
+/// The file a relative URI names, checked to lie inside the glTF file's folder: the URI
+/// percent-decoded, refused when absolute, then (when the file exists) every symbolic link
+/// resolved and the real path compared with the folder's real path. A file that does not exist
+/// must not leave the folder by its `..` parts either; for it the joined path is returned, so
+/// the caller's error names what was looked for. Messages name the URI and the folder, never
+/// anything read from a file.
+fn inside_folder(path: &Path, at: &str, uri: &str) -> Result<PathBuf, GltfError> {
+    let shown: String = uri.chars().take(200).collect();
+    let refuse = |why: &str| {
+        GltfError::at(
+            path,
+            at,
+            format!("`{shown}` {why} (expected a path relative to the glTF file's folder, inside it: hadou reads nothing else)"),
+        )
+    };
+    let decoded = percent_decode(uri);
+    let rel = Path::new(&decoded);
+    if rel.has_root() || rel.components().any(|c| matches!(c, Component::Prefix(_) | Component::RootDir)) {
+        return Err(refuse("is an absolute path"));
+    }
+    // Lexically: `..` may not climb above the folder (`a/../b` is fine, `../b` and `a/../../b`
+    // are not), whether the file exists or not.
+    let mut depth = 0i64;
+    for c in rel.components() {
+        match c {
+            Component::ParentDir => depth -= 1,
+            Component::Normal(_) => depth += 1,
+            _ => {}
+        }
+        if depth < 0 {
+            return Err(refuse("leads out of the glTF file's folder"));
+        }
+    }
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let file = folder.join(rel);
+    let real_folder = std::fs::canonicalize(&folder).map_err(|e| {
+        GltfError::at(path, at, format!("cannot resolve the glTF file's folder {}: {e}", folder.display()))
+    })?;
+    match std::fs::canonicalize(&file) {
+        // Symbolic links resolved: the real file must still be inside the real folder.
+        Ok(real) if real.starts_with(&real_folder) => Ok(real),
+        Ok(_) => Err(refuse("leads out of the glTF file's folder through a symbolic link")),
+        // Missing (or a link to nowhere): the caller says so for a buffer (naming the path looked
+        // for); an ignored image's URI has passed the lexical check.
+        Err(_) => Ok(file),
+    }
 }
 
 /// URIs are percent-encoded (`my%20mesh.bin`); a `%` not followed by two hex digits stays as is.

@@ -60,6 +60,44 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
     if length < 20 {
         return Err(format!("binary glTF header gives a total length of {length} bytes (expected at least 20: header and JSON chunk header)"));
     }
+    // The crate splits the chunks from the bytes it was given, not from this length: bytes past
+    // the stated end (appended data, a truncated rewrite) would be read as chunks silently.
+    if length as usize != bytes.len() {
+        return Err(format!(
+            "binary glTF header gives a total length of {length} bytes but the file has {} (expected the two to be equal: glTF 2.0 §4.4.2)",
+            bytes.len()
+        ));
+    }
+    Ok(())
+}
+
+/// hadou reads glTF 2.x: `asset.version` must be `2.<minor>`, and a `minVersion`, if given, at most
+/// 2.0 (a later minor version may need what a 2.0 reader lacks; glTF 2.0 §3.2).
+fn check_version(path: &Path, asset: &gltf::json::Asset) -> Result<(), GltfError> {
+    fn major_minor(v: &str) -> Option<(u64, u64)> {
+        let (major, minor) = v.split_once('.')?;
+        let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+        if !digits(major) || !digits(minor) {
+            return None;
+        }
+        Some((major.parse().ok()?, minor.parse().ok()?))
+    }
+    let shown = |v: &str| v.chars().take(32).collect::<String>();
+    let version = asset.version.as_str();
+    if major_minor(version).is_none_or(|(major, _)| major != 2) {
+        let message = format!(
+            "glTF version \"{}\" (expected \"2.0\" or another 2.x: hadou reads glTF 2)",
+            shown(version)
+        );
+        return Err(GltfError::at(path, "/asset/version", message));
+    }
+    if let Some(min) = asset.min_version.as_deref() {
+        if major_minor(min).is_none_or(|v| v > (2, 0)) {
+            let message =
+                format!("minVersion \"{}\" (expected at most \"2.0\", the version hadou reads)", shown(min));
+            return Err(GltfError::at(path, "/asset/minVersion", message));
+        }
+    }
     Ok(())
 }
 
@@ -105,6 +143,7 @@ fn parse_message(e: gltf::Error) -> String {
 /// returned to be listed as ignored.
 fn validate(path: &Path, doc: &gltf::Document) -> Result<Vec<String>, GltfError> {
     let root = doc.as_json();
+    check_version(path, &root.asset)?;
     check_position_indices(path, root)?;
     let mut findings = Vec::new();
     // A backstop: the crate's validation indexes some arrays before checking (see
@@ -158,5 +197,33 @@ mod tests {
         assert!(check_glb_header(b"glTF\x02\0\0\0").unwrap_err().contains("cut short"));
         assert!(check_glb_header(b"glTF\x02\0\0\0\x04\0\0\0").unwrap_err().contains("total length of 4"));
         assert!(check_glb_header(b"{\"asset\":{}}").is_ok());
+        let mut glb = b"glTF\x02\0\0\0\x18\0\0\0\x04\0\0\0JSON{}  ".to_vec();
+        assert!(check_glb_header(&glb).is_ok());
+        glb.extend_from_slice(b"tail");
+        let e = check_glb_header(&glb).unwrap_err();
+        assert!(e.contains("total length of 24 bytes but the file has 28"), "{e}");
+    }
+
+    #[test]
+    fn only_gltf_2_is_read() {
+        let asset = |version: &str, min: Option<&str>| gltf::json::Asset {
+            version: version.to_owned(),
+            min_version: min.map(str::to_owned),
+            ..Default::default()
+        };
+        let p = Path::new("a.gltf");
+        for ok in [asset("2.0", None), asset("2.1", Some("2.0")), asset("2.0", Some("1.0"))] {
+            check_version(p, &ok).unwrap();
+        }
+        for (bad, at) in [
+            (asset("1.0", None), "/asset/version"),
+            (asset("3.0", None), "/asset/version"),
+            (asset("2", None), "/asset/version"),
+            (asset("2.x", None), "/asset/version"),
+            (asset("", None), "/asset/version"),
+            (asset("2.1", Some("2.1")), "/asset/minVersion"),
+        ] {
+            assert_eq!(check_version(p, &bad).unwrap_err().pointer, at, "{bad:?}");
+        }
     }
 }

@@ -2,11 +2,13 @@
 //! translate; a matrix as one step), the parent of every node with the tree rules glTF states
 //! (one parent, no cycles) enforced, and the scene's nodes in depth-first order.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use glam::{DMat4, DQuat, DVec3, DVec4};
 
 use super::error::GltfError;
+use super::primitive::{self, over_budget, Budget};
 use crate::scene::transform::TransformOp;
 
 /// Deeper hierarchies are refused: a node's steps are its ancestors' (O(depth) each), and no
@@ -17,6 +19,9 @@ pub const MAX_DEPTH: usize = 1024;
 pub(super) struct Hierarchy {
     pub parent: Vec<Option<usize>>,
     pub local: Vec<Vec<TransformOp>>,
+    /// The file's budget, checked against the node count here and the shown scene's cost by
+    /// `scene_nodes`.
+    pub budget: Budget,
 }
 
 impl Hierarchy {
@@ -37,7 +42,16 @@ impl Hierarchy {
 
 /// Reads every node's transform and checks the graph is a forest of at most `MAX_DEPTH` levels.
 pub(super) fn hierarchy(path: &Path, doc: &gltf::Document) -> Result<Hierarchy, GltfError> {
+    let budget = Budget::from_env(path)?;
     let count = doc.nodes().len();
+    if count as u64 > budget.nodes {
+        let message = format!(
+            "{count} nodes (hadou reads at most {} nodes per glTF file; set {}=\"nodes=N\" to allow more)",
+            budget.nodes,
+            primitive::BUDGET_VAR
+        );
+        return Err(GltfError::at(path, "/nodes", message));
+    }
     let mut parent = vec![None; count];
     let mut local = Vec::with_capacity(count);
     for node in doc.nodes() {
@@ -54,7 +68,7 @@ pub(super) fn hierarchy(path: &Path, doc: &gltf::Document) -> Result<Hierarchy, 
         }
     }
     check_acyclic(path, &parent)?;
-    Ok(Hierarchy { parent, local })
+    Ok(Hierarchy { parent, local, budget })
 }
 
 /// Walks up from every node; a walk that meets a node of its own path is a cycle. Nodes already
@@ -168,11 +182,22 @@ pub(super) fn scene_nodes(
     let chosen = doc.default_scene().or_else(|| doc.scenes().next());
     let (roots, others): (Vec<usize>, Vec<String>) = match &chosen {
         Some(s) => {
+            let mut listed = HashMap::new();
             for (k, n) in s.nodes().enumerate() {
+                let at = format!("/scenes/{}/nodes/{k}", s.index());
                 if let Some(p) = h.parent[n.index()] {
                     let message =
                         format!("node {} is a child of /nodes/{p} (expected root nodes only)", n.index());
-                    return Err(GltfError::at(path, format!("/scenes/{}/nodes/{k}", s.index()), message));
+                    return Err(GltfError::at(path, at, message));
+                }
+                // glTF 2.0 §5.29: a scene's nodes are unique; a node listed twice would be drawn twice.
+                if let Some(first) = listed.insert(n.index(), k) {
+                    let message = format!(
+                        "node {} is listed twice, first at /scenes/{}/nodes/{first} (expected each root once)",
+                        n.index(),
+                        s.index()
+                    );
+                    return Err(GltfError::at(path, at, message));
                 }
             }
             let others =
@@ -189,7 +214,64 @@ pub(super) fn scene_nodes(
         let children: Vec<usize> = nodes[n].children().map(|c| c.index()).collect();
         stack.extend(children.into_iter().rev());
     }
+    check_budget(path, &nodes, h, &order)?;
     Ok((order, others))
+}
+
+/// The shown scene's cost against the file's budget, from declared counts only, before the
+/// import decodes or allocates anything for it: every node's transform steps, and per node that
+/// draws a mesh, each drawable primitive's vertices and indices and one instance (a mesh shared by
+/// many nodes counts once per node). Nodes a singular transform will hide are counted too. Stops
+/// at the first use past the budget, so its own time is bounded by the budget as well.
+fn check_budget(path: &Path, nodes: &[gltf::Node], h: &Hierarchy, order: &[usize]) -> Result<(), GltfError> {
+    let b = &h.budget;
+    let mut costs: HashMap<(usize, usize), Option<primitive::Cost>> = HashMap::new();
+    // Each node's steps with its ancestors' (what `world_ops` builds): parents come first in
+    // `order`, so one pass fills them.
+    let mut steps_to = vec![0u64; nodes.len()];
+    let (mut vertices, mut indices, mut instances, mut steps) = (0u64, 0u64, 0u64, 0u64);
+    for &n in order {
+        let own = h.local[n].len() as u64 + h.parent[n].map_or(0, |p| steps_to[p]);
+        steps_to[n] = own;
+        steps = steps.saturating_add(own);
+        if steps > b.steps {
+            let message = over_budget("transform steps", steps, b.steps, &format!("reached at /nodes/{n}"));
+            return Err(GltfError::at(path, format!("/nodes/{n}"), message));
+        }
+        let Some(mesh) = nodes[n].mesh() else { continue };
+        for p in mesh.primitives() {
+            let key = (mesh.index(), p.index());
+            let cost = match costs.get(&key) {
+                Some(c) => *c,
+                None => {
+                    let c = primitive::cost(path, mesh.index(), &p)?;
+                    costs.insert(key, c);
+                    c
+                }
+            };
+            let Some(c) = cost else { continue };
+            vertices = vertices.saturating_add(c.vertices);
+            indices = indices.saturating_add(c.indices);
+            instances += 1;
+            steps = steps.saturating_add(own);
+            let use_of = format!("reached at /meshes/{}/primitives/{} drawn by /nodes/{n}", key.0, key.1);
+            for (what, total, most) in [
+                ("vertices", vertices, b.vertices),
+                ("indices", indices, b.indices),
+                ("instances", instances, b.instances),
+                ("transform steps", steps, b.steps),
+            ] {
+                if total > most {
+                    return Err(GltfError::at(
+                        path,
+                        format!("/nodes/{n}/mesh"),
+                        over_budget(what, total, most, &use_of),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -2,12 +2,139 @@
 //! list), normals read or, when absent, flat normals as glTF asks (each triangle gets its own
 //! three vertices and its face normal).
 
+use std::path::Path;
+
 use glam::DVec3;
 use gltf::mesh::{Mode, Semantic};
 
-use super::accessor::{ReadError, Source};
+use super::accessor::{self, ReadError, Source};
 use super::error::GltfError;
 use crate::scene::mesh::Mesh;
+
+/// The environment variable that overrides `Budget`'s defaults: `vertices=N,indices=N,nodes=N,
+/// instances=N,steps=N`, any subset. An environment variable rather than a CLI flag or an
+/// `ImportOptions` field alone because it reaches every way a glTF file is loaded — `render`,
+/// `test`, `profile`, `view`, `bake`, a TOML scene's `[[gltf]]`, `load_scene` in a game — none of
+/// which has to pass it along, and a CI job sets it once.
+pub(super) const BUDGET_VAR: &str = "HADOU_GLTF_BUDGET";
+
+/// What one glTF file may cost, checked from the counts it declares before anything is decoded
+/// or allocated (docs/scene-format.md, "glTF budgets"). Meshes are counted once per use (per node
+/// that draws them): that is what is drawn, and per use is what a file of many nodes sharing one
+/// accessor costs. The defaults are far above real assets and keep the worst accepted file
+/// within about 1.5 GiB of host memory and seconds of decoding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Budget {
+    /// Decoded vertices: each drawn primitive's POSITION count, plus 3 per triangle when it gets
+    /// flat normals (no NORMAL). 2²³ = 8,388,608: twice the largest mesh hadou makes itself (a
+    /// sphere of 2048 segments, 4.2 M vertices) and several times a dense game level; 192 MiB of
+    /// f32 positions and normals.
+    pub vertices: u64,
+    /// Decoded indices: 3 per drawn triangle. 3·2²⁴ = 50,331,648 (16.7 M triangles, 192 MiB of
+    /// u32): two triangles per vertex of the vertex budget, what a closed mesh has.
+    pub indices: u64,
+    /// Nodes in the file. 2¹⁸ = 262,144: each costs its parent, depth and up to three transform
+    /// steps (≤ 432 bytes, 108 MiB in all); city-sized levels have tens of thousands.
+    pub nodes: u64,
+    /// Drawn instances, one per (node, drawable primitive). 2¹⁶ = 65,536: each is a draw and an
+    /// instance record per frame; a software rasterizer spends seconds a frame well before this.
+    pub instances: u64,
+    /// Transform steps over all nodes of the shown scene and all instances (each keeps its own
+    /// copy of its node's and every ancestor's steps): 2²⁰ = 1,048,576, ≤ 136 MiB at 136 bytes a
+    /// step. Without it 65,536 instances 1024 levels deep would hold 2·10⁸ steps (27 GiB).
+    pub steps: u64,
+}
+
+impl Default for Budget {
+    fn default() -> Self {
+        Budget { vertices: 1 << 23, indices: 3 << 24, nodes: 1 << 18, instances: 1 << 16, steps: 1 << 20 }
+    }
+}
+
+impl Budget {
+    /// The defaults with `HADOU_GLTF_BUDGET`'s overrides; a malformed value is an error of `path`
+    /// (the file being loaded) naming the variable.
+    pub fn from_env(path: &Path) -> Result<Budget, GltfError> {
+        match std::env::var_os(BUDGET_VAR) {
+            None => Ok(Budget::default()),
+            Some(v) => match v.to_str() {
+                Some(text) => Budget::parse(text),
+                None => Err("the value is not UTF-8".to_owned()),
+            }
+            .map_err(|why| GltfError::at(path, "", format!("environment variable {BUDGET_VAR}: {why}"))),
+        }
+    }
+
+    /// `key=N` pairs separated by commas (empty: the defaults).
+    pub fn parse(text: &str) -> Result<Budget, String> {
+        let mut b = Budget::default();
+        for item in text.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+            let expected = "expected KEY=N pairs separated by commas, KEY one of vertices, indices, nodes, instances, steps and N a whole number of at least 1";
+            let shown: String = item.chars().take(40).collect();
+            let Some((key, value)) = item.split_once('=') else {
+                return Err(format!("`{shown}` ({expected})"));
+            };
+            let slot = match key.trim() {
+                "vertices" => &mut b.vertices,
+                "indices" => &mut b.indices,
+                "nodes" => &mut b.nodes,
+                "instances" => &mut b.instances,
+                "steps" => &mut b.steps,
+                _ => return Err(format!("unknown key in `{shown}` ({expected})")),
+            };
+            *slot = match value.trim().parse::<u64>() {
+                Ok(n) if n >= 1 => n,
+                _ => return Err(format!("`{shown}` ({expected})")),
+            };
+        }
+        Ok(b)
+    }
+}
+
+/// What drawing a primitive once decodes, from its declared counts (see `Budget`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Cost {
+    pub vertices: u64,
+    pub indices: u64,
+}
+
+/// The cost of drawing primitive `p` of mesh `m` once, None when it is skipped (as `build` would
+/// skip it: not a triangle mode, no POSITION, quantized). Reads no data; an accessor whose count
+/// no buffer bounds is refused here, before anything is allocated for it.
+pub(super) fn cost(path: &Path, m: usize, p: &gltf::Primitive) -> Result<Option<Cost>, GltfError> {
+    let at = format!("/meshes/{m}/primitives/{}", p.index());
+    if !matches!(p.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+        return Ok(None);
+    }
+    let Some(pos) = p.get(&Semantic::Positions) else { return Ok(None) };
+    // Only accessors of the type the read expects: for any other the read's own error (a wrong
+    // type, before any allocation) is the one to give.
+    let declared = |a: &gltf::Accessor, at: String| match accessor::readable(a) {
+        true => accessor::check_declared(path, a, &at),
+        false => Ok(()),
+    };
+    declared(&pos, format!("{at}/attributes/POSITION"))?;
+    let normals = p.get(&Semantic::Normals);
+    if let Some(a) = &normals {
+        declared(a, format!("{at}/attributes/NORMAL"))?;
+    }
+    if accessor::quantized(&pos) || normals.as_ref().is_some_and(accessor::quantized) {
+        return Ok(None);
+    }
+    let order = match p.indices() {
+        Some(a) => {
+            declared(&a, format!("{at}/indices"))?;
+            a.count() as u64
+        }
+        None => pos.count() as u64,
+    };
+    let triangles = match p.mode() {
+        Mode::Triangles => order / 3,
+        _ => order.saturating_sub(2),
+    };
+    let flat = if normals.is_some() { 0 } else { 3 * triangles };
+    Ok(Some(Cost { vertices: pos.count() as u64 + flat, indices: 3 * triangles }))
+}
 
 /// A primitive built, or why it was skipped (valid glTF hadou does not draw).
 pub(super) enum Built {
@@ -18,6 +145,18 @@ pub(super) enum Built {
 /// Builds primitive `p` of mesh `m`.
 pub(super) fn build(src: &Source, m: usize, p: &gltf::Primitive) -> Result<Built, GltfError> {
     let at = format!("/meshes/{m}/primitives/{}", p.index());
+    // One primitive alone within the file's budget, before any of it is decoded (the file's
+    // total, every use counted, is checked before the import builds anything: nodes.rs).
+    if let Some(c) = cost(src.path, m, p)? {
+        let budget = Budget::from_env(src.path)?;
+        for (what, n, most) in
+            [("vertices", c.vertices, budget.vertices), ("indices", c.indices, budget.indices)]
+        {
+            if n > most {
+                return Err(GltfError::at(src.path, at.clone(), over_budget(what, n, most, "")));
+            }
+        }
+    }
     let mode = p.mode();
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
         return Ok(Built::Skipped(format!("{at}: mode {}", mode_name(mode))));
@@ -36,6 +175,14 @@ pub(super) fn build(src: &Source, m: usize, p: &gltf::Primitive) -> Result<Built
         return Err(GltfError::at(src.path, pos_at, message));
     }
     let n = positions.len();
+    // Compared before the normals are decoded: their count is not bounded by the positions'.
+    let normal_accessor = p.get(&Semantic::Normals);
+    if let Some(a) = &normal_accessor {
+        if a.count() != n {
+            let message = format!("{} normals for {n} positions (expected one per position)", a.count());
+            return Err(GltfError::at(src.path, format!("{at}/attributes/NORMAL"), message));
+        }
+    }
     let order = match p.indices() {
         Some(a) => {
             let idx_at = format!("{at}/indices");
@@ -53,7 +200,7 @@ pub(super) fn build(src: &Source, m: usize, p: &gltf::Primitive) -> Result<Built
         None => (0..n as u32).collect(),
     };
     let indices = triangle_list(mode, &order).map_err(|why| GltfError::at(src.path, at.clone(), why))?;
-    let mesh = match p.get(&Semantic::Normals) {
+    let mesh = match normal_accessor {
         Some(a) => {
             let nrm_at = format!("{at}/attributes/NORMAL");
             let normals = match src.vec3(&a, &nrm_at) {
@@ -74,6 +221,15 @@ pub(super) fn build(src: &Source, m: usize, p: &gltf::Primitive) -> Result<Built
     // The checks above cover these; this keeps any gap from reaching the GPU.
     mesh.validate_basic().map_err(|why| GltfError::at(src.path, at, why))?;
     Ok(Built::Mesh(mesh))
+}
+
+/// The message for a budget passed: what, how many, the most, and how to raise it. `use_of`
+/// says which use crossed it (empty for one primitive alone).
+pub(super) fn over_budget(what: &str, n: u64, most: u64, use_of: &str) -> String {
+    let per = if use_of.is_empty() { "for one primitive, ".to_owned() } else { format!("{use_of}; ") };
+    format!(
+        "{n} {what} to decode and draw ({per}hadou reads at most {most} {what} per glTF file, counting a mesh once per node that draws it; set {BUDGET_VAR}=\"{what}=N\" to allow more)"
+    )
 }
 
 /// Triangle list from any triangle mode (glTF 2.0 §3.7.2.1 gives the strip and fan orders, which
@@ -153,6 +309,18 @@ mod tests {
         assert_eq!(triangle_list(Mode::TriangleFan, &[0, 1, 2, 3]).unwrap(), vec![1, 2, 0, 2, 3, 0]);
         assert!(triangle_list(Mode::Triangles, &[0, 1]).is_err());
         assert!(triangle_list(Mode::TriangleStrip, &[0, 1]).is_err());
+    }
+
+    #[test]
+    fn budget_overrides() {
+        assert_eq!(Budget::parse("").unwrap(), Budget::default());
+        let b = Budget::parse(" vertices = 10, steps=3 ,").unwrap();
+        assert_eq!(b, Budget { vertices: 10, steps: 3, ..Budget::default() });
+        for bad in
+            ["vertices", "vertex=3", "nodes=0", "nodes=-1", "nodes=1e6", "indices=99999999999999999999999"]
+        {
+            assert!(Budget::parse(bad).is_err(), "{bad}");
+        }
     }
 
     #[test]
