@@ -43,6 +43,8 @@ pub enum VoxelizeError {
     ZeroArea { triangles: usize },
     #[error("mesh encloses no volume (signed volume {volume:e}; faces must point outward)")]
     NoVolume { volume: f64 },
+    #[error("mesh is too thin to voxelize: its volume {volume:e} is at most 1e-12 of its longest side cubed ({longest:e}³), as flat as rounding; its thickness is far under a voxel (use thickness = \"peel\" or \"tsm\", or a thicker mesh)")]
+    TooThin { volume: f64, longest: f64 },
     #[error("no corner of the {dims:?} voxel grid at resolution {res} lies inside the mesh (raise the resolution)")]
     NoSolidVoxel { res: u32, dims: [u32; 3] },
 }
@@ -93,9 +95,13 @@ pub fn check_solid_mesh(mesh: &Mesh) -> Result<(), VoxelizeError> {
     }
     let volume = mesh.signed_volume();
     let (lo, hi) = mesh.bounds();
-    // Relative to the box: a closed mesh folded flat has volume at rounding level.
-    if volume.is_nan() || volume <= 1e-12 * (hi - lo).max_element().powi(3) {
+    if volume.is_nan() || volume <= 0.0 {
         return Err(VoxelizeError::NoVolume { volume });
+    }
+    // Relative to the box: a closed mesh folded flat has volume at rounding level.
+    let longest = (hi - lo).max_element();
+    if volume <= 1e-12 * longest.powi(3) {
+        return Err(VoxelizeError::TooThin { volume, longest });
     }
     Ok(())
 }
