@@ -8,6 +8,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::ignored::Ignored;
+use super::material::Shape;
 use super::{accessor, material, primitive, GltfError, ImportOptions};
 use crate::scene::file::{MAX_HDR, MAX_LIGHTS};
 use crate::scene::mesh::{Mesh, MeshSpec};
@@ -23,12 +24,12 @@ pub(super) struct Builder<'a> {
     pub instances: Vec<Instance>,
     pub lights: Vec<DirectionalLight>,
     pub ignored: Ignored,
-    /// (glTF mesh, primitive) → (hadou mesh, closed) or None when skipped.
-    built: HashMap<(usize, usize), Option<(usize, bool)>>,
+    /// (glTF mesh, primitive) → (hadou mesh, its shape) or None when skipped.
+    built: HashMap<(usize, usize), Option<(usize, Shape)>>,
     /// glTF material index → how it looks.
     looks: HashMap<Option<usize>, material::Look>,
-    /// (glTF material, closed mesh) → hadou material.
-    used: HashMap<(Option<usize>, bool), usize>,
+    /// (glTF material, mesh shape) → hadou material.
+    used: HashMap<(Option<usize>, Shape), usize>,
     light_sum: DVec3,
 }
 
@@ -68,8 +69,8 @@ impl<'a> Builder<'a> {
                 let entry = self.build(src, mesh, &p)?;
                 self.built.insert(key, entry);
             }
-            let Some((mesh_index, closed)) = self.built[&key] else { continue };
-            let material = self.material(&p.material(), closed, key)?;
+            let Some((mesh_index, shape)) = self.built[&key] else { continue };
+            let material = self.material(&p.material(), shape, key)?;
             let name = node.name().map_or_else(|| format!("node {n}"), |s| format!("node {n} \"{s}\""));
             self.instances.push(Instance {
                 name: Some(format!("{}{name}", self.options.label)),
@@ -87,7 +88,7 @@ impl<'a> Builder<'a> {
         src: &accessor::Source,
         mesh: &gltf::Mesh,
         p: &gltf::Primitive,
-    ) -> Result<Option<(usize, bool)>, GltfError> {
+    ) -> Result<Option<(usize, Shape)>, GltfError> {
         let at = format!("/meshes/{}/primitives/{}", mesh.index(), p.index());
         if p.morph_targets().len() > 0 {
             self.ignored.add("morph targets (drawn in the base shape)", format!("{at}/targets"));
@@ -99,20 +100,28 @@ impl<'a> Builder<'a> {
                 return Ok(None);
             }
         };
+        if let Some(a) = p.get(&gltf::mesh::Semantic::Positions) {
+            super::limits::check_mesh(self.path, a.index(), &built)?;
+        }
         let closed = built.check_closed_oriented().is_ok() && built.signed_volume() > 0.0;
+        let shape = match closed {
+            false => Shape::Open,
+            true if thickness_voxels(&built, self.options.voxel_res) < MIN_TABLE_VOXELS => Shape::Thin,
+            true => Shape::Solid,
+        };
         let mut name = format!("{}mesh {} primitive {}", self.options.label, mesh.index(), p.index());
         if let Some(s) = mesh.name() {
             name.push_str(&format!(" \"{s}\""));
         }
         let spec = MeshSpec::Gltf { path: self.path.to_path_buf(), mesh: mesh.index(), primitive: p.index() };
         self.meshes.push(SceneMesh { name, spec, mesh: built, wobble: None });
-        Ok(Some((self.meshes.len() - 1, closed)))
+        Ok(Some((self.meshes.len() - 1, shape)))
     }
 
     fn material(
         &mut self,
         m: &gltf::Material,
-        closed: bool,
+        shape: Shape,
         mesh: (usize, usize),
     ) -> Result<usize, GltfError> {
         if !self.looks.contains_key(&m.index()) {
@@ -120,16 +129,29 @@ impl<'a> Builder<'a> {
             self.looks.insert(m.index(), look);
         }
         let look = &self.looks[&m.index()];
-        if look.volume.is_some() && !closed {
-            let at = format!("/meshes/{}/primitives/{}", mesh.0, mesh.1);
-            self.ignored.add("KHR_materials_volume on open meshes (opaque, dimmed by thicknessFactor)", at);
-        }
-        if let Some(&i) = self.used.get(&(m.index(), closed)) {
+        let at = format!("/meshes/{}/primitives/{}", mesh.0, mesh.1);
+        let shape = match (look.volume.is_some(), shape) {
+            (true, Shape::Open) => {
+                let kind = "KHR_materials_volume on open meshes (opaque, dimmed by thicknessFactor)";
+                self.ignored.add(kind, at);
+                shape
+            }
+            (true, Shape::Thin) => {
+                let kind = "KHR_materials_volume on closed meshes too thin for a thickness table \
+                            (under 2 voxels thick: opaque, dimmed by thicknessFactor)";
+                self.ignored.add(kind, format!("{at} (voxel_res {})", self.options.voxel_res));
+                shape
+            }
+            // Without a volume the shape changes nothing: one material for every closed mesh.
+            (false, Shape::Thin) => Shape::Solid,
+            (_, shape) => shape,
+        };
+        if let Some(&i) = self.used.get(&(m.index(), shape)) {
             return Ok(i);
         }
-        self.materials.push(look.material(closed, self.options.voxel_res, self.path));
+        self.materials.push(look.material(shape, self.options.voxel_res, self.path));
         let i = self.materials.len() - 1;
-        self.used.insert((m.index(), closed), i);
+        self.used.insert((m.index(), shape), i);
         Ok(i)
     }
 
@@ -153,3 +175,28 @@ impl<'a> Builder<'a> {
         Ok(())
     }
 }
+
+/// How thick, in voxels of its thickness table at `voxel_res` (the box's longest side / `voxel_res`),
+/// a closed mesh is at most: the thinnest side of its box, or 6·V/A (V its volume, A its area),
+/// which is the side of a cube, the diameter of a ball and 3× the thickness of a thin sheet, so it
+/// also sees thin meshes turned diagonally in their box.
+fn thickness_voxels(mesh: &Mesh, voxel_res: u32) -> f64 {
+    let (lo, hi) = mesh.bounds();
+    let voxel = (hi - lo).max_element() / voxel_res as f64;
+    let area: f64 = (0..mesh.triangle_count())
+        .map(|t| {
+            let [a, b, c] = mesh.triangle(t).map(|i| mesh.position(i));
+            (b - a).cross(c - a).length() / 2.0
+        })
+        .sum();
+    let thickness = (hi - lo).min_element().min(6.0 * mesh.signed_volume() / area);
+    thickness / voxel
+}
+
+/// A closed mesh with a volume material gets a thickness table only when it is at least this many
+/// voxels thick (`thickness_voxels`). The table is sampled at voxel corners: a solid under √3
+/// voxels may hold no corner at all (the bake then fails), and its thickness is read reliably only
+/// beyond the ~1.8-voxel error band of the surface (`effects::thickness_lut`), so a solid under 2
+/// voxels thick is all error band. Such a mesh (a glass pane, a rod) is drawn as glTF states its
+/// thickness instead, like an open mesh: opaque, dimmed by e^(−σ·thicknessFactor).
+pub const MIN_TABLE_VOXELS: f64 = 2.0;

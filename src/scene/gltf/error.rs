@@ -45,8 +45,25 @@ impl From<GltfError> for SceneError {
     }
 }
 
+/// The gltf crate names an extension member by its Rust field in camelCase
+/// (`extensions.khrLightsPunctual`, `extensions.volume`), not as the file spells it: the names the
+/// crate can report (gltf-json 1.4, every extension it knows) and their real ones.
+const EXTENSION_FIELDS: &[(&str, &str)] = &[
+    ("khrLightsPunctual", "KHR_lights_punctual"),
+    ("khrMaterialsVariants", "KHR_materials_variants"),
+    ("textureTransform", "KHR_texture_transform"),
+    ("pbrSpecularGlossiness", "KHR_materials_pbrSpecularGlossiness"),
+    ("unlit", "KHR_materials_unlit"),
+    ("transmission", "KHR_materials_transmission"),
+    ("volume", "KHR_materials_volume"),
+    ("specular", "KHR_materials_specular"),
+    ("ior", "KHR_materials_ior"),
+    ("emissiveStrength", "KHR_materials_emissive_strength"),
+];
+
 /// The gltf crate's validation path (`meshes[3].primitives[0].attributes["POSITION"]`, possibly
-/// ending in ` = "value"`) as a JSON pointer (`/meshes/3/primitives/0/attributes/POSITION`).
+/// ending in ` = "value"`) as a JSON pointer (`/meshes/3/primitives/0/attributes/POSITION`), with
+/// the members of `extensions` under their names in the file (`EXTENSION_FIELDS`).
 pub(super) fn pointer_from_crate_path(path: &str) -> String {
     let path = path.split(" = ").next().unwrap_or(path);
     let mut out = String::new();
@@ -54,6 +71,11 @@ pub(super) fn pointer_from_crate_path(path: &str) -> String {
     let mut chars = path.chars().peekable();
     let flush = |out: &mut String, token: &mut String| {
         if !token.is_empty() {
+            if out.ends_with("/extensions") {
+                if let Some((_, name)) = EXTENSION_FIELDS.iter().find(|(field, _)| *field == token.as_str()) {
+                    *token = (*name).to_owned();
+                }
+            }
             out.push('/');
             // RFC 6901: `~` and `/` inside a token are escaped.
             out.push_str(&token.replace('~', "~0").replace('/', "~1"));
@@ -99,6 +121,18 @@ mod tests {
         assert_eq!(p, "/extensionsRequired/0");
         assert_eq!(pointer_from_crate_path("nodes[1].children[0]"), "/nodes/1/children/0");
         assert_eq!(pointer_from_crate_path(""), "");
+    }
+
+    #[test]
+    fn extension_members_keep_the_names_of_the_file() {
+        let p = pointer_from_crate_path("extensions.khrLightsPunctual.lights[0].spot");
+        assert_eq!(p, "/extensions/KHR_lights_punctual/lights/0/spot");
+        let p = pointer_from_crate_path("nodes[2].extensions.khrLightsPunctual.light");
+        assert_eq!(p, "/nodes/2/extensions/KHR_lights_punctual/light");
+        let p = pointer_from_crate_path("materials[1].extensions.volume.thicknessTexture.index");
+        assert_eq!(p, "/materials/1/extensions/KHR_materials_volume/thicknessTexture/index");
+        // Only members of `extensions` are renamed.
+        assert_eq!(pointer_from_crate_path("materials[1].volume"), "/materials/1/volume");
     }
 
     #[test]

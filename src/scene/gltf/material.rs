@@ -18,6 +18,15 @@ pub const MIN_SIGMA: f64 = 1e-12;
 /// infinite; e^(−σd) at d is then 1e-12, black in any image.
 pub const MIN_ATTENUATION_COLOR: f64 = 1e-12;
 
+/// What a mesh is to a volume material: a solid with a thickness table, a closed mesh too thin for
+/// one (`builder::MIN_TABLE_VOXELS`), or an open mesh (no thickness of hadou's own).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(super) enum Shape {
+    Solid,
+    Thin,
+    Open,
+}
+
 /// How one glTF material is drawn, before it is tied to a mesh.
 #[derive(Clone, Debug)]
 pub(super) struct Look {
@@ -100,22 +109,25 @@ pub fn sigma(c: f64, d: f64) -> f64 {
 }
 
 impl Look {
-    /// The hadou material for a mesh that is `closed` (a solid the thickness tables can measure)
-    /// or not. A volume on an open mesh has no thickness of hadou's own: it is drawn opaque with
-    /// the albedo dimmed by e^(−σ·thicknessFactor), the light left after crossing the thickness
-    /// glTF states.
-    pub fn material(&self, closed: bool, voxel_res: u32, file: &Path) -> Material {
+    /// The hadou material for a mesh of `shape`: a solid the thickness tables can measure gets a
+    /// translucent material. A volume on an open mesh, or on a closed one too thin for a table,
+    /// has no thickness of hadou's own: it is drawn opaque with the albedo dimmed by
+    /// e^(−σ·thicknessFactor), the light left after crossing the thickness glTF states.
+    pub fn material(&self, shape: Shape, voxel_res: u32, file: &Path) -> Material {
         let voxel_res_at =
             format!("{}: {} (KHR_materials_volume; voxel_res {voxel_res})", file.display(), self.at);
         match self.volume {
-            Some((sigma, _)) if closed => Material {
+            Some((sigma, _)) if shape == Shape::Solid => Material {
                 name: self.name.clone(),
                 kind: MaterialKind::Translucent { sigma, voxel_res, thickness: ThicknessMode::Lut },
                 albedo: self.albedo,
                 voxel_res_at,
             },
             Some((sigma, t)) => Material {
-                name: format!("{} (open mesh: opaque)", self.name),
+                name: match shape {
+                    Shape::Thin => format!("{} (too thin for a thickness table: opaque)", self.name),
+                    _ => format!("{} (open mesh: opaque)", self.name),
+                },
                 kind: MaterialKind::Lambert,
                 albedo: self.albedo * DVec3::from_array(sigma.to_array().map(|s| (-s * t).exp())),
                 voxel_res_at: String::new(),

@@ -12,6 +12,7 @@ mod document;
 mod error;
 mod ignored;
 mod lights;
+mod limits;
 mod material;
 mod nodes;
 mod primitive;
@@ -22,8 +23,10 @@ use std::path::{Path, PathBuf};
 
 use glam::DVec3;
 
+pub use builder::MIN_TABLE_VOXELS;
 pub use error::GltfError;
 pub use ignored::Ignored;
+pub use limits::MAX_WORLD;
 pub use material::{sigma, MIN_ATTENUATION_COLOR, MIN_SIGMA};
 pub use nodes::MAX_DEPTH;
 pub(crate) use scene::build_primitive;
@@ -110,7 +113,13 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
             }
         };
         if let Some(mesh) = node.mesh() {
+            let first = b.instances.len();
             b.node_mesh(&src, node, &mesh, ops, world)?;
+            for inst in &b.instances[first..] {
+                let m = &b.meshes[inst.mesh];
+                let bounds = m.mesh.bounds();
+                limits::check_instance(path, &hierarchy, n, &options.base, bounds, &world, &m.name)?;
+            }
         }
         if let Some(cam) = node.camera() {
             cameras.push((n, cam, world));

@@ -81,11 +81,15 @@ pub(super) fn perspective(
 
 /// A camera looking at the centre of `bounds` from `FRAMING_DIRECTION`, far enough that the
 /// bounding sphere fits the vertical field of view (and the horizontal one when the image is at
-/// least as wide as it is high).
+/// least as wide as it is high). The sphere is the bounds' own wherever they are: content far from
+/// the origin fills the frame as it does at the origin (its vertices are placed to within f32's
+/// 2⁻²⁴ of their distance from the origin, docs/scene-format.md "Numeric limits").
 pub fn framing(bounds: Option<(DVec3, DVec3)>) -> Camera {
     let (lo, hi) = bounds.unwrap_or((DVec3::splat(-1.0), DVec3::splat(1.0)));
     let centre = (lo + hi) / 2.0;
-    let radius = ((hi - lo).length() / 2.0).max(1e-3 * centre.length()).max(1e-6);
+    // At least the smallest instance size glTF content may have (`limits`); a point (a TOML scene
+    // of metaballs or waves alone gives no bounds) still gets a camera that is not at its centre.
+    let radius = ((hi - lo).length() / 2.0).max(1e-6);
     let distance = radius / (FRAMING_FOV_DEG.to_radians() / 2.0).sin();
     let position = centre + FRAMING_DIRECTION.normalize() * distance;
     Camera {
@@ -120,5 +124,14 @@ mod tests {
             assert!(z > c.near && z < c.far);
             assert!(v.dot(b.up).abs() <= z * tan && v.dot(b.right).abs() <= z * tan);
         }
+    }
+
+    #[test]
+    fn framing_does_not_zoom_out_with_the_distance_from_the_origin() {
+        let near = framing(Some((DVec3::splat(-0.5), DVec3::splat(0.5))));
+        let shift = DVec3::new(1e6, 0.0, 0.0);
+        let far = framing(Some((DVec3::splat(-0.5) + shift, DVec3::splat(0.5) + shift)));
+        assert!(((far.position - shift) - near.position).length() < 1e-9);
+        assert_eq!((far.near, far.far), (near.near, near.far));
     }
 }
