@@ -185,7 +185,8 @@ mod cli {
         assert_eq!(raster[0].as_array().unwrap().len(), 4, "{v}");
         assert!(v["samples"]["cpu frame"]["runs"][0][3].as_f64().unwrap() > 0.0);
 
-        // This binary against itself, two rounds: pooled runs in both files, and a verdict.
+        // This binary against itself, two rounds: pooled runs in both files, and a verdict. Two
+        // rounds of 4 frames give 8 a side, above the 6 a 95 % interval needs (fewer cannot pass).
         let (a, b) = (dir.join("a.json"), dir.join("b.json"));
         let bin = env!("CARGO_BIN_EXE_hadou");
         let out = hadou(&[
@@ -194,7 +195,7 @@ mod cli {
             "--size",
             "32x32",
             "--frames",
-            "3",
+            "4",
             "--warmup",
             "1",
             "--ab",
@@ -210,7 +211,7 @@ mod cli {
         ]);
         assert_eq!(out.status.code(), Some(0), "{}", text(&out));
         assert!(
-            text(&out).contains("2 rounds of 3 frames each, interleaved")
+            text(&out).contains("2 rounds of 4 frames each, interleaved")
                 && text(&out).contains("gate: pass")
         );
         for f in [&a, &b] {
