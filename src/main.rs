@@ -8,6 +8,10 @@ use clap::Parser;
 
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    // SIGINT/SIGTERM remove this run's output temporaries before it exits (130/143).
+    if let Err(e) = hadou::output::interrupt::install() {
+        log::warn!("cannot handle SIGINT/SIGTERM ({e}); an interrupted write may leave a .tmp file");
+    }
     let args = cli::Cli::parse();
     let error_code = args.error_code();
     match cli::run(args) {

@@ -9,7 +9,10 @@
 //!   `.NAME.PID.tmp` beside its target first; only when all are written are they renamed into
 //!   place. A failed write removes every temporary and replaces nothing. Temporaries left by a
 //!   killed process (whose PID is gone) are removed the next time that target is written.
+//! - SIGINT and SIGTERM remove this process's temporaries before it exits (`interrupt`), and a
+//!   set is never half renamed by them.
 
+pub mod interrupt;
 mod memory;
 
 use std::io::{ErrorKind, Write};
@@ -139,9 +142,9 @@ fn check_writable(path: &Path, target: &Path) -> Result<(), OutputError> {
         return Err(refused(path, format!("{} is not a folder", existing.display())));
     }
     let probe = temp_path(&existing.join(target.file_name().unwrap_or_default()));
-    std::fs::File::create(&probe)
+    interrupt::create_temporary(&probe)
         .map_err(|e| refused(path, format!("cannot create a file in {}: {e}", existing.display())))?;
-    let _ = std::fs::remove_file(&probe);
+    interrupt::remove_temporary(&probe);
     Ok(())
 }
 
@@ -206,22 +209,27 @@ impl OutputSet {
         std::fs::create_dir_all(dir).map_err(io_error(path))?;
         remove_stale_temps(dir, &target.file_name().unwrap_or_default().to_string_lossy());
         let tmp = temp_path(&target);
-        let written = std::fs::File::create(&tmp).and_then(|mut f| {
+        // Registered for removal on SIGINT/SIGTERM from before it exists (`interrupt`).
+        let written = interrupt::create_temporary(&tmp).and_then(|mut f| {
             f.write_all(bytes)?;
             f.sync_all()
         });
         if let Err(e) = written {
-            let _ = std::fs::remove_file(&tmp);
+            interrupt::remove_temporary(&tmp);
             return Err(io_error(path)(e));
         }
         self.staged.push(Staged { path: path.to_path_buf(), target, tmp });
+        test_pause_after_stage();
         Ok(())
     }
 
-    /// Renames every temporary over its target.
+    /// Renames every temporary over its target. The interrupt cleanup waits until all are
+    /// renamed (or the first failure): a signal never leaves half a set in place.
     pub fn commit(mut self) -> Result<(), OutputError> {
+        let mut registry = interrupt::registry();
         while let Some(s) = self.staged.first() {
             std::fs::rename(&s.tmp, &s.target).map_err(io_error(&s.path))?;
+            interrupt::forget(&mut registry, &s.tmp);
             self.staged.remove(0);
         }
         Ok(())
@@ -231,9 +239,19 @@ impl OutputSet {
 impl Drop for OutputSet {
     fn drop(&mut self) {
         for s in &self.staged {
-            let _ = std::fs::remove_file(&s.tmp);
+            interrupt::remove_temporary(&s.tmp);
         }
     }
+}
+
+/// For tests only: `HADOU_TEST_STAGE_PAUSE_MS=N` sleeps N ms (at most a minute) after each
+/// output's temporary is written, so that a test can interrupt a command while its temporaries
+/// exist (tests/interrupts.rs). Unset in any real use.
+fn test_pause_after_stage() {
+    let Some(ms) = std::env::var("HADOU_TEST_STAGE_PAUSE_MS").ok().and_then(|v| v.parse::<u64>().ok()) else {
+        return;
+    };
+    std::thread::sleep(std::time::Duration::from_millis(ms.min(60_000)));
 }
 
 /// Writes `bytes` to `path` as a set of one: via a temporary in the same folder.
@@ -454,6 +472,29 @@ mod tests {
         write_atomically(&dir.join("a.png"), b"png").unwrap();
         assert!(!dead.exists() && !dead_numbered.exists());
         assert!(live.exists() && other.exists(), "a live writer's and another target's are kept");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn temporaries_are_registered_for_the_interrupt_cleanup_until_renamed_or_removed() {
+        let dir = tmp_dir("registry");
+        let registered = |p: &Path| interrupt::registry().iter().any(|t| t == p);
+        let a = dir.join("a.png");
+        let tmp = temp_path(&std::fs::canonicalize(&dir).unwrap().join("a.png"));
+        let mut set = OutputSet::default();
+        set.stage(&a, b"a").unwrap();
+        assert!(tmp.exists() && registered(&tmp));
+        set.commit().unwrap();
+        assert!(!tmp.exists() && !registered(&tmp));
+        let mut set = OutputSet::default();
+        set.stage(&a, b"b").unwrap();
+        assert!(registered(&tmp));
+        drop(set);
+        assert!(!tmp.exists() && !registered(&tmp));
+        assert_eq!(std::fs::read(&a).unwrap(), b"a");
+        // The probe of `check_outputs` too.
+        check_outputs(&[dir.join("b.png").as_path()], &[]).unwrap();
+        assert!(!interrupt::registry().iter().any(|t| t.starts_with(&dir)));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
