@@ -21,8 +21,9 @@ pub(super) const BUDGET_VAR: &str = "HADOU_GLTF_BUDGET";
 /// What one glTF file may cost, checked from the counts it declares before anything is decoded
 /// or allocated (docs/scene-format.md, "glTF budgets"). Meshes are counted once per use (per node
 /// that draws them): that is what is drawn, and per use is what a file of many nodes sharing one
-/// accessor costs. The defaults are far above real assets and keep the worst accepted file
-/// within about 1.5 GiB of host memory and seconds of decoding.
+/// accessor costs. The defaults are far above real assets and keep the worst accepted file at
+/// about 1 GiB of host memory at the peak (the bytes given below; indices are held up to three
+/// times while a primitive becomes a triangle list) and seconds of decoding.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Budget {
     /// Decoded vertices: each drawn primitive's POSITION count, plus 3 per triangle when it gets
@@ -41,7 +42,7 @@ pub(super) struct Budget {
     pub instances: u64,
     /// Transform steps over all nodes of the shown scene and all instances (each keeps its own
     /// copy of its node's and every ancestor's steps): 2²⁰ = 1,048,576, ≤ 136 MiB at 136 bytes a
-    /// step. Without it 65,536 instances 1024 levels deep would hold 2·10⁸ steps (27 GiB).
+    /// step. Without it 65,536 instances 1024 levels deep would hold 2·10⁸ steps (25 GiB).
     pub steps: u64,
 }
 
