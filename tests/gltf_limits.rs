@@ -148,6 +148,7 @@ fn framing_frames_the_content_wherever_it_is() {
     for x in [1e5, 1e6] {
         let far = covered(&at(x));
         let ratio = far as f64 / home as f64;
+        println!("x = {x:e}: {far} covered pixels, {home} at the origin");
         // f32 places a vertex at 1e6 to within 0.06 (a unit cube's edges move by up to that).
         assert!((0.8..1.25).contains(&ratio), "at x = {x:e}: {far} pixels against {home} at the origin");
     }
