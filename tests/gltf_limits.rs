@@ -119,10 +119,8 @@ fn a_placed_gltf_keeps_the_limits_in_a_toml_scene() {
     std::fs::write(&toml, "[[gltf]]\npath = \"unit.glb\"\ntransform = [{ translate = [1e16, 0, 0] }]\n")
         .unwrap();
     let e = load_error(&toml);
-    assert!(
-        e.contains("scene.toml:2:8") && e.contains("gltf 1 `path`") && e.contains("[[gltf]] `transform`"),
-        "{e}"
-    );
+    // At the TOML's `transform`, the step that took the instance out.
+    assert!(e.contains("scene.toml:3:1: gltf 1 `transform`: ") && e.contains("reaches 1e16"), "{e}");
 }
 
 /// Covered pixels (finite depth) of `glb` rendered by the CLI at 64×64 with its framing camera.

@@ -9,7 +9,7 @@ use super::error::SceneError;
 use super::file::{transform, Materials, MAX_HDR, MAX_LIGHTS};
 use super::file_check::{Ctx, Owner};
 use super::file_schema::{GltfDef, Tables};
-use super::gltf::{import, GltfCamera, ImportOptions};
+use super::gltf::{import, placed_by_transform, GltfCamera, ImportOptions};
 use super::model::{DirectionalLight, Instance, SceneMesh, DEFAULT_VOXEL_RES, MAX_VOXEL_RES, MIN_VOXEL_RES};
 
 /// What the placed files bring besides geometry.
@@ -48,8 +48,13 @@ pub(super) fn gltf_files(
         let voxel_res =
             o.count("voxel_res", d.voxel_res.as_ref(), DEFAULT_VOXEL_RES, MIN_VOXEL_RES, MAX_VOXEL_RES)?;
         let options = ImportOptions { base, label: format!("{label}: "), voxel_res, ambient };
-        let imp =
-            import(&file, &options).map_err(|e| ctx.err(path.span(), format!("{label} `path`: {e}")))?;
+        // An instance the `transform` takes out of the numeric limits is placed at the `transform`.
+        let imp = import(&file, &options).map_err(|e| match d.transform.as_ref() {
+            Some(t) if placed_by_transform(&e) => {
+                ctx.err(ctx.key_start(&t.span())..t.span().end, format!("{label} `transform`: {e}"))
+            }
+            _ => ctx.err(path.span(), format!("{label} `path`: {e}")),
+        })?;
         imp.ignored.warn(&file);
         let (mesh_offset, material_offset) = (meshes.len(), materials.list.len());
         meshes.extend(imp.meshes);

@@ -35,6 +35,15 @@ fn show_computed(v: f64) -> String {
     }
 }
 
+/// Marks a refusal caused by the `[[gltf]]` `transform` of a TOML scene (`placed_by_transform`).
+const BY_TRANSFORM: &str = ", placed by the [[gltf]] `transform`,";
+
+/// True for a refusal of `check_instance` whose culprit is the `[[gltf]]` `transform` (the TOML
+/// scene places the error at that `transform`, not at the file's `path`).
+pub(crate) fn placed_by_transform(e: &GltfError) -> bool {
+    e.message.contains(BY_TRANSFORM)
+}
+
 /// A number as the messages show it: plain, or in exponent form outside [1e-4, 1e9).
 fn show(v: f64) -> String {
     let a = v.abs();
@@ -195,7 +204,7 @@ pub(super) fn check_instance(
     }
     let (pointer, by) = match culprit.map(|k| steps[k]) {
         Some((Some(i), op)) => (format!("/nodes/{i}/{}", field(op)), String::new()),
-        Some((None, _)) => (format!("/nodes/{n}"), ", placed by the [[gltf]] `transform`,".to_owned()),
+        Some((None, _)) => (format!("/nodes/{n}"), BY_TRANSFORM.to_owned()),
         None => (format!("/nodes/{n}"), String::new()),
     };
     let message = match found {

@@ -26,6 +26,7 @@ use glam::DVec3;
 pub use builder::MIN_TABLE_VOXELS;
 pub use error::GltfError;
 pub use ignored::Ignored;
+pub(crate) use limits::placed_by_transform;
 pub use limits::MAX_WORLD;
 pub use material::{sigma, MIN_ATTENUATION_COLOR, MIN_SIGMA};
 pub use nodes::MAX_DEPTH;
