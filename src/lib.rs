@@ -46,6 +46,7 @@ pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};
 
 /// Everything the library can fail with.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// The device, the driver, a shader or a GPU limit.
     #[error(transparent)]

@@ -22,6 +22,7 @@ use std::path::{Component, Path, PathBuf};
 use crate::aov::AovImage;
 
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum OutputError {
     // `error` is not a `source`: the message already holds the OS text, and a chain printer
     // (anyhow's `{:#}`) would repeat it.

@@ -132,6 +132,7 @@ impl std::fmt::Display for Side {
 
 /// Why two series cannot be compared: the gate cannot judge them, which is never a pass.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum DiffError {
     /// `GateOptions` out of range.
     #[error("{0}")]

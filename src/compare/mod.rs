@@ -127,6 +127,7 @@ fn fmt(v: f64) -> String {
 
 /// Why a comparison could not be made.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum CompareError {
     /// A file that cannot be read or decoded.
     #[error("{}: {message}", path.display())]

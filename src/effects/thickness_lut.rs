@@ -91,6 +91,7 @@ pub const FIELD_FORMAT: &str = "R8_SNORM (four per 32-bit texel of a uniform tex
 
 /// What the bake can fail with. Each message names the limit involved.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum BakeError {
     #[error(transparent)]
     Voxelize(#[from] VoxelizeError),

@@ -30,6 +30,7 @@ pub const MAX_VOXEL_RES: u32 = 256;
 
 /// Why a mesh could not be voxelized.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum VoxelizeError {
     #[error("voxel resolution {res} is out of range (expected 1..={MAX_VOXEL_RES})")]
     Resolution { res: u32 },

@@ -4,6 +4,7 @@ use ash::vk;
 
 /// Why a GPU operation failed; each message says what to install or change where it can.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum GpuError {
     /// The Vulkan loader library could not be loaded (the loader's error text).
     #[error(

@@ -174,6 +174,7 @@ impl Report {
 
 /// Errors of the report: measurement (the library's), or the output folder.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ReportError {
     #[error(transparent)]
     Hadou(#[from] crate::Error),

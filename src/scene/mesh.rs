@@ -110,6 +110,7 @@ pub enum MeshSpec {
 
 /// Why a mesh could not be built or loaded. Each variant's message names where the problem is.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum MeshError {
     /// An OBJ file could not be read.
     #[error("cannot read {}: {source}", path.display())]

@@ -23,6 +23,7 @@ pub enum TransformOp {
 
 /// Why a transform was refused.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum TransformError {
     /// A rotation axis of zero length.
     #[error("rotation axis has zero length (expected a non-zero vector)")]
