@@ -17,7 +17,10 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {}", message(&e));
+            // File names reach the terminal escaped (a name may hold an escape sequence); the
+            // message's own line breaks stay.
+            let text: Vec<String> = message(&e).split('\n').map(cli::escape_controls).collect();
+            eprintln!("error: {}", text.join("\n"));
             error_code
         }
     }

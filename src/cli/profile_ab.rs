@@ -11,7 +11,7 @@ use hadou::output::OutputSet;
 use hadou::profile_diff::RunSamples;
 
 use super::profile::ProfileArgs;
-use super::profile_diff::{gate_table, ProfileFile};
+use super::profile_diff::{gate, ProfileFile};
 
 /// Runs one side's `profile` once, into `json`.
 fn run_once(binary: &Path, args: &ProfileArgs, json: &Path) -> anyhow::Result<()> {
@@ -91,9 +91,14 @@ pub fn run(args: &ProfileArgs, other: &Path) -> anyhow::Result<ExitCode> {
         args.rounds,
         args.frames
     );
-    let (table, slower) = gate_table(&a.samples, &b.samples, &opts, args.gate.include_cpu);
-    print!("{table}");
-    Ok(if slower { ExitCode::from(1) } else { ExitCode::SUCCESS })
+    let gate = gate(&a.samples, &b.samples, &opts, args.gate.include_cpu);
+    print!("{}", gate.table);
+    // A row the gate cannot judge (a pass missing from one side, too few frames) is an error
+    // (exit 2), as in profile-diff, not "slower".
+    if !gate.unjudged.is_empty() {
+        anyhow::bail!("the gate cannot judge {}: {}", other.display(), gate.unjudged.join("; "));
+    }
+    Ok(if gate.slower.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(1) })
 }
 
 fn rounds(args: &ProfileArgs, this: &Path, other: &Path, dir: &Path) -> anyhow::Result<(Side, Side)> {

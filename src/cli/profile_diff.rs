@@ -171,19 +171,6 @@ pub struct Gate {
     pub unjudged: Vec<String>,
 }
 
-/// The comparison table and whether the gate fails: a gated row slower beyond the threshold, or
-/// one it cannot judge (see `gate`).
-pub fn gate_table(
-    base: &BTreeMap<String, RunSamples>,
-    new: &BTreeMap<String, RunSamples>,
-    opts: &GateOptions,
-    include_cpu: bool,
-) -> (String, bool) {
-    let g = gate(base, new, opts, include_cpu);
-    let failed = !g.slower.is_empty() || !g.unjudged.is_empty();
-    (g.table, failed)
-}
-
 /// Compares every row. Gated rows are the GPU rows (and the CPU rows with `include_cpu`) of the
 /// base: each must be in the candidate with enough timed frames on both sides (a renamed or
 /// missing pass, an empty run, too few frames cannot pass). A row only in the candidate has no

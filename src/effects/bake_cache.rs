@@ -221,11 +221,8 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("lut");
     let tmp = path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()));
-    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    // Registered, so SIGINT/SIGTERM during a bake's store removes it (output::interrupt).
+    crate::output::interrupt::write_through_temporary(&tmp, bytes, path)
 }
 
 /// Serializes `lut` (see the module documentation for the layout).

@@ -65,6 +65,26 @@ pub(crate) fn remove_temporary(path: &Path) {
     forget(&mut list, path);
 }
 
+/// Writes `bytes` to the registered temporary `tmp`, then renames it to `dest` under the
+/// registry's lock (so an interrupt removes the temporary or finds it renamed, never half of
+/// each); on failure the temporary is removed. For files outside an `OutputSet` (cache files).
+pub(crate) fn write_through_temporary(tmp: &Path, bytes: &[u8], dest: &Path) -> std::io::Result<()> {
+    use std::io::Write;
+    let written = create_temporary(tmp).and_then(|mut f| f.write_all(bytes));
+    let renamed = written.and_then(|()| {
+        let mut list = registry();
+        let renamed = std::fs::rename(tmp, dest);
+        if renamed.is_ok() {
+            forget(&mut list, tmp);
+        }
+        renamed
+    });
+    if renamed.is_err() {
+        remove_temporary(tmp);
+    }
+    renamed
+}
+
 /// Forgets `path` in a locked registry (after renaming it into place).
 pub(crate) fn forget(list: &mut MutexGuard<'static, Vec<PathBuf>>, path: &Path) {
     if let Some(i) = list.iter().rposition(|p| p == path) {
