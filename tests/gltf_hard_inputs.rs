@@ -288,3 +288,23 @@ fn a_scene_lists_each_root_node_once() {
     let e = err(&w.write_glb(&dir, "twice"));
     assert!(e.contains("/scenes/0/nodes/2: node 0 is listed twice, first at /scenes/0/nodes/0"), "{e}");
 }
+
+#[test]
+fn a_scenes_gltf_files_share_one_budget() {
+    // Two `[[gltf]]` tables place the same file of three instances: each alone is within a budget
+    // of five instances, together they are not (else many files, each just within the budget,
+    // could add up to any total).
+    let dir = scratch("gltf-hard-scene");
+    hierarchy(true, true, None).write_glb(&dir, "h");
+    let scene = dir.join("two.toml");
+    let table = |x: f64| format!("[[gltf]]\npath = \"h.glb\"\ntransform = [{{ translate = [{x}, 0, 0] }}]\n");
+    std::fs::write(&scene, format!("{}\n{}", table(0.0), table(10.0))).unwrap();
+    let var = "HADOU_GLTF_BUDGET";
+    assert_refused(&scene, &[(var, "instances=5")], &["gltf 2", "6 instances", "earlier glTF files"]);
+    let png = dir.join("two.png");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
+    cmd.args(["render", s(&scene), "-o", s(&png), "--size", "32x32"]);
+    cmd.env("HADOU_VALIDATION", "1").env(var, "instances=6");
+    let out = output_within(&mut cmd, common::cli::RUN_LIMIT);
+    assert!(out.status.success(), "{}", text(&out));
+}

@@ -9,7 +9,7 @@ use super::error::SceneError;
 use super::file::{transform, Materials, MAX_HDR, MAX_LIGHTS};
 use super::file_check::{Ctx, Owner};
 use super::file_schema::{GltfDef, Tables};
-use super::gltf::{import, placed_by_transform, GltfCamera, ImportOptions};
+use super::gltf::{import, placed_by_transform, GltfCamera, ImportOptions, Spent};
 use super::model::{DirectionalLight, Instance, SceneMesh, DEFAULT_VOXEL_RES, MAX_VOXEL_RES, MIN_VOXEL_RES};
 
 /// What the placed files bring besides geometry.
@@ -31,6 +31,8 @@ pub(super) fn gltf_files(
 ) -> Result<Placed, SceneError> {
     let mut placed = Placed { camera: None, lights: Vec::new() };
     let mut light_sum = ambient;
+    // The scene's files share one decoding budget (docs/scene-format.md, "glTF budgets").
+    let mut spent = Spent::default();
     for (i, def) in defs.0.iter().enumerate() {
         let d = def.get_ref();
         let label = match &d.name {
@@ -47,7 +49,7 @@ pub(super) fn gltf_files(
         let (base, _) = transform(&o, d.transform.as_ref())?;
         let voxel_res =
             o.count("voxel_res", d.voxel_res.as_ref(), DEFAULT_VOXEL_RES, MIN_VOXEL_RES, MAX_VOXEL_RES)?;
-        let options = ImportOptions { base, label: format!("{label}: "), voxel_res, ambient };
+        let options = ImportOptions { base, label: format!("{label}: "), voxel_res, ambient, spent };
         // An instance the `transform` takes out of the numeric limits is placed at the `transform`.
         let imp = import(&file, &options).map_err(|e| match d.transform.as_ref() {
             Some(t) if placed_by_transform(&e) => {
@@ -56,6 +58,7 @@ pub(super) fn gltf_files(
             _ => ctx.err(path.span(), format!("{label} `path`: {e}")),
         })?;
         imp.ignored.warn(&file);
+        spent = imp.spent;
         let (mesh_offset, material_offset) = (meshes.len(), materials.list.len());
         meshes.extend(imp.meshes);
         materials.list.extend(imp.materials);

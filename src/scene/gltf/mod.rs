@@ -30,6 +30,7 @@ pub(crate) use limits::placed_by_transform;
 pub use limits::MAX_WORLD;
 pub use material::{sigma, MIN_ATTENUATION_COLOR, MIN_SIGMA};
 pub use nodes::MAX_DEPTH;
+pub use primitive::Spent;
 pub(crate) use scene::build_primitive;
 pub use scene::{is_gltf, load_gltf, DEFAULT_LIGHT_DIRECTION};
 pub use view::{framing, GltfCamera, FRAMING_DIRECTION, FRAMING_FOV_DEG};
@@ -48,6 +49,8 @@ pub struct ImportOptions {
     pub voxel_res: u32,
     /// The scene's ambient: the lights' sum is kept within the HDR target with it.
     pub ambient: DVec3,
+    /// What earlier glTF files of the same scene drew: they share one budget.
+    pub spent: Spent,
 }
 
 impl Default for ImportOptions {
@@ -57,6 +60,7 @@ impl Default for ImportOptions {
             label: String::new(),
             voxel_res: DEFAULT_VOXEL_RES,
             ambient: super::model::RenderSettings::default().ambient,
+            spent: Spent::default(),
         }
     }
 }
@@ -80,6 +84,8 @@ pub struct GltfImport {
     pub ignored: Ignored,
     /// The glTF file and the buffer files it read (outputs may not replace them).
     pub files: Vec<PathBuf>,
+    /// `ImportOptions::spent` plus what this file draws (for the scene's next file).
+    pub spent: Spent,
 }
 
 /// Reads `path` (.gltf or .glb) into scene parts.
@@ -90,7 +96,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
     note_file_level(doc, &parsed.ignored_required, &mut ignored);
     let buffers = buffers::load(path, doc, &mut parsed.blob)?;
     let hierarchy = nodes::hierarchy(path, doc)?;
-    let (order, other_scenes) = nodes::scene_nodes(path, doc, &hierarchy)?;
+    let (order, other_scenes, spent) = nodes::scene_nodes(path, doc, &hierarchy, options.spent)?;
     for s in other_scenes {
         ignored.add("scenes other than the one shown", s);
     }
@@ -159,6 +165,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
         bounds: Some(bounds),
         ignored: b.ignored,
         files,
+        spent,
     })
 }
 

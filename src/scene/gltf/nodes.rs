@@ -8,7 +8,7 @@ use std::path::Path;
 use glam::{DMat4, DQuat, DVec3, DVec4};
 
 use super::error::GltfError;
-use super::primitive::{self, over_budget, Budget};
+use super::primitive::{self, over_budget, Budget, Spent};
 use crate::scene::transform::TransformOp;
 
 /// Deeper hierarchies are refused: a node's steps are its ancestors' (O(depth) each), and no
@@ -178,7 +178,8 @@ pub(super) fn scene_nodes(
     path: &Path,
     doc: &gltf::Document,
     h: &Hierarchy,
-) -> Result<(Vec<usize>, Vec<String>), GltfError> {
+    spent: Spent,
+) -> Result<(Vec<usize>, Vec<String>, Spent), GltfError> {
     let chosen = doc.default_scene().or_else(|| doc.scenes().next());
     let (roots, others): (Vec<usize>, Vec<String>) = match &chosen {
         Some(s) => {
@@ -214,28 +215,37 @@ pub(super) fn scene_nodes(
         let children: Vec<usize> = nodes[n].children().map(|c| c.index()).collect();
         stack.extend(children.into_iter().rev());
     }
-    check_budget(path, &nodes, h, &order)?;
-    Ok((order, others))
+    let spent = check_budget(path, &nodes, h, &order, spent)?;
+    Ok((order, others, spent))
 }
 
 /// The shown scene's cost against the file's budget, from declared counts only, before the
 /// import decodes or allocates anything for it: every node's transform steps, and per node that
 /// draws a mesh, each drawable primitive's vertices and indices and one instance (a mesh shared by
 /// many nodes counts once per node). Nodes a singular transform will hide are counted too. Stops
-/// at the first use past the budget, so its own time is bounded by the budget as well.
-fn check_budget(path: &Path, nodes: &[gltf::Node], h: &Hierarchy, order: &[usize]) -> Result<(), GltfError> {
+/// at the first use past the budget, so its own time is bounded by the budget as well. `spent`:
+/// what earlier files of the same scene drew (they share the budget); returns the new total.
+fn check_budget(
+    path: &Path,
+    nodes: &[gltf::Node],
+    h: &Hierarchy,
+    order: &[usize],
+    spent: Spent,
+) -> Result<Spent, GltfError> {
     let b = &h.budget;
+    let earlier = if spent == Spent::default() { "" } else { " (with the scene's earlier glTF files)" };
     let mut costs: HashMap<(usize, usize), Option<primitive::Cost>> = HashMap::new();
     // Each node's steps with its ancestors' (what `world_ops` builds): parents come first in
     // `order`, so one pass fills them.
     let mut steps_to = vec![0u64; nodes.len()];
-    let (mut vertices, mut indices, mut instances, mut steps) = (0u64, 0u64, 0u64, 0u64);
+    let Spent { mut vertices, mut indices, mut instances, mut steps } = spent;
     for &n in order {
         let own = h.local[n].len() as u64 + h.parent[n].map_or(0, |p| steps_to[p]);
         steps_to[n] = own;
         steps = steps.saturating_add(own);
         if steps > b.steps {
-            let message = over_budget("transform steps", steps, b.steps, &format!("reached at /nodes/{n}"));
+            let message =
+                over_budget("transform steps", steps, b.steps, &format!("reached at /nodes/{n}{earlier}"));
             return Err(GltfError::at(path, format!("/nodes/{n}"), message));
         }
         let Some(mesh) = nodes[n].mesh() else { continue };
@@ -254,7 +264,8 @@ fn check_budget(path: &Path, nodes: &[gltf::Node], h: &Hierarchy, order: &[usize
             indices = indices.saturating_add(c.indices);
             instances += 1;
             steps = steps.saturating_add(own);
-            let use_of = format!("reached at /meshes/{}/primitives/{} drawn by /nodes/{n}", key.0, key.1);
+            let use_of =
+                format!("reached at /meshes/{}/primitives/{} drawn by /nodes/{n}{earlier}", key.0, key.1);
             for (what, total, most) in [
                 ("vertices", vertices, b.vertices),
                 ("indices", indices, b.indices),
@@ -271,7 +282,7 @@ fn check_budget(path: &Path, nodes: &[gltf::Node], h: &Hierarchy, order: &[usize
             }
         }
     }
-    Ok(())
+    Ok(Spent { vertices, indices, instances, steps })
 }
 
 #[cfg(test)]

@@ -46,6 +46,21 @@ pub(super) struct Budget {
     pub steps: u64,
 }
 
+/// What the glTF files loaded so far into one scene drew, in the budget's terms: a TOML scene's
+/// `[[gltf]]` files share one budget (otherwise a scene of many files, each just within it, could
+/// add up to any total).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Spent {
+    /// Decoded vertices.
+    pub vertices: u64,
+    /// Decoded indices.
+    pub indices: u64,
+    /// Drawn instances.
+    pub instances: u64,
+    /// Transform steps.
+    pub steps: u64,
+}
+
 impl Default for Budget {
     fn default() -> Self {
         Budget { vertices: 1 << 23, indices: 3 << 24, nodes: 1 << 18, instances: 1 << 16, steps: 1 << 20 }
