@@ -109,3 +109,48 @@ fn sigterm_and_sigint_during_render_remove_its_temporaries() {
     }
     interrupt_render("INT", 2);
 }
+
+/// `hadou report` stages its folder as `.NAME.tmp-PID` beside `--out`: SIGTERM while it runs
+/// removes the folder with what it holds, and no report appears.
+#[test]
+fn sigterm_during_report_removes_its_staging_folder() {
+    let dir = scratch("interrupt-report");
+    let out = dir.join("rep");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hadou"))
+        .args(["report", "--quick", "--out", s(&out)])
+        .current_dir(common::root())
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run hadou");
+    let staging = dir.join(format!(".rep.tmp-{}", child.id()));
+    // The folder is made before the GPU starts; the quick report then runs for tens of seconds.
+    // 120 s is a hang guard.
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while !staging.is_dir() {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("report ended ({status}) before its staging folder appeared");
+        }
+        assert!(Instant::now() < deadline, "no staging folder within 120 s");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let sent = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap();
+    assert!(sent.success());
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("report still running 20 s after SIGTERM");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    assert_eq!(status.code(), Some(143), "{status}");
+    assert!(!staging.exists(), "the staging folder was left");
+    assert!(!out.exists(), "a report appeared");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -71,9 +71,11 @@ pub fn run(args: &ProfileArgs, other: &Path) -> anyhow::Result<ExitCode> {
     super::check_outputs(&outputs, &super::scene_inputs(&args.scene, &scene))?;
     let this = std::env::current_exe().context("cannot find this binary's path")?;
     let dir = std::env::temp_dir().join(format!("hadou-ab-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    // Registered: SIGINT/SIGTERM removes it with the runs' files.
+    hadou::output::interrupt::create_temporary_dir(&dir)
+        .with_context(|| format!("cannot create {}", dir.display()))?;
     let result = rounds(args, &this, other, &dir);
-    let _ = std::fs::remove_dir_all(&dir);
+    hadou::output::interrupt::remove_temporary(&dir);
     let (a, b) = result?;
     let mut set = OutputSet::default();
     if let Some(path) = &args.json {

@@ -58,11 +58,31 @@ pub(crate) fn create_temporary(path: &Path) -> std::io::Result<std::fs::File> {
     Ok(file)
 }
 
-/// Removes the temporary `path` and forgets it (best effort: a file already gone is fine).
-pub(crate) fn remove_temporary(path: &Path) {
+/// Removes the temporary `path` (a file, or a folder with what it holds) and forgets it (best
+/// effort: one already gone is fine).
+pub fn remove_temporary(path: &Path) {
     let mut list = registry();
-    let _ = std::fs::remove_file(path);
+    remove_path(path);
     forget(&mut list, path);
+}
+
+/// Creates the temporary folder `path` (and its parents) and registers it, under the registry's
+/// lock: on SIGINT/SIGTERM it is removed with everything in it (a report's staging folder,
+/// `profile --ab`'s runs).
+pub fn create_temporary_dir(path: &Path) -> std::io::Result<()> {
+    let mut list = registry();
+    std::fs::create_dir_all(path)?;
+    list.push(path.to_path_buf());
+    Ok(())
+}
+
+/// Removes a file, or a folder and what it holds; whether something was removed.
+fn remove_path(path: &Path) -> bool {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.is_dir() => std::fs::remove_dir_all(path).is_ok(),
+        Ok(_) => std::fs::remove_file(path).is_ok(),
+        Err(_) => false,
+    }
 }
 
 /// Writes `bytes` to the registered temporary `tmp`, then renames it to `dest` under the
@@ -161,7 +181,7 @@ fn clean_up_and_exit(sig: c_int) -> ! {
     let list = registry();
     let mut removed = 0;
     for path in list.iter() {
-        if std::fs::remove_file(path).is_ok() {
+        if remove_path(path) {
             removed += 1;
         }
     }

@@ -38,7 +38,8 @@ impl Staging {
         if tmp.exists() {
             std::fs::remove_dir_all(&tmp).map_err(|e| io("cannot remove the stale", &tmp, e))?;
         }
-        std::fs::create_dir(&tmp).map_err(|e| io("cannot create", &tmp, e))?;
+        // Registered: SIGINT/SIGTERM removes it (output::interrupt).
+        crate::output::interrupt::create_temporary_dir(&tmp).map_err(|e| io("cannot create", &tmp, e))?;
         Ok(Staging { out: out.to_path_buf(), tmp, committed: false })
     }
 
@@ -70,6 +71,9 @@ impl Staging {
 
     /// Puts the staging folder in place of `out` (replacing an earlier report there).
     pub fn commit(mut self) -> Result<PathBuf, ReportError> {
+        // Both renames under the interrupt registry's lock: SIGINT/SIGTERM is handled before
+        // them (the staging folder removed, the old report kept) or after (the new one in place).
+        let mut registered = crate::output::interrupt::registry();
         let old = self.tmp.with_extension("old");
         if self.out.is_dir() {
             std::fs::rename(&self.out, &old).map_err(|e| io("cannot move aside", &self.out, e))?;
@@ -79,6 +83,8 @@ impl Staging {
             return Err(io("cannot rename the report into", &self.out, e));
         }
         self.committed = true;
+        crate::output::interrupt::forget(&mut registered, &self.tmp);
+        drop(registered);
         if old.exists() {
             let _ = std::fs::remove_dir_all(&old);
         }
@@ -89,7 +95,7 @@ impl Staging {
 impl Drop for Staging {
     fn drop(&mut self) {
         if !self.committed {
-            let _ = std::fs::remove_dir_all(&self.tmp);
+            crate::output::interrupt::remove_temporary(&self.tmp);
         }
     }
 }
