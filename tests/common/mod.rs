@@ -5,6 +5,7 @@
 pub mod cli;
 pub mod gltf_writer;
 pub mod host;
+pub mod mutate;
 pub mod xvfb;
 
 use std::path::{Path, PathBuf};
