@@ -19,7 +19,8 @@ mod load;
 use std::path::{Path, PathBuf};
 
 pub use load::{
-    decode, decode_with, load, load_with, Channel, HdrImage, LdrImage, Loaded, PixelBudget, DEFAULT_MAX_PIXELS,
+    decode, decode_with, load, load_with, Channel, HdrImage, LdrImage, Loaded, PixelBudget,
+    DEFAULT_MAX_PIXELS,
 };
 
 /// The tolerances of one comparison; every default is 0 (bit-exact).
