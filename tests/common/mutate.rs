@@ -314,7 +314,8 @@ pub fn mutate_json_once(text: &str, rng: &mut Rng) -> String {
             if !ints.is_empty() {
                 let p = ints[below(rng, ints.len())].clone();
                 let n = root.pointer(&p).unwrap().as_u64().unwrap();
-                let v = [n + 1, n.saturating_sub(1), 0, 1 << 24, u32::MAX as u64, 255, 65535][below(rng, 7)];
+                let v = [n.saturating_add(1), n.saturating_sub(1), 0, 1 << 24, u32::MAX as u64, 255, 65535]
+                    [below(rng, 7)];
                 *root.pointer_mut(&p).unwrap() = Value::from(v);
             }
         }
