@@ -646,8 +646,8 @@ fn image_seeds(dir: &Path) -> Vec<PathBuf> {
 
 /// PNG and OpenEXR files with mutated headers (dimensions, channel lists, sizes) and bodies,
 /// compared with their seed by `hadou compare` (either side), after the corpus of
-/// tests/data/fuzz/compare (each compared with itself): exit 0 or 1 with a summary, or 2 with an
-/// `error:` naming the file, within the time limit and the memory cap.
+/// tests/data/fuzz/compare (each compared with itself): exit 0 or 1 with a whole heat map, or 2
+/// with an `error:` naming the file and no heat map, within the time limit and the memory cap.
 #[test]
 fn mutated_images_are_compared_or_refused_cleanly() {
     let n = cases();
@@ -698,6 +698,20 @@ fn mutated_images_are_compared_or_refused_cleanly() {
         findings.count(&run);
         if let Err(why) = check_run(&run, &[0, 1, 2], 2, &[&name]) {
             findings.record(&format!("case-{i}"), &[&case], Some(&run), &why);
+            continue;
+        }
+        // The heat map is written whole when the images were compared, and not at all on an error.
+        let heat_ok = match run.code {
+            Some(2) => !heat.exists(),
+            _ => image::open(&heat).is_ok_and(|h| h.width() > 0 && h.height() > 0),
+        };
+        if !heat_ok {
+            findings.record(
+                &format!("case-{i}"),
+                &[&case],
+                Some(&run),
+                "--heatmap missing, unreadable or left on an error",
+            );
             continue;
         }
         let _ = std::fs::remove_dir_all(&dir);
@@ -861,8 +875,8 @@ fn mutated_profiles_are_gated_or_refused_cleanly() {
 }
 
 /// Runs `profile-diff` on `base` and the mutated `text` (as the candidate, or as the baseline)
-/// in `dir`: exit 0 or 1 with a `gate:` line, or 2 with an `error:` naming the file; never a pass
-/// for a broken candidate.
+/// in `dir`: exit 0 with `gate: pass`, 1 with `gate: FAIL`, or 2 with an `error:` naming the file;
+/// never a pass for a broken candidate.
 fn profile_check(
     label: &str,
     dir: &Path,
@@ -881,8 +895,18 @@ fn profile_check(
     if let Err(why) = check_run(&run, &[0, 1, 2], 2, &["case.json"]) {
         return findings.record(label, &inputs, Some(&run), &why);
     }
-    if run.code != Some(2) && !run.stdout.contains("gate:") {
-        return findings.record(label, &inputs, Some(&run), "exit 0/1 without a `gate:` line");
+    let verdict = match run.code {
+        Some(0) => "gate: pass",
+        Some(1) => "gate: FAIL",
+        _ => "",
+    };
+    if !run.stdout.contains(verdict) {
+        return findings.record(
+            label,
+            &inputs,
+            Some(&run),
+            &format!("exit {:?} without `{verdict}`", run.code),
+        );
     }
     if as_candidate && run.code == Some(0) {
         if let Some(why) = broken_candidate(base, text) {
