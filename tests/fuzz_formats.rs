@@ -12,6 +12,10 @@
 //! says `gate: pass` for a candidate without samples in a gated row of the baseline, with fewer
 //! than two in one, or with a negative sample (issue 24, item 4).
 //!
+//! Before the random cases, each property runs inputs that are no regular file (a FIFO nobody
+//! writes, a folder, an empty file, `/dev/zero`; for glTF also a buffer that is a FIFO), which
+//! must be refused, and the corpus of tests/data/fuzz (inputs that once failed).
+//!
 //! Cases are deterministic (`hadou::testing::Rng`, seeded from the case number). Failing inputs
 //! are written to `$HADOU_FUZZ_FINDINGS` (default: a folder under the temp folder, named in the
 //! failure) with the command and its output, so each can be replayed by hand.
@@ -563,6 +567,31 @@ fn gltf_check(
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// Inputs that are no regular file, each named `file_name` in its own folder under `root`: a
+/// FIFO nobody writes (a reader that opens it waits forever), a folder, an empty file; and
+/// `/dev/zero` (endless) when `dev_zero`. Labels and paths.
+fn special_inputs(root: &Path, file_name: &str, dev_zero: bool) -> Vec<(String, PathBuf)> {
+    let mut out = Vec::new();
+    for kind in ["fifo", "folder", "empty"] {
+        let dir = root.join(format!("special-{kind}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(file_name);
+        match kind {
+            "fifo" => {
+                let made = Command::new("mkfifo").arg(&path).status().expect("run mkfifo (coreutils)");
+                assert!(made.success(), "mkfifo {}", path.display());
+            }
+            "folder" => std::fs::create_dir(&path).unwrap(),
+            _ => std::fs::write(&path, b"").unwrap(),
+        }
+        out.push((format!("special-{kind}"), path));
+    }
+    if dev_zero {
+        out.push(("special-dev-zero".into(), PathBuf::from("/dev/zero")));
+    }
+    out
+}
+
 /// The files of tests/data/fuzz/`kind` (inputs that once failed, replayed first every run).
 fn corpus(kind: &str) -> Vec<PathBuf> {
     let dir = common::root().join("tests/data/fuzz").join(kind);
@@ -586,6 +615,18 @@ fn mutated_gltf_files_are_refused_cleanly_or_keep_the_limits() {
     let mut findings = Findings::new("gltf");
     // Rendering costs a second or more per case: a few per run, more in a long run.
     let mut stats = GltfStats { render_budget: (n / 8).max(2), ..GltfStats::default() };
+    // Scenes and a buffer that are no regular file (the glTF's own .bin a FIFO).
+    let special_root = common::cli::scratch("fuzz-gltf-special");
+    let mut specials = special_inputs(&special_root, "case.glb", false);
+    let fifo_bin = special_inputs(&special_root.join("bin"), "case.bin", false).remove(0).1;
+    let with_fifo = fifo_bin.with_file_name("case.gltf");
+    let text = serde_json::to_string(&seeds[0].json(Some("case.bin".into()))).unwrap();
+    std::fs::write(&with_fifo, text).unwrap();
+    specials.push(("special-fifo-buffer".into(), with_fifo));
+    for (label, scene) in &specials {
+        let dir = scene.parent().unwrap().to_path_buf();
+        gltf_check(label, &dir, scene, std::slice::from_ref(scene), &mut findings, &mut stats);
+    }
     let corpus = corpus("gltf");
     for file in &corpus {
         let name = file.file_name().unwrap().to_string_lossy().into_owned();
@@ -601,12 +642,13 @@ fn mutated_gltf_files_are_refused_cleanly_or_keep_the_limits() {
         gltf_check(&format!("case-{i}"), &dir, &scene, &files, &mut findings, &mut stats);
     }
     eprintln!(
-        "gltf: {} corpus files and {n} cases, {} accepted by the loader; renders' exit codes {:?}",
+        "gltf: {} special inputs, {} corpus files and {n} cases, {} accepted by the loader; renders' exit codes {:?}",
+        specials.len(),
         corpus.len(),
         stats.accepted,
         stats.render_codes
     );
-    findings.assert_none(corpus.len() + n);
+    findings.assert_none(specials.len() + corpus.len() + n);
 }
 
 // ------------------------------------------------------------------------------- compare
@@ -654,6 +696,18 @@ fn mutated_images_are_compared_or_refused_cleanly() {
     let seed_dir = common::cli::scratch("fuzz-image-seeds");
     let seeds = image_seeds(&seed_dir);
     let mut findings = Findings::new("compare");
+    // Either side no regular file: refused (exit 2), naming it.
+    let specials = special_inputs(&common::cli::scratch("fuzz-image-special"), "case.png", true);
+    for (label, special) in &specials {
+        let name = if special.starts_with("/dev") { "/dev/zero" } else { "case.png" };
+        for (a, b) in [(special, &seeds[0]), (&seeds[0], special)] {
+            let run = hadou_capped(&os(&[&"compare", a, b]), CASE_LIMIT);
+            findings.count(&run);
+            if let Err(why) = check_run(&run, &[2], 2, &[name]) {
+                findings.record(label, &[], Some(&run), &why);
+            }
+        }
+    }
     let corpus = corpus("compare");
     for file in &corpus {
         // Each against itself: a file that decodes is the same (exit 0).
@@ -716,7 +770,7 @@ fn mutated_images_are_compared_or_refused_cleanly() {
         }
         let _ = std::fs::remove_dir_all(&dir);
     }
-    findings.assert_none(corpus.len() + n);
+    findings.assert_none(2 * specials.len() + corpus.len() + n);
 }
 
 // ------------------------------------------------------------------------------- profile-diff
@@ -836,6 +890,18 @@ fn mutated_profiles_are_gated_or_refused_cleanly() {
     let measured_path = measured_profile(&seed_dir);
     let measured: Value = serde_json::from_str(&std::fs::read_to_string(&measured_path).unwrap()).unwrap();
     let mut findings = Findings::new("profile-diff");
+    // Either side no regular file: refused (exit 2), naming it.
+    let specials = special_inputs(&common::cli::scratch("fuzz-profile-special"), "case.json", true);
+    for (label, special) in &specials {
+        let name = if special.starts_with("/dev") { "/dev/zero" } else { "case.json" };
+        for (a, b) in [(special, &measured_path), (&measured_path, special)] {
+            let run = hadou_capped(&os(&[&"profile-diff", a, b, &"--resamples", &"200"]), CASE_LIMIT);
+            findings.count(&run);
+            if let Err(why) = check_run(&run, &[2], 2, &[name]) {
+                findings.record(label, &[], Some(&run), &why);
+            }
+        }
+    }
     // The corpus: NAME.base.json and NAME.new.json pairs, the candidate broken.
     let corpus: Vec<PathBuf> =
         corpus("profile-diff").into_iter().filter(|p| p.to_string_lossy().ends_with(".new.json")).collect();
@@ -871,7 +937,7 @@ fn mutated_profiles_are_gated_or_refused_cleanly() {
         let as_candidate = below(&mut rng, 4) != 0;
         profile_check(&format!("case-{i}"), &dir, &base, &text, as_candidate, &mut findings);
     }
-    findings.assert_none(corpus.len() + n);
+    findings.assert_none(2 * specials.len() + corpus.len() + n);
 }
 
 /// Runs `profile-diff` on `base` and the mutated `text` (as the candidate, or as the baseline)
