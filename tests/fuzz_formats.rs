@@ -1024,4 +1024,16 @@ fn mutators_change_what_they_are_meant_to() {
     let glb = w.glb();
     let changed = (0..50).filter(|_| mutate::mutate_glb(&glb, &mut rng) != glb).count();
     assert!(changed >= 40, "{changed} of 50 GLB mutations changed the file");
+    // Mutators take their own output (cut short, lengths wrong, grown) without panicking or
+    // growing without bound: 20 chains of 20.
+    let text = serde_json::to_string(&w.json(None)).unwrap();
+    for _ in 0..20 {
+        let (mut e, mut p, mut g, mut t) = (exr.clone(), png.clone(), w.glb(), text.clone());
+        for _ in 0..20 {
+            e = mutate::mutate_exr(&e, &mut rng);
+            p = mutate::mutate_png(&p, &mut rng);
+            g = mutate::mutate_glb(&g, &mut rng);
+            t = mutate::mutate_json(&t, &mut rng);
+        }
+    }
 }

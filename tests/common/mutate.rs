@@ -9,9 +9,9 @@
 use hadou::testing::Rng;
 use serde_json::Value;
 
-/// Uniform in 0..n (n > 0).
+/// Uniform in 0..n; 0 when n is 0 (a file a mutation already emptied).
 pub fn below(rng: &mut Rng, n: usize) -> usize {
-    ((rng.next() * n as f64) as usize).min(n - 1)
+    ((rng.next() * n as f64) as usize).min(n.saturating_sub(1))
 }
 
 /// Number tokens put in place of a JSON number: past u32, i32, f32 and f64, the 2²⁴ the issue's
@@ -233,6 +233,10 @@ fn write(v: &Value, at: &str, dup: &str, out: &mut String) {
     }
 }
 
+/// The longest JSON text an array repetition grows (4 MiB, the 1.2 MB file of issue 24's shared
+/// accessor three times over): a bomb is in what the text declares, not in its length.
+pub const MAX_GROWN_TEXT: usize = 4 << 20;
+
 /// One structural or numeric mutation of JSON `text` (returned unchanged when it does not parse:
 /// then only the token mutation applies). Numbers weigh most: the budgets and limits under test
 /// are numeric.
@@ -329,6 +333,9 @@ pub fn mutate_json_once(text: &str, rng: &mut Rng) -> String {
                 let p = arrays[below(rng, arrays.len())].clone();
                 let a = root.pointer_mut(&p).unwrap().as_array_mut().unwrap();
                 let times = [2, 16, 400][below(rng, 3)];
+                // Bounded by MAX_GROWN_TEXT: mutations of mutations would otherwise grow the
+                // text 400-fold each (this process's memory, not the one under the cap).
+                let times = times.min((MAX_GROWN_TEXT / text.len().max(1)).max(1));
                 let copy = a.clone();
                 for _ in 1..times {
                     a.extend(copy.iter().cloned());
@@ -439,7 +446,7 @@ pub fn mutate_glb(bytes: &[u8], rng: &mut Rng) -> Vec<u8> {
             let at = fields[below(rng, fields.len())];
             let v = if below(rng, 3) == 0 {
                 // Off by a little: a length just short of or past the truth.
-                let old = u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+                let old = b.get(at..at + 4).map_or(0, |w| u32::from_le_bytes(w.try_into().unwrap()));
                 old.wrapping_add([4, 0xFFFF_FFFC, 1][below(rng, 3)])
             } else {
                 WORDS[below(rng, WORDS.len())]
@@ -506,6 +513,12 @@ fn fix_crc(b: &mut [u8], at: usize) {
 /// file cut short.
 pub fn mutate_png(bytes: &[u8], rng: &mut Rng) -> Vec<u8> {
     let mut b = bytes.to_vec();
+    if b.len() < 33 {
+        // Already cut inside IHDR (a second mutation): flip what is left.
+        let end = b.len();
+        flip_bytes(&mut b, 0..end, rng);
+        return b;
+    }
     // IHDR is the first chunk: length at 8, type at 12, data at 16..29, CRC at 29.
     match below(rng, 10) {
         8 | 9 => {
@@ -647,6 +660,15 @@ pub fn scanline_exr(width: i32, height: i32, names: &[&str], values: &[f32]) -> 
 /// 2¹⁶, 2²⁰, i32's largest.
 pub const EXR_SIDES: &[i32] = &[100_000, 16385, 65536, 1 << 20, i32::MAX];
 
+/// Writes corner value `k` (xMin, yMin, xMax, yMax) of the box2i attribute `a`, if its value
+/// (perhaps resized by an earlier mutation) holds it.
+fn put_corner(b: &mut [u8], a: &ExrAttribute, k: usize, v: i32) {
+    let at = a.value.start + 4 * k;
+    if at + 4 <= a.value.end {
+        b[at..at + 4].copy_from_slice(&v.to_le_bytes());
+    }
+}
+
 /// One mutation of an OpenEXR file: a corner of its dataWindow or displayWindow replaced (the
 /// dimensions it claims), a channel's pixel type or sampling replaced, an attribute's size
 /// replaced, the compression or line order byte replaced, header or data bits flipped, or the
@@ -664,7 +686,7 @@ pub fn mutate_exr(bytes: &[u8], rng: &mut Rng) -> Vec<u8> {
             if let Some(a) = find(w) {
                 for k in 0..4 {
                     let v = if k < 2 { 0 } else { EXR_SIDES[below(rng, EXR_SIDES.len())] - 1 };
-                    b[a.value.start + 4 * k..a.value.start + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+                    put_corner(&mut b, &a, k, v);
                 }
             }
         }
@@ -672,8 +694,8 @@ pub fn mutate_exr(bytes: &[u8], rng: &mut Rng) -> Vec<u8> {
             let w = if below(rng, 4) == 0 { "displayWindow" } else { "dataWindow" };
             if let Some(a) = find(w) {
                 for _ in 0..1 + below(rng, 2) {
-                    let at = a.value.start + 4 * below(rng, 4);
-                    b[at..at + 4].copy_from_slice(&EXR_COORDS[below(rng, EXR_COORDS.len())].to_le_bytes());
+                    let k = below(rng, 4);
+                    put_corner(&mut b, &a, k, EXR_COORDS[below(rng, EXR_COORDS.len())]);
                 }
             }
         }
@@ -683,7 +705,8 @@ pub fn mutate_exr(bytes: &[u8], rng: &mut Rng) -> Vec<u8> {
                 let mut at = a.value.start;
                 let mut fields = Vec::new();
                 while at < a.value.end && b[at] != 0 {
-                    let end = at + b[at..].iter().position(|&c| c == 0).unwrap();
+                    let Some(len) = b[at..a.value.end].iter().position(|&c| c == 0) else { break };
+                    let end = at + len;
                     fields.push((at, end + 1));
                     at = end + 1 + 16;
                 }
