@@ -810,15 +810,29 @@ fn synthetic_profile(measured: &Value, runs: usize, frames: usize, rng: &mut Rng
 }
 
 /// Mutations particular to the samples: a row's runs emptied, a run emptied, one sample left,
-/// a sample negative, null or huge, a row removed or renamed, no rows at all.
-fn mutate_samples(v: &mut Value, rng: &mut Rng) {
-    let Some(samples) = v.get_mut("samples").and_then(Value::as_object_mut) else { return };
+/// a sample negative, null or huge, a row removed or renamed, no rows at all, a row slower or
+/// faster as a whole (returned: the row and the factor).
+fn mutate_samples(v: &mut Value, rng: &mut Rng) -> Option<(String, f64)> {
+    let samples = v.get_mut("samples").and_then(Value::as_object_mut)?;
     let names: Vec<String> = samples.keys().cloned().collect();
     if names.is_empty() {
-        return;
+        return None;
     }
     let name = names[below(rng, names.len())].clone();
-    match below(rng, 9) {
+    match below(rng, 11) {
+        9 | 10 => {
+            // A real change: the row's every sample slower (or faster) by a factor, so the gate
+            // has regressions to find.
+            let factor = [1.5, 2.0, 0.5, 1e6][below(rng, 4)];
+            if let Some(runs) = samples[&name]["runs"].as_array_mut() {
+                for x in runs.iter_mut().filter_map(Value::as_array_mut).flatten() {
+                    if let Some(f) = x.as_f64() {
+                        *x = json!(f * factor);
+                    }
+                }
+            }
+            return Some((name, factor));
+        }
         0 => samples[&name]["runs"] = json!([]),
         1 => samples[&name]["runs"] = json!([[]]),
         2 => samples[&name]["runs"] = json!([[1.0]]),
@@ -846,6 +860,7 @@ fn mutate_samples(v: &mut Value, rng: &mut Rng) {
             }
         }
     }
+    None
 }
 
 /// Why the candidate `new` is broken for the gate, if it is (issue 24, item 4): a gated row of
@@ -911,20 +926,23 @@ fn mutated_profiles_are_gated_or_refused_cleanly() {
         let base: Value = serde_json::from_str(&std::fs::read_to_string(&base_file).unwrap()).unwrap();
         let text = std::fs::read_to_string(new).unwrap();
         let dir = common::cli::scratch(&format!("fuzz-profile-{name}"));
-        profile_check(&name, &dir, &base, &text, true, &mut findings);
+        profile_check(&name, &dir, &base, &text, true, None, &mut findings);
     }
     for i in 0..n {
         let mut rng = case_rng(0x9f0f_1003, i);
-        let base = match below(&mut rng, 3) {
+        let which = below(&mut rng, 3);
+        let base = match which {
             0 => measured.clone(),
             1 => synthetic_profile(&measured, 1, 40, &mut rng),
             _ => synthetic_profile(&measured, 3, 12, &mut rng),
         };
         let mut new = base.clone();
+        let mut slowed = None;
         let text = if below(&mut rng, 2) == 0 {
-            mutate_samples(&mut new, &mut rng);
+            slowed = mutate_samples(&mut new, &mut rng);
             let t = serde_json::to_string_pretty(&new).unwrap();
             if below(&mut rng, 3) == 0 {
+                slowed = None;
                 mutate::mutate_json(&t, &mut rng)
             } else {
                 t
@@ -935,7 +953,13 @@ fn mutated_profiles_are_gated_or_refused_cleanly() {
         let dir = common::cli::scratch(&format!("fuzz-profile-{i}"));
         // Mostly the candidate (the gate's point); sometimes the baseline is the broken one.
         let as_candidate = below(&mut rng, 4) != 0;
-        profile_check(&format!("case-{i}"), &dir, &base, &text, as_candidate, &mut findings);
+        // A gated row of a synthetic baseline (5% noise) made 1.5x or more slower in every sample,
+        // nothing else changed: the ratio's interval lies within [1.5/1.05, 1.5·1.05], past the 5%
+        // threshold, so the gate must fail (exit 1).
+        let must_fail = slowed
+            .filter(|(row, factor)| as_candidate && which != 0 && row.starts_with("gpu ") && *factor >= 1.5)
+            .map(|(row, factor)| format!("\"{row}\" {factor}x slower in every sample"));
+        profile_check(&format!("case-{i}"), &dir, &base, &text, as_candidate, must_fail, &mut findings);
     }
     findings.assert_none(2 * specials.len() + corpus.len() + n);
 }
@@ -949,6 +973,7 @@ fn profile_check(
     base: &Value,
     text: &str,
     as_candidate: bool,
+    must_fail: Option<String>,
     findings: &mut Findings,
 ) {
     let (base_path, case) = (dir.join("base.json"), dir.join("case.json"));
@@ -973,6 +998,9 @@ fn profile_check(
             Some(&run),
             &format!("exit {:?} without `{verdict}`", run.code),
         );
+    }
+    if let Some(slower) = must_fail.filter(|_| run.code != Some(1)) {
+        return findings.record(label, &inputs, Some(&run), &format!("{slower}, and the gate did not fail"));
     }
     if as_candidate && run.code == Some(0) {
         if let Some(why) = broken_candidate(base, text) {
