@@ -19,34 +19,16 @@ fn main() -> ExitCode {
         Err(e) => {
             // File names reach the terminal escaped (a name may hold an escape sequence); the
             // message's own line breaks stay.
-            let text: Vec<String> = message(&e).split('\n').map(cli::escape_controls).collect();
+            let text: Vec<String> = cli::message(&e).split('\n').map(cli::escape_controls).collect();
             eprintln!("error: {}", text.join("\n"));
             error_code
         }
     }
 }
 
-/// The error and its causes joined by ": ", as `{:#}` does, but a cause whose text the message
-/// already ends with is left out: errors that print their source (e.g. an io::Error) would
-/// otherwise state the OS text twice.
-fn message(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if out.ends_with(&text) {
-            continue;
-        }
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&text);
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
-    use super::message;
+    use super::cli::message;
 
     #[derive(Debug, thiserror::Error)]
     #[error("cannot read x.obj: {source}")]

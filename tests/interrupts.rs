@@ -8,7 +8,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 use common::cli::{s, scratch};
@@ -71,18 +71,7 @@ fn interrupt_render(signal: &str, number: u32) {
     let sent = Command::new("kill").arg(format!("-{signal}")).arg(child.id().to_string()).status().unwrap();
     assert!(sent.success(), "kill -{signal}");
     // The pause lasts 60 s: an exit well before it is the signal's doing.
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let status = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("still running 20 s after {signal}:\n{}", read(&log));
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    };
+    let status = exit_within(&mut child, Duration::from_secs(20), &format!("SIG{signal}"), &log);
     let err = read(&log);
     assert_eq!(temporaries(&dir), Vec::<PathBuf>::new(), "temporaries left after {signal}:\n{err}");
     assert_eq!(status.code(), Some(128 + number as i32), "{status} after {signal}:\n{err}");
@@ -91,6 +80,22 @@ fn interrupt_render(signal: &str, number: u32) {
     assert!(!exr.exists(), "a new output appeared");
     std::fs::remove_dir_all(&dir).unwrap();
     std::fs::remove_dir_all(&logs).unwrap();
+}
+
+/// Waits for `child` to exit after `signal` was sent; kills it and fails past `limit` (with `log`).
+fn exit_within(child: &mut std::process::Child, limit: Duration, signal: &str, log: &Path) -> ExitStatus {
+    let deadline = Instant::now() + limit;
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("still running {limit:?} after {signal}:\n{}", read(log));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
 }
 
 fn read(path: &Path) -> String {
@@ -137,18 +142,7 @@ fn sigterm_during_report_removes_its_staging_folder() {
     }
     let sent = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap();
     assert!(sent.success());
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let status = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("report still running 20 s after SIGTERM");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    };
+    let status = exit_within(&mut child, Duration::from_secs(20), "SIGTERM", Path::new("/dev/null"));
     assert_eq!(status.code(), Some(143), "{status}");
     assert!(!staging.exists(), "the staging folder was left");
     assert!(!out.exists(), "a report appeared");

@@ -171,9 +171,10 @@ pub(crate) fn escape_os(name: &std::ffi::OsStr) -> String {
     out
 }
 
-/// The error with its causes joined as `main` prints them (a cause the message already ends with
-/// left out), control characters escaped: a file name cannot write to the terminal.
-pub(crate) fn escaped_error(e: anyhow::Error) -> anyhow::Error {
+/// The error and its causes joined by ": ", as `{:#}` does, but a cause whose text the message
+/// already ends with is left out: errors that print their source (e.g. an io::Error) would
+/// otherwise state the OS text twice. What `main` prints after `error: `.
+pub(crate) fn message(e: &anyhow::Error) -> String {
     let mut out = String::new();
     for cause in e.chain() {
         let text = cause.to_string();
@@ -185,7 +186,13 @@ pub(crate) fn escaped_error(e: anyhow::Error) -> anyhow::Error {
         }
         out.push_str(&text);
     }
-    anyhow::Error::msg(escape_controls(&out))
+    out
+}
+
+/// The error as `message` gives it, control characters escaped: a file name cannot write to the
+/// terminal.
+pub(crate) fn escaped_error(e: anyhow::Error) -> anyhow::Error {
+    anyhow::Error::msg(escape_controls(&message(&e)))
 }
 
 /// Parses `--max-pixels`: a whole number ≥ 1.
