@@ -4,6 +4,7 @@
 pub mod aov;
 pub mod builtin;
 pub mod compare;
+pub mod effect;
 #[doc(hidden)]
 pub mod effects;
 #[doc(hidden)]
@@ -54,6 +55,9 @@ pub enum Error {
     /// A scene file or a scene description that is not valid.
     #[error(transparent)]
     Scene(#[from] scene::SceneError),
+    /// An effect registration, or a frame its passes cannot record (an image nobody writes).
+    #[error(transparent)]
+    Effect(#[from] effect::EffectError),
     /// An output file that could not be written.
     #[error(transparent)]
     Output(#[from] output::OutputError),

@@ -1,0 +1,55 @@
+//! What registering effects and building their passes can fail with.
+
+/// A registration or a frame plan that cannot work; names the effect, pass or image.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum EffectError {
+    /// The scene holds data of an effect the renderer was not given (`RendererOptions::effects`).
+    #[error(
+        "the scene has data of effect `{0}`, which this renderer has not registered (expected it in \
+         RendererOptions::effects / RuntimeOptions::effects)"
+    )]
+    NotRegistered(String),
+    /// Two effects registered under one name.
+    #[error("two effects are registered as `{0}` (expected unique effect names)")]
+    DuplicateEffect(String),
+    /// Two passes registered under one name (their timings and labels would be confused).
+    #[error("two passes are registered as `{0}` (expected unique pass names across effects)")]
+    DuplicatePass(String),
+    /// A scene-file table claimed twice (by two effects, or by an effect and hadou's own schema).
+    #[error("scene-file table [{table}] of effect `{effect}` is already read by {owner}")]
+    TableClaimed {
+        /// The table's name.
+        table: String,
+        /// The effect registered second.
+        effect: String,
+        /// Who read it first: "hadou's scene format" or an effect's name.
+        owner: String,
+    },
+    /// `update_effect` / `effect` asked for data the loaded scene does not hold.
+    #[error("the loaded scene holds no {0} (no effect loaded data of that type)")]
+    NoData(&'static str),
+    /// A pass binds an image it did not declare in `Pass::images()`, or binds it in a way its
+    /// declared access does not allow.
+    #[error("pass {pass} binds image {image} as {binding}, but {declared}")]
+    Undeclared {
+        /// The pass.
+        pass: &'static str,
+        /// The image.
+        image: &'static str,
+        /// How it binds it: "a storage image" or "a sampled image".
+        binding: &'static str,
+        /// What `images()` says instead.
+        declared: String,
+    },
+    /// A pass reads an image that no pass of the frame writes before it.
+    #[error("pass {pass} reads image {image}, which no earlier pass of this frame writes (it needs {needs})")]
+    NotWritten {
+        /// The pass.
+        pass: &'static str,
+        /// The image.
+        image: &'static str,
+        /// What would write it.
+        needs: &'static str,
+    },
+}

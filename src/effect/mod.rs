@@ -1,0 +1,5 @@
+//! Effects as plug-ins (placeholder while being written).
+
+mod error;
+
+pub use error::EffectError;
