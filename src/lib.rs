@@ -37,6 +37,7 @@ pub use effects::metaballs::Ball;
 pub use frame::{FrameStats, PassTiming};
 pub use gpu::{DeviceInfo, GpuError, HostWaits, ValidationCounts};
 pub use renderer::bakes::BakeProgress;
+pub use renderer::ids::MaterialId;
 pub use renderer::instances::{InstanceId, LightId};
 pub use renderer::world::{GroupId, MetaballsDesc, WaveDesc, WaveId};
 pub use renderer::{
@@ -107,17 +108,19 @@ pub enum Error {
          D24_UNORM_S8_UINT)"
     )]
     DepthFormat(ash::vk::Format),
-    /// An update named an instance, wave, metaball group or ball the scene does not have.
+    /// An update named a part of an object by a position it does not have (a ball of a metaball
+    /// group past its list).
     #[error("{kind} {index}: the scene has {count}")]
     UnknownId {
-        /// What was named: "instance", "wave", "metaball group" or "ball of the metaball group".
+        /// What was named: "ball of the metaball group".
         kind: &'static str,
         /// The index given.
         index: usize,
-        /// How many of that kind the scene has.
+        /// How many of that kind there are.
         count: usize,
     },
-    /// An id of a wave or metaball group that was despawned (or never spawned here).
+    /// An id (`InstanceId`, `LightId`, `WaveId`, `GroupId`, `MaterialId`) that names nothing in
+    /// the world: despawned, from a scene loaded before, or from another renderer.
     #[error("id {0} names nothing in the world (despawned?)")]
     StaleId(u64),
     /// An update with values hadou cannot use; `expected` says what is.

@@ -729,9 +729,10 @@ fn update_api_changes_the_picture_as_predicted() {
         b: 0.5,
         length: 4.0,
     };
-    hadou.set_wave(0, update).unwrap();
+    let (wave, cube) = (hadou.wave_ids()[0], hadou.instance_ids()[0]);
+    hadou.set_wave(wave, update).unwrap();
     // Out of view: the cube leaves the picture.
-    hadou.set_instance_transform(0, DMat4::from_translation(DVec3::new(500.0, 0.0, 0.0))).unwrap();
+    hadou.set_transform(cube, DMat4::from_translation(DVec3::new(500.0, 0.0, 0.0))).unwrap();
     let second = game.frame(Some(&mut hadou), &[Aov::Energy, Aov::Normal, Aov::Depth], 0.0);
     let cube_after = cube_mask(second.aov(Aov::Normal), None).iter().filter(|&&c| c).count();
     assert_eq!(cube_after, 0, "the moved cube is out of view");
@@ -750,9 +751,8 @@ fn update_api_changes_the_picture_as_predicted() {
     assert!(changed && checked > 0);
     // Bad updates are refused with a message, not a panic.
     let bad = WaveUpdate { a: -1.0, ..update };
-    assert!(hadou.set_wave(0, bad).unwrap_err().to_string().contains("wave 0"));
-    assert!(hadou.set_wave(3, update).is_err());
-    assert!(hadou.set_instance_transform(0, DMat4::ZERO).is_err());
+    assert!(hadou.set_wave(wave, bad).unwrap_err().to_string().contains("wave 0"));
+    assert!(hadou.set_transform(cube, DMat4::ZERO).is_err());
     game.finish(hadou);
 }
 

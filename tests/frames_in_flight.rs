@@ -95,9 +95,9 @@ fn world(i: usize) -> World {
 
 fn apply(hadou: &mut Renderer, w: &World) {
     hadou.set_camera(w.camera).unwrap();
-    hadou.set_wave(0, w.wave).unwrap();
-    hadou.set_instance_transform(0, w.transform).unwrap();
-    hadou.set_metaball_group(0, &w.balls).unwrap();
+    hadou.set_wave(hadou.wave_ids()[0], w.wave).unwrap();
+    hadou.set_transform(hadou.instance_ids()[0], w.transform).unwrap();
+    hadou.set_metaball_group(hadou.metaballs_ids()[0], &w.balls).unwrap();
 }
 
 /// The same world as a scene the headless runtime renders alone: the fields the updates set.
@@ -533,7 +533,7 @@ fn a_moving_translucent_instance_renders_as_the_same_world_still() {
                 -0.3 * (0.5 * t).cos(),
             )) * DMat4::from_quat(DQuat::from_axis_angle(DVec3::new(0.3, 1.0, 0.2).normalize(), 0.35 * t))
                 * DMat4::from_scale(DVec3::new(mirror * (1.0 + 0.05 * t), 0.8 + 0.03 * t, 1.1));
-        hadou.set_instance_transform(0, matrix).unwrap();
+        hadou.set_transform(hadou.instance_ids()[0], matrix).unwrap();
         let ops = vec![TransformOp::Matrix(matrix)];
         scene.instances[0].transform = hadou::scene::transform::Transform::from_ops(&ops).unwrap();
         scene.instances[0].ops = ops;

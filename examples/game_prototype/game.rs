@@ -8,8 +8,8 @@
 use ash::vk;
 use glam::{DMat4, DVec3};
 use hadou::{
-    Aov, Ball, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, Renderer, WaveDesc, WaveId,
-    WaveUpdate,
+    Aov, Ball, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, GroupId, Renderer, WaveDesc,
+    WaveId, WaveUpdate,
 };
 
 use super::gpu::{GameImage, GameVk, HostBuffer, FRAMES_IN_FLIGHT};
@@ -267,6 +267,8 @@ pub struct Game {
     pending: Vec<Option<Pending>>,
     /// The wave hadou draws for the game (spawned while charging or in flight).
     wave: Option<WaveId>,
+    /// The scene's metaball group "slime", moved every frame.
+    slime: GroupId,
     /// Frames in flight (1..=FRAMES_IN_FLIGHT); hadou's renderer has as many slots.
     frames_in_flight: usize,
     /// CPU time of the last `Renderer::record_frame` (ms).
@@ -307,6 +309,7 @@ impl Game {
             .map_err(|e| e.to_string())?;
         hadou.load_scene(scene).map_err(|e| e.to_string())?;
         hadou.set_camera(camera().for_hadou()).map_err(|e| e.to_string())?;
+        let slime = hadou.metaballs_named("slime").ok_or("the scene has no metaball group \"slime\"")?;
         let pending = (0..frames).map(|_| None).collect();
         let (painter, depth, offscreen) = (None, None, None);
         let state = GameState::default();
@@ -319,6 +322,7 @@ impl Game {
             offscreen,
             pending,
             wave: None,
+            slime,
             frames_in_flight: frames,
             last_record_ms: 0.0,
         })
@@ -341,7 +345,7 @@ impl Game {
             }
             (None, None) => None,
         };
-        self.hadou.set_metaball_group(0, &self.state.slime()).map_err(err)
+        self.hadou.set_metaball_group(self.slime, &self.state.slime()).map_err(err)
     }
 
     fn ensure(&mut self, format: vk::Format, extent: vk::Extent2D) -> Result<(), String> {

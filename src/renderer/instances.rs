@@ -92,21 +92,8 @@ impl Renderer {
         self.sync_passes()
     }
 
-    /// Places an instance by the affine `matrix` (object → world); any instance, translucent
-    /// ones included (`set_instance_transform` by scene index).
-    pub fn set_transform(&mut self, id: InstanceId, matrix: DMat4) -> Result<(), Error> {
-        let index = self.instance_index(id)?;
-        self.set_instance_transform(index, matrix)
-    }
-
-    /// The scene index of an instance (its place in the instance table and the `ids` AOV this
-    /// frame: indices shift when an earlier instance is despawned, ids do not).
-    pub fn instance_index(&self, id: InstanceId) -> Result<usize, Error> {
-        let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
-        loaded.instance_ids.iter().position(|i| *i == id.0).ok_or(Error::StaleId(id.0))
-    }
-
-    /// The ids of the world's instances, in scene order (those of the scene file included).
+    /// The ids of the world's instances, in scene order (those of the scene file included): the
+    /// instance drawn with `ids` AOV value k is `instance_ids()[k - 1]` (this frame's order).
     pub fn instance_ids(&self) -> Vec<InstanceId> {
         self.loaded.iter().flat_map(|l| l.instance_ids.iter().map(|&id| InstanceId(id))).collect()
     }
@@ -141,7 +128,7 @@ impl Renderer {
             intensity: 0.0,
         };
         loaded.scene.lights.push(placeholder);
-        if let Err(e) = self.set_light(index, direction, color, intensity) {
+        if let Err(e) = self.set_light_at(index, direction, color, intensity) {
             self.loaded.as_mut().ok_or(Error::NoScene)?.scene.lights.pop();
             return Err(e);
         }
@@ -158,12 +145,6 @@ impl Renderer {
         loaded.scene.lights.remove(index);
         loaded.light_ids.remove(index);
         self.sync_passes()
-    }
-
-    /// The scene index of a light (for `set_light`; indices shift when an earlier light goes).
-    pub fn light_index(&self, id: LightId) -> Result<usize, Error> {
-        let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
-        loaded.light_ids.iter().position(|i| *i == id.0).ok_or(Error::StaleId(id.0))
     }
 
     /// The ids of the world's lights, in scene order (those of the scene file included).

@@ -21,6 +21,7 @@
 
 pub mod bakes;
 mod deform;
+pub mod ids;
 mod inputs;
 pub mod instances;
 pub(crate) mod readback;
@@ -86,9 +87,10 @@ struct Loaded {
     /// The id of each of `scene.waves` and `scene.metaballs` (spawned or from the file).
     wave_ids: Vec<u64>,
     group_ids: Vec<u64>,
-    /// The id of each of `scene.instances` and `scene.lights`.
+    /// The id of each of `scene.instances`, `scene.lights` and `scene.materials`.
     instance_ids: Vec<u64>,
     light_ids: Vec<u64>,
+    material_ids: Vec<u64>,
     /// Thickness tables being baked at run time.
     bakes: bakes::Bakes,
     /// Instance transforms or materials changed since their tables were built.
@@ -123,8 +125,6 @@ pub struct Renderer {
     slots: Vec<Slot>,
     /// The number the next recorded frame gets.
     next_frame: u64,
-    /// The last id handed to a spawned (or loaded) wave or metaball group.
-    next_id: u64,
     /// The slot of the frame recorded last (where a read-back recorded after it goes).
     current: Option<usize>,
     /// Frames up to this one are known to have finished.
@@ -162,7 +162,6 @@ impl Renderer {
             edges: Edges::default(),
             slots,
             next_frame: 0,
-            next_id: 0,
             current: None,
             finished_through: None,
             latest: None,
@@ -230,6 +229,7 @@ impl Renderer {
         let group_ids = (0..scene.metaballs.len()).map(|_| self.next_id()).collect();
         let instance_ids = (0..scene.instances.len()).map(|_| self.next_id()).collect();
         let light_ids = (0..scene.lights.len()).map(|_| self.next_id()).collect();
+        let material_ids = (0..scene.materials.len()).map(|_| self.next_id()).collect();
         let parked = Vec::new();
         self.loaded = Some(Loaded {
             scene,
@@ -241,6 +241,7 @@ impl Renderer {
             group_ids,
             instance_ids,
             light_ids,
+            material_ids,
             bakes: Default::default(),
             tables_dirty: false,
             wobble: deform::WobbleState::default(),

@@ -3,6 +3,9 @@
 
 use glam::{DMat4, DVec3};
 
+use super::ids::MaterialId;
+use super::instances::{InstanceId, LightId};
+use super::world::{GroupId, WaveId};
 use super::Renderer;
 use crate::scene::camera::Camera;
 use crate::scene::transform::{Transform, TransformOp};
@@ -62,36 +65,34 @@ impl Renderer {
         Ok(())
     }
 
-    /// Places instance `id` (scene order) by the affine `matrix` (object → world).
-    pub fn set_instance_transform(&mut self, id: usize, matrix: DMat4) -> Result<(), Error> {
-        self.set_instance_ops(id, &[TransformOp::Matrix(matrix)])
-    }
-
-    /// Places instance `id` by transform operations, applied in the order listed (as in scene files).
+    /// Places instance `id` by the affine `matrix` (object → world) from the next frame on.
     /// Any instance moves, translucent ones included: their tables are in object space (exact
     /// under any affine transform) and the light's view is fitted again each frame.
-    pub fn set_instance_ops(&mut self, id: usize, ops: &[TransformOp]) -> Result<(), Error> {
+    pub fn set_transform(&mut self, id: InstanceId, matrix: DMat4) -> Result<(), Error> {
+        self.set_transform_ops(id, &[TransformOp::Matrix(matrix)])
+    }
+
+    /// Places instance `id` by transform operations, applied in the order listed (as in scene
+    /// files); as `set_transform`.
+    pub fn set_transform_ops(&mut self, id: InstanceId, ops: &[TransformOp]) -> Result<(), Error> {
+        let index = self.instance_index(id)?;
+        let transform = Transform::from_ops(ops).map_err(|e| Error::InvalidUpdate {
+            what: format!("instance {index}"),
+            expected: e.to_string(),
+        })?;
         let loaded = self.loaded_mut()?;
-        let count = loaded.scene.instances.len();
-        if loaded.scene.instances.get(id).is_none() {
-            return Err(Error::UnknownId { kind: "instance", index: id, count });
-        }
-        let transform = Transform::from_ops(ops)
-            .map_err(|e| Error::InvalidUpdate { what: format!("instance {id}"), expected: e.to_string() })?;
-        let instance = &mut loaded.scene.instances[id];
+        let instance = &mut loaded.scene.instances[index];
         instance.ops = ops.to_vec();
         instance.transform = transform;
         loaded.tables_dirty = true;
         Ok(())
     }
 
-    /// Sets wave `index` (scene order) for every following frame.
-    pub fn set_wave(&mut self, index: usize, update: WaveUpdate) -> Result<(), Error> {
-        let loaded = self.loaded_mut()?;
-        let count = loaded.scene.waves.len();
-        let Some(wave) = loaded.scene.waves.get_mut(index) else {
-            return Err(Error::UnknownId { kind: "wave", index, count });
-        };
+    /// Sets the shape of wave `id` (its colour, intensity, core and cutoff kept) for every
+    /// following frame; `update_wave` sets all of it.
+    pub fn set_wave(&mut self, id: WaveId, update: WaveUpdate) -> Result<(), Error> {
+        let index = self.wave_index(id)?;
+        let wave = &mut self.loaded_mut()?.scene.waves[index];
         let u = update;
         let ok = u.origin.is_finite()
             && u.direction.is_finite()
@@ -119,15 +120,13 @@ impl Renderer {
         Ok(())
     }
 
-    /// Sets ball `ball` of metaball group `group`: its object-space centre and coefficient q, for
-    /// every following frame. The group's keyframes and the ball's rates are dropped (the other
-    /// balls then hold their time-0 values plus their own velocities).
-    pub fn set_metaball(&mut self, group: usize, ball: usize, centre: DVec3, q: f64) -> Result<(), Error> {
-        let loaded = self.loaded_mut()?;
-        let groups = loaded.scene.metaballs.len();
-        let Some(g) = loaded.scene.metaballs.get_mut(group) else {
-            return Err(Error::UnknownId { kind: "metaball group", index: group, count: groups });
-        };
+    /// Sets ball `ball` (its place in the group's list) of metaball group `id`: its object-space
+    /// centre and coefficient q, for every following frame. The group's keyframes and the ball's
+    /// rates are dropped (the other balls then hold their time-0 values plus their own
+    /// velocities). A ball past the group's list is `Error::UnknownId`.
+    pub fn set_metaball(&mut self, id: GroupId, ball: usize, centre: DVec3, q: f64) -> Result<(), Error> {
+        let group = self.group_index(id)?;
+        let g = &mut self.loaded_mut()?.scene.metaballs[group];
         let balls = g.balls.len();
         let Some(b) = g.balls.get_mut(ball) else {
             return Err(Error::UnknownId { kind: "ball of the metaball group", index: ball, count: balls });
@@ -146,19 +145,16 @@ impl Renderer {
         Ok(())
     }
 
-    /// Replaces every ball of metaball group `group` (object space) for every following frame:
+    /// Replaces every ball of metaball group `id` (object space) for every following frame:
     /// the group may grow or shrink. Keyframes and rates are dropped. Refused (state unchanged)
     /// when the list is empty or a ball is not finite with a radius > 0.
     pub fn set_metaball_group(
         &mut self,
-        group: usize,
+        id: GroupId,
         balls: &[crate::effects::metaballs::Ball],
     ) -> Result<(), Error> {
-        let loaded = self.loaded_mut()?;
-        let groups = loaded.scene.metaballs.len();
-        let Some(g) = loaded.scene.metaballs.get_mut(group) else {
-            return Err(Error::UnknownId { kind: "metaball group", index: group, count: groups });
-        };
+        let group = self.group_index(id)?;
+        let g = &mut self.loaded_mut()?.scene.metaballs[group];
         let valid = |b: &crate::effects::metaballs::Ball| {
             b.centre.is_finite() && b.q.is_finite() && b.radius.is_finite() && b.radius > 0.0
         };
@@ -182,9 +178,21 @@ impl Renderer {
         Ok(())
     }
 
-    /// Sets light `index` (scene order): the direction it travels (any non-zero length), its
-    /// colour and intensity. The translucent objects' light view follows it from the next frame.
+    /// Sets light `id`: the direction it travels (any non-zero length), its colour and
+    /// intensity. The translucent objects' light view follows it from the next frame.
     pub fn set_light(
+        &mut self,
+        id: LightId,
+        direction: DVec3,
+        color: DVec3,
+        intensity: f64,
+    ) -> Result<(), Error> {
+        let index = self.light_index(id)?;
+        self.set_light_at(index, direction, color, intensity)
+    }
+
+    /// `set_light` by scene index (in range: the caller resolved it).
+    pub(super) fn set_light_at(
         &mut self,
         index: usize,
         direction: DVec3,
@@ -192,10 +200,7 @@ impl Renderer {
         intensity: f64,
     ) -> Result<(), Error> {
         let loaded = self.loaded_mut()?;
-        let count = loaded.scene.lights.len();
-        let Some(light) = loaded.scene.lights.get_mut(index) else {
-            return Err(Error::UnknownId { kind: "light", index, count });
-        };
+        let light = &mut loaded.scene.lights[index];
         let ok = direction.is_finite()
             && direction.length() > 0.0
             && color.is_finite()
@@ -227,15 +232,13 @@ impl Renderer {
         Ok(())
     }
 
-    /// Sets material `index`'s albedo and, for a translucent material, its extinction σ per world
+    /// Sets material `id`'s albedo and, for a translucent material, its extinction σ per world
     /// unit (`None` keeps it). The kind of a material (lambert or translucent, its voxel_res and
     /// thickness mode) is fixed at load: those decide which passes and tables exist.
-    pub fn set_material(&mut self, index: usize, albedo: DVec3, sigma: Option<DVec3>) -> Result<(), Error> {
+    pub fn set_material(&mut self, id: MaterialId, albedo: DVec3, sigma: Option<DVec3>) -> Result<(), Error> {
+        let index = self.material_index(id)?;
         let loaded = self.loaded_mut()?;
-        let count = loaded.scene.materials.len();
-        let Some(material) = loaded.scene.materials.get_mut(index) else {
-            return Err(Error::UnknownId { kind: "material", index, count });
-        };
+        let material = &mut loaded.scene.materials[index];
         let albedo_ok = albedo.is_finite() && albedo.min_element() >= 0.0 && albedo.max_element() <= 1.0;
         let sigma_ok = sigma.is_none_or(|s| s.is_finite() && s.min_element() > 0.0);
         let translucent = matches!(material.kind, MaterialKind::Translucent { .. });

@@ -12,13 +12,14 @@ use crate::scene::model::{AnimatedBall, MetaballGroup, Wave, WaveMethod};
 use crate::scene::transform::{Transform, TransformOp};
 use crate::Error;
 
-/// A wave spawned at run time (`Renderer::spawn_wave`); stale once despawned.
+/// A wave of the world (from the scene file or `Renderer::spawn_wave`); stale once despawned.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct WaveId(u64);
+pub struct WaveId(pub(super) u64);
 
-/// A metaball group spawned at run time (`Renderer::spawn_metaballs`); stale once despawned.
+/// A metaball group of the world (from the scene file or `Renderer::spawn_metaballs`); stale once
+/// despawned.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct GroupId(u64);
+pub struct GroupId(pub(super) u64);
 
 /// Everything a wave is (seed 004): E(P) = a·k(|P − M|) + b·k(dist(P, segment M → M + ℓD)),
 /// k(r) = 1/√(r² + core²), drawn as colour × intensity × the line integral.
@@ -116,7 +117,7 @@ impl Renderer {
         Ok(WaveId(id))
     }
 
-    /// Changes a spawned wave for every following frame.
+    /// Changes a wave (spawned or from the scene file) for every following frame.
     pub fn update_wave(&mut self, id: WaveId, desc: &WaveDesc) -> Result<(), Error> {
         check_wave(desc)?;
         let index = self.wave_index(id)?;
@@ -130,7 +131,7 @@ impl Renderer {
         Ok(())
     }
 
-    /// Removes a spawned wave; the energy pass goes out with the last wave.
+    /// Removes a wave (spawned or from the scene file); the energy pass goes out with the last wave.
     pub fn despawn_wave(&mut self, id: WaveId) -> Result<(), Error> {
         let index = self.wave_index(id)?;
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
@@ -151,25 +152,13 @@ impl Renderer {
         Ok(GroupId(id))
     }
 
-    /// Removes a spawned metaball group; the metaballs pass goes out with the last group.
+    /// Removes a metaball group (spawned or from the scene file); the metaballs pass goes out with the last group.
     pub fn despawn_metaballs(&mut self, id: GroupId) -> Result<(), Error> {
+        let index = self.group_index(id)?;
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
-        let index = loaded.group_ids.iter().position(|g| *g == id.0).ok_or(Error::StaleId(id.0))?;
         loaded.scene.metaballs.remove(index);
         loaded.group_ids.remove(index);
         self.sync_passes()
-    }
-
-    /// The scene index of a spawned group (for `set_metaball_group` and the like).
-    pub fn metaballs_index(&self, id: GroupId) -> Result<usize, Error> {
-        let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
-        loaded.group_ids.iter().position(|g| *g == id.0).ok_or(Error::StaleId(id.0))
-    }
-
-    /// The scene index of a spawned wave (for `set_wave` and the like).
-    pub fn wave_index(&self, id: WaveId) -> Result<usize, Error> {
-        let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
-        loaded.wave_ids.iter().position(|w| *w == id.0).ok_or(Error::StaleId(id.0))
     }
 
     /// The ids of the world's waves, in scene order (those of the scene file included).
@@ -182,9 +171,11 @@ impl Renderer {
         self.loaded.iter().flat_map(|l| l.group_ids.iter().map(|&id| GroupId(id))).collect()
     }
 
+    /// A fresh id, unique in the process: an id of another renderer, or of a scene loaded
+    /// before, names nothing here (`Error::StaleId`).
     pub(super) fn next_id(&mut self) -> u64 {
-        self.next_id += 1;
-        self.next_id
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+        NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
     }
 
     fn metaball_group(&self, desc: &MetaballsDesc) -> Result<MetaballGroup, Error> {
