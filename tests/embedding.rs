@@ -18,7 +18,7 @@ use glam::{DMat4, DQuat, DVec3};
 use gpu::{GameImage, GameVk, HostBuffer};
 use hadou::effects::energy_wave::line_integral;
 use hadou::effects::tonemap::{aces, srgb_encode};
-use hadou::gpu::{EnabledFeatures, GpuContext};
+use hadou::gpu::{EnabledFeatures, GpuContext, GpuError};
 use hadou::passes::depth_import::import_depth;
 use hadou::passes::energy_wave::wave_params;
 use hadou::scene::Scene;
@@ -770,7 +770,9 @@ fn from_raw_names_a_missing_feature() {
     raw.queue_family = 99;
     // SAFETY: the game's valid handles; the family that is not the device's is refused by from_raw's
     // bounds check before any call uses it.
-    let err = unsafe { GpuContext::from_raw(raw) }.err().expect("refused").to_string();
+    let err = unsafe { GpuContext::from_raw(raw) }.err().expect("refused");
+    assert!(matches!(err, GpuError::RawQueue { field: "queue_family", .. }), "{err:?}");
+    let err = err.to_string();
     assert!(err.contains("queue family"), "{err}");
     let hadou = embed(&game, scene(false));
     game.finish(hadou);

@@ -16,7 +16,15 @@ fn texel_buffers_respect_the_device_limit() {
     assert_eq!(TexelBuffer::max_bytes(ctx, Texels::U32), 4 * limit);
 
     let past = TexelBuffer::new(ctx, &memory, "metaballs entries", 4 * (limit + 1), Texels::U32);
-    let message = past.err().expect("one texel past maxTexelBufferElements").to_string();
+    let err = past.err().expect("one texel past maxTexelBufferElements");
+    let message = err.to_string();
+    // A variant a caller can act on: which limit, how much was needed, the device's maximum.
+    match err {
+        hadou::GpuError::DeviceLimit { limit: name, needed, max, .. } => {
+            assert_eq!((name, needed, max), ("maxTexelBufferElements", limit + 1, limit));
+        }
+        other => panic!("expected GpuError::DeviceLimit, got {other:?}"),
+    }
     for part in ["metaballs entries", "maxTexelBufferElements", &limit.to_string(), &(limit + 1).to_string()]
     {
         assert!(message.contains(part), "{message:?} does not name {part:?}");

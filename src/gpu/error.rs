@@ -78,13 +78,105 @@ pub enum GpuError {
         /// The compiler's or the check's message.
         message: String,
     },
-    /// Something the device or hadou cannot do with the values given (a size, a queue, an
-    /// allocation, a bake).
+    /// A size or count past one of the device's limits (`VkPhysicalDeviceLimits`): make the
+    /// scene (or what `what` names) smaller, or use a device with a larger limit.
     #[error("{what}: {message}")]
-    Limit {
+    DeviceLimit {
+        /// What was being made, e.g. `"metaballs entries"`.
+        what: String,
+        /// The limit's Vulkan name, e.g. `"maxTexelBufferElements"`.
+        limit: &'static str,
+        /// How much was needed, in the limit's unit.
+        needed: u64,
+        /// The device's limit.
+        max: u64,
+        /// The explanation, with what to change.
+        message: String,
+    },
+    /// An image of a size the device cannot create: a side of 0 or past `maxImageDimension2D`.
+    #[error("{what}: size {width}x{height} outside 1..={max} (maxImageDimension2D)")]
+    ImageSize {
+        /// The image.
+        what: String,
+        /// Width asked for.
+        width: u32,
+        /// Height asked for.
+        height: u32,
+        /// The device's maxImageDimension2D.
+        max: u32,
+    },
+    /// The GPU memory allocator failed other than by running out of memory (its message).
+    #[error("{what}: {message}")]
+    Allocator {
+        /// The allocation (or `"the allocator"` when making it).
+        what: String,
+        /// The allocator's message.
+        message: String,
+    },
+    /// No memory type of the device has the properties needed.
+    #[error("{what}: no memory type with {properties:?}")]
+    NoMemoryType {
+        /// The allocation.
+        what: String,
+        /// The properties wanted.
+        properties: vk::MemoryPropertyFlags,
+    },
+    /// A GPU object was asked for after its context was destroyed.
+    #[error("{what}: the GPU context was destroyed")]
+    ContextDestroyed {
         /// What was asked for.
         what: String,
-        /// Why it cannot be done.
+    },
+    /// `RawVulkan::queue_family` or `queue_index` (`GpuContext::from_raw`) names no queue hadou
+    /// can record on (graphics + compute with timestamps).
+    #[error("{field}: {message}")]
+    RawQueue {
+        /// `"queue_family"` or `"queue_index"`.
+        field: &'static str,
+        /// What the device has instead.
+        message: String,
+    },
+    /// The window's surface offers nothing hadou can present with (a format, an image usage).
+    #[error("{what}: {message}")]
+    SurfaceUnsupported {
+        /// `"swapchain format"`, `"swapchain image usage"` or `"pixel copy"`.
+        what: &'static str,
+        /// What was wanted and what the surface offers.
+        message: String,
+    },
+    /// Pixels handed to the presenter's copy that are not one RGBA8 image of the acquired size.
+    #[error("pixel copy: {bytes} bytes for a {width}x{height} RGBA8 image")]
+    PixelCount {
+        /// The bytes given.
+        bytes: usize,
+        /// The acquired image's width.
+        width: u32,
+        /// The acquired image's height.
+        height: u32,
+    },
+    /// A thickness table could not be baked (the bake's reason), or the bake thread panicked.
+    #[error("{what}: {message}")]
+    Bake {
+        /// The table.
+        what: String,
+        /// Why.
+        message: String,
+    },
+    /// A write into a buffer that is not host-visible, or past its end (`memory::Buffer::write`).
+    #[error("{buffer}: {message}")]
+    BufferWrite {
+        /// The buffer's name.
+        buffer: String,
+        /// What was written where, and the buffer's size.
+        message: String,
+    },
+    /// A broken invariant inside hadou (a bug, not something the caller can change), e.g. a
+    /// pass name its registry lacks.
+    #[error("{what}: {message} (an internal error of hadou)")]
+    Internal {
+        /// Where.
+        what: String,
+        /// What went wrong.
         message: String,
     },
 }

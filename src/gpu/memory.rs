@@ -47,7 +47,7 @@ pub struct ImageHandles {
 fn map_alloc_error(e: AllocationError, what: &str) -> GpuError {
     match e {
         AllocationError::OutOfMemory => GpuError::OutOfDeviceMemory { what: what.into() },
-        other => GpuError::Limit { what: what.into(), message: other.to_string() },
+        other => GpuError::Allocator { what: what.into(), message: other.to_string() },
     }
 }
 
@@ -65,19 +65,20 @@ impl Buffer {
     /// Copies `data` into a host-visible buffer at `offset`.
     pub fn write(&mut self, offset: usize, data: &[u8]) -> GpuResult<()> {
         let name = self.name.clone();
-        let dst = self.mapped_mut().ok_or_else(|| GpuError::Limit {
-            what: name.clone(),
+        let dst = self.mapped_mut().ok_or_else(|| GpuError::BufferWrite {
+            buffer: name.clone(),
             message: "buffer is not host-visible".into(),
         })?;
-        let end =
-            offset.checked_add(data.len()).filter(|&e| e <= dst.len()).ok_or_else(|| GpuError::Limit {
-                what: name,
+        let end = offset.checked_add(data.len()).filter(|&e| e <= dst.len()).ok_or_else(|| {
+            GpuError::BufferWrite {
+                buffer: name,
                 message: format!(
                     "write of {} bytes at {offset} past the end ({} bytes)",
                     data.len(),
                     dst.len()
                 ),
-            })?;
+            }
+        })?;
         dst[offset..end].copy_from_slice(data);
         Ok(())
     }
@@ -144,12 +145,11 @@ impl Memory {
     ) -> GpuResult<Image> {
         let max = ctx.limits.max_image_dimension2_d;
         if extent.width == 0 || extent.height == 0 || extent.width > max || extent.height > max {
-            return Err(GpuError::Limit {
+            return Err(GpuError::ImageSize {
                 what: name.into(),
-                message: format!(
-                    "size {}x{} outside 1..={max} (maxImageDimension2D)",
-                    extent.width, extent.height
-                ),
+                width: extent.width,
+                height: extent.height,
+                max,
             });
         }
         let info = vk::ImageCreateInfo::default()

@@ -82,7 +82,7 @@ impl Resources {
             buffer_device_address: false,
             allocation_sizes: Default::default(),
         })
-        .map_err(|e| GpuError::Limit { what: "the allocator".into(), message: e.to_string() })?;
+        .map_err(|e| GpuError::Allocator { what: "the allocator".into(), message: e.to_string() })?;
         Ok(Arc::new(Resources {
             device: device.clone(),
             allocator: Mutex::new(Some(allocator)),
@@ -106,9 +106,7 @@ impl Resources {
     ) -> GpuResult<T> {
         match lock(&self.allocator).as_mut() {
             Some(a) => f(a),
-            None => {
-                Err(GpuError::Limit { what: what.into(), message: "the GPU context was destroyed".into() })
-            }
+            None => Err(GpuError::ContextDestroyed { what: what.into() }),
         }
     }
 

@@ -112,8 +112,11 @@ impl UploadRing {
         let count = (bytes.len() as u64).div_ceil(texels.bytes()).max(1);
         let limit = u64::from(ctx.limits.max_texel_buffer_elements);
         if count > limit {
-            return Err(GpuError::Limit {
+            return Err(GpuError::DeviceLimit {
                 what: what.into(),
+                limit: "maxTexelBufferElements",
+                needed: count,
+                max: limit,
                 message: format!(
                     "{count} texels of {} bytes are needed, but this device reads at most {limit} \
                      (maxTexelBufferElements); make the scene smaller",

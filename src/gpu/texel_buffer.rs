@@ -73,8 +73,11 @@ impl TexelBuffer {
         let size = bytes.max(texel).div_ceil(texel) * texel;
         let limit = u64::from(ctx.limits.max_texel_buffer_elements);
         if size / texel > limit {
-            return Err(GpuError::Limit {
+            return Err(GpuError::DeviceLimit {
                 what: name.into(),
+                limit: "maxTexelBufferElements",
+                needed: size / texel,
+                max: limit,
                 message: format!(
                     "{} texels of {texel} bytes are needed, but this device reads at most {limit} \
                      (maxTexelBufferElements); make the scene smaller",

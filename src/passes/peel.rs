@@ -240,8 +240,11 @@ impl Pass for PeelPass {
         self.size = light_map_size(scene);
         let limit = frame.ctx.limits.max_image_dimension2_d;
         if self.size * PEEL_TILE.0 > limit {
-            return Err(GpuError::Limit {
+            return Err(GpuError::DeviceLimit {
                 what: "peel lists image".into(),
+                limit: "maxImageDimension2D",
+                needed: u64::from(self.size * PEEL_TILE.0),
+                max: u64::from(limit),
                 message: format!(
                     "{}² light maps need a {}-texel-wide list image; the device's maxImageDimension2D is {limit}",
                     self.size,

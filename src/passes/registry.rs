@@ -158,8 +158,8 @@ pub fn build_one(
     name: &str,
     shared: &mut Shared,
 ) -> GpuResult<Box<dyn Pass>> {
-    let entry = PASSES.iter().find(|e| e.name == name).ok_or_else(|| crate::gpu::GpuError::Limit {
-        what: name.into(),
+    let entry = PASSES.iter().find(|e| e.name == name).ok_or_else(|| crate::gpu::GpuError::Internal {
+        what: format!("pass {name}"),
         message: "no such pass in the registry".into(),
     })?;
     (entry.build)(&mut Builder { ctx, memory, compiler, scene, shared })

@@ -275,7 +275,7 @@ fn bake_table(
         .map_or(String::new(), |mat| {
             format!("{}: voxel_res of material \"{}\": ", mat.voxel_res_at, mat.name)
         });
-    baked.map_err(|e| GpuError::Limit {
+    baked.map_err(|e| GpuError::Bake {
         what: format!("{at}thickness LUT of mesh \"{}\" at {res}³", m.name),
         message: e.to_string(),
     })
@@ -341,8 +341,11 @@ pub(crate) fn pack_keys(
         let lut = bake_table(scene, mesh, res, progress)?;
         let words = lut.words();
         if fields.len() as u64 + words.len() as u64 > limit as u64 {
-            return Err(GpuError::Limit {
+            return Err(GpuError::DeviceLimit {
                 what: "translucency thickness fields".into(),
+                limit: "maxTexelBufferElements",
+                needed: fields.len() as u64 + words.len() as u64,
+                max: u64::from(limit),
                 message: format!(
                     "the scene's fields need {} words, more than the device's maxTexelBufferElements \
                      {limit}; lower the materials' voxel_res",

@@ -69,17 +69,14 @@ impl PixelCopier {
         let e = acquired.extent;
         let size = e.width as u64 * e.height as u64 * 4;
         if rgba.len() as u64 != size {
-            return Err(GpuError::Limit {
-                what: "pixel copy".into(),
-                message: format!("{} bytes for a {}x{} RGBA8 image", rgba.len(), e.width, e.height),
-            });
+            return Err(GpuError::PixelCount { bytes: rgba.len(), width: e.width, height: e.height });
         }
         let swap_rb = match acquired.format {
             vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB => true,
             vk::Format::R8G8B8A8_UNORM | vk::Format::R8G8B8A8_SRGB => false,
             f => {
-                return Err(GpuError::Limit {
-                    what: "pixel copy".into(),
+                return Err(GpuError::SurfaceUnsupported {
+                    what: "pixel copy",
                     message: format!("swapchain format {f:?} is not an 8-bit RGBA/BGRA format"),
                 })
             }
@@ -196,10 +193,7 @@ impl PixelCopier {
                 && props.memory_types[i as usize].property_flags.contains(wanted)
         }) else {
             d.destroy_buffer(buffer, None);
-            return Err(GpuError::Limit {
-                what: "staging buffer".into(),
-                message: "no host-visible coherent memory type".into(),
-            });
+            return Err(GpuError::NoMemoryType { what: "staging buffer".into(), properties: wanted });
         };
         let alloc =
             vk::MemoryAllocateInfo::default().allocation_size(reqs.size).memory_type_index(type_index);

@@ -260,8 +260,8 @@ impl Presenter {
         let modes = modes.vk("vkGetPhysicalDeviceSurfacePresentModesKHR")?;
         let format =
             self.config.formats.iter().find_map(|f| formats.iter().find(|s| s.format == *f)).ok_or_else(
-                || crate::gpu::GpuError::Limit {
-                    what: "swapchain format".into(),
+                || crate::gpu::GpuError::SurfaceUnsupported {
+                    what: "swapchain format",
                     message: format!(
                         "the surface offers {:?}, none of the wanted {:?}",
                         formats.iter().map(|f| f.format).collect::<Vec<_>>(),
@@ -277,8 +277,8 @@ impl Presenter {
             .find(|m| modes.contains(m))
             .unwrap_or(vk::PresentModeKHR::FIFO);
         if !caps.supported_usage_flags.contains(self.config.usage) {
-            return Err(crate::gpu::GpuError::Limit {
-                what: "swapchain image usage".into(),
+            return Err(crate::gpu::GpuError::SurfaceUnsupported {
+                what: "swapchain image usage",
                 message: format!(
                     "wanted {:?}, the surface supports {:?}",
                     self.config.usage, caps.supported_usage_flags

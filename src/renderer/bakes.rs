@@ -119,7 +119,7 @@ impl Renderer {
         }
         let Some(job) = loaded.bakes.job.take() else { return Ok(()) };
         let packed = job.thread.join().unwrap_or_else(|_| {
-            Err(crate::gpu::GpuError::Limit {
+            Err(crate::gpu::GpuError::Bake {
                 what: "run-time bake".into(),
                 message: "the bake thread panicked".into(),
             })

@@ -91,8 +91,8 @@ impl GpuContext {
         // SAFETY: as above, the caller guarantees the physical device comes from this instance.
         let families =
             unsafe { raw.instance.get_physical_device_queue_family_properties(raw.physical_device) };
-        let family = families.get(raw.queue_family as usize).ok_or_else(|| GpuError::Limit {
-            what: "queue_family".into(),
+        let family = families.get(raw.queue_family as usize).ok_or_else(|| GpuError::RawQueue {
+            field: "queue_family",
             message: format!(
                 "{} is not a queue family of {name} ({} families)",
                 raw.queue_family,
@@ -101,8 +101,8 @@ impl GpuContext {
         })?;
         let needed = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
         if !family.queue_flags.contains(needed) || family.timestamp_valid_bits == 0 {
-            return Err(GpuError::Limit {
-                what: "queue_family".into(),
+            return Err(GpuError::RawQueue {
+                field: "queue_family",
                 message: format!(
                     "queue family {} of {name} has {:?} and {} timestamp bits; hadou records graphics and \
                      compute work with timestamps",
@@ -111,8 +111,8 @@ impl GpuContext {
             });
         }
         if raw.queue_index >= family.queue_count {
-            return Err(GpuError::Limit {
-                what: "queue_index".into(),
+            return Err(GpuError::RawQueue {
+                field: "queue_index",
                 message: format!("{} >= the family's {} queues", raw.queue_index, family.queue_count),
             });
         }
