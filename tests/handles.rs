@@ -193,7 +193,7 @@ fn setters_follow_their_object_across_despawns() {
 
 /// Name lookup: each kind finds its own objects (the first in scene order when names repeat),
 /// a missing name, a name of another kind and a despawned object's name are `None`; spawned
-/// objects have no name.
+/// objects have no name. An id of another renderer is `StaleId` there.
 #[test]
 fn objects_are_found_by_name() {
     let mut live = common::runtime();
@@ -229,5 +229,18 @@ fn objects_are_found_by_name() {
     let spawned = r.spawn_instance("box", "stone", DMat4::IDENTITY).unwrap();
     assert!(r.instance_ids().contains(&spawned));
     assert_eq!(r.instance_named("box"), None, "a mesh's name is not an instance's");
+    let c = r.instance_named("c").unwrap();
+    let stone = r.material_named("stone").unwrap();
+
+    // Another renderer with the same scene: its objects have ids of their own, and one of this
+    // renderer's names nothing there.
+    let mut other = common::runtime();
+    other.load_scene(common::parse(SCENE)).unwrap();
+    let o = other.renderer();
+    assert_ne!(o.instance_named("c"), Some(c));
+    assert!(matches!(o.set_transform(c, DMat4::IDENTITY), Err(Error::StaleId(_))));
+    assert!(matches!(o.set_material(stone, DVec3::ONE, None), Err(Error::StaleId(_))));
+    assert_eq!(o.scene().unwrap().instances, common::parse(SCENE).instances, "nothing changed there");
+    other.finish();
     common::assert_clean(&live);
 }
