@@ -16,13 +16,15 @@ build: setup
 
 # Renders the showcase to out/showcase.png (+ its depth AOV), a glTF scene (translucent
 # KHR_materials_volume cube) with an energy wave from a TOML overlay to out/gltf_overlay.png,
-# and prints per-pass timings.
+# prints per-pass timings, and renders examples/custom_effect's height fog (an effect written
+# outside the library) to out/custom_effect.png.
 demo: build check-vulkan
 	mkdir -p out
 	./target/release/hadou render assets/scenes/showcase.toml -o out/showcase.png --aov depth=out/showcase_depth.exr
 	./target/release/hadou render assets/gltf/overlay.toml -o out/gltf_overlay.png
 	./target/release/hadou render assets/scenes/translucency_peel.toml -o out/translucency_peel.png --time 0.5
 	./target/release/hadou profile assets/scenes/showcase.toml --size 512x512 --frames 30 --warmup 5
+	$(CARGO) run --release --example custom_effect -- out/custom_effect.png
 
 # The whole test suite on lavapipe (or any Vulkan device), validation on in every GPU test.
 test: check-vulkan

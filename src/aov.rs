@@ -1,6 +1,7 @@
 //! AOVs: images a frame can hand back besides its colour, as f32.
 
-use crate::targets::Target;
+use crate::gpu::vk;
+use crate::targets::{ImageDesc, Target};
 
 /// An arbitrary output variable, read back as f32.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -20,10 +21,14 @@ pub enum Aov {
     /// translucent (or the scene has no light). One channel. Only for scenes with a translucent
     /// instance.
     Thickness,
+    /// An image an effect publishes (`crate::effect`): R32_SFLOAT, R32G32_SFLOAT,
+    /// R32G32B32A32_SFLOAT or R16G16B16A16_SFLOAT, read back as f32 (other formats: their
+    /// texels' bits as f32, one value per 4 bytes).
+    Effect(&'static ImageDesc),
 }
 
 impl Aov {
-    /// Every AOV, in declaration order.
+    /// hadou's own AOVs, in declaration order.
     pub const ALL: [Aov; 5] = [Aov::Depth, Aov::Hdr, Aov::Normal, Aov::Energy, Aov::Thickness];
 
     /// The CLI's name for it: "depth", "hdr", "normal", "energy" or "thickness".
@@ -34,10 +39,11 @@ impl Aov {
             Aov::Normal => "normal",
             Aov::Energy => "energy",
             Aov::Thickness => "thickness",
+            Aov::Effect(d) => d.name,
         }
     }
 
-    /// The AOV called `name` (see `name`); None for any other string.
+    /// hadou's AOV called `name` (see `name`); None for any other string.
     pub fn from_name(name: &str) -> Option<Aov> {
         Aov::ALL.into_iter().find(|a| a.name() == name)
     }
@@ -50,6 +56,7 @@ impl Aov {
             Aov::Normal => Target::Normal,
             Aov::Energy => Target::Energy,
             Aov::Thickness => Target::Thickness,
+            Aov::Effect(d) => Target::Custom(d),
         }
     }
 
@@ -58,6 +65,10 @@ impl Aov {
         match self {
             Aov::Depth | Aov::Energy | Aov::Thickness => 1,
             Aov::Hdr | Aov::Normal => 4,
+            Aov::Effect(d) => match d.format {
+                vk::Format::R16G16B16A16_SFLOAT => 4,
+                _ => (d.texel_bytes / 4).max(1) as u32,
+            },
         }
     }
 }

@@ -10,7 +10,7 @@ use crate::gpu::pipeline::{bind_set, Bound, BufferRange, DescriptorPool};
 use crate::gpu::recorder::Recorder;
 use crate::gpu::ring::{TexelView, UploadRing};
 use crate::gpu::timestamps::TimestampPool;
-use crate::gpu::{vk, GpuContext, GpuResult};
+use crate::gpu::{vk, GpuContext};
 use crate::passes::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
@@ -126,7 +126,8 @@ pub(crate) fn record_passes(
     passes: &mut [&mut dyn Pass],
     timestamps: &mut Timestamps,
     scopes: &mut Vec<Scope>,
-) -> GpuResult<()> {
+) -> Result<(), crate::Error> {
+    crate::effect::check_reads(passes)?;
     let extent = f.targets.extent;
     let mut views: Vec<TexelView> = Vec::new();
     let mut prepared = Vec::with_capacity(passes.len());
@@ -148,8 +149,10 @@ pub(crate) fn record_passes(
             views: &mut views,
         };
         let bindings = pass.prepare(&mut frame)?;
+        let uses = pass.images();
+        crate::effect::check_bindings(&**pass, &uses, &bindings)?;
         // After prepare: a pass may size its images from this frame (the light maps).
-        for image in pass.images() {
+        for image in uses {
             f.targets.ensure(f.ctx, f.memory, image.target, image.extent)?;
         }
         let mut written = Vec::new();

@@ -21,13 +21,15 @@ pub struct RuntimeOptions {
     pub validation: bool,
     /// Use the first device whose name contains this.
     pub device: Option<String>,
+    /// The effects it runs (`Effects::builtin()` by default; `crate::effect`).
+    pub effects: crate::effect::Effects,
 }
 
 impl RuntimeOptions {
     /// Options from the environment: `HADOU_VALIDATION=1` (or `true`), `HADOU_DEVICE=<substring>`.
     pub fn from_env() -> Self {
         let c = ContextOptions::from_env();
-        RuntimeOptions { validation: c.validation, device: c.device_filter }
+        RuntimeOptions { validation: c.validation, device: c.device_filter, effects: Default::default() }
     }
 }
 
@@ -79,7 +81,7 @@ impl FrameOutput {
 ///
 /// ```
 /// use hadou::{Runtime, RuntimeOptions, FrameRequest, Aov};
-/// let mut runtime = Runtime::new(&RuntimeOptions { validation: true, device: None })?;
+/// let mut runtime = Runtime::new(&RuntimeOptions { validation: true, ..Default::default() })?;
 /// runtime.load_scene(hadou::scene::load_scene("assets/scenes/showcase.toml".as_ref())?)?;
 /// let mut request = FrameRequest::new(512, 512);
 /// request.aovs.push(Aov::Depth);
@@ -102,14 +104,21 @@ impl Runtime {
             validation: options.validation,
             device_filter: options.device.clone(),
         })?;
-        Self::with_context(ctx)
+        let renderer_options = RendererOptions { effects: options.effects.clone(), ..Default::default() };
+        Self::with_renderer_options(ctx, &renderer_options)
     }
 
     /// A runtime on a context the caller created, e.g. `GpuContext::new_presenting` for a window
     /// (`hadou view`). The runtime owns the context from here on.
     pub fn with_context(ctx: GpuContext) -> Result<Self, Error> {
+        Self::with_renderer_options(ctx, &RendererOptions::default())
+    }
+
+    /// A runtime on `ctx` whose renderer is made with `options` (its effects; its
+    /// `frames_in_flight` slots each get a command buffer and fence).
+    pub fn with_renderer_options(ctx: GpuContext, options: &RendererOptions) -> Result<Self, Error> {
         // The renderer first: if a command buffer fails, dropping it frees everything it made.
-        let renderer = Renderer::with_options(ctx, &RendererOptions::default())?;
+        let renderer = Renderer::with_options(ctx, options)?;
         let commands = (0..renderer.frames_in_flight())
             .map(|i| FrameCommands::new(renderer.context(), &format!("frame slot {i}")))
             .collect::<Result<Vec<_>, _>>()?;

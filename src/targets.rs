@@ -1,10 +1,28 @@
-//! The frame's images (depth, HDR colour, G-buffer, sRGB output), sized to the frame's extent.
-//! Each remembers its last use so the pass runner can place the barriers.
+//! The frame's images (depth, HDR colour, G-buffer, sRGB output, and those effects declare),
+//! sized to the frame's extent. Each remembers its last use so the pass runner can place the
+//! barriers.
 
 use crate::gpu::barriers::ImageAccess;
 pub use crate::gpu::memory::ImageHandles;
 use crate::gpu::memory::{Image, Memory};
 use crate::gpu::{vk, GpuContext, GpuResult};
+
+/// An image an effect makes for its passes (`Target::Custom`), declared once as a `static`:
+/// the runner creates it at the frame's size when a pass of the frame uses it, and drops it when
+/// none does. Storage and transfer-source usage are always included.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ImageDesc {
+    /// Unique among images: debug name, error messages, AOV name.
+    pub name: &'static str,
+    /// Its texel format (one a storage image can have on the device).
+    pub format: vk::Format,
+    /// Bytes per texel (read-backs).
+    pub texel_bytes: u64,
+    /// Usage besides STORAGE | TRANSFER_SRC (e.g. SAMPLED), else empty.
+    pub usage: vk::ImageUsageFlags,
+    /// What a scene needs for a pass to write it (error messages), e.g. "a [fog] table".
+    pub needs: &'static str,
+}
 
 /// Every image a frame may hold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -46,6 +64,8 @@ pub enum Target {
     GameDepth,
     /// The game's colour target of this frame (embedding), imported for the frame.
     GameColor,
+    /// An image an effect declared.
+    Custom(&'static ImageDesc),
 }
 
 impl Target {
@@ -66,6 +86,7 @@ impl Target {
             Target::PeelLists => "peel_lists",
             Target::GameDepth => "game depth",
             Target::GameColor => "game colour",
+            Target::Custom(d) => d.name,
         }
     }
 
@@ -79,6 +100,7 @@ impl Target {
             Target::Ldr => vk::Format::R8G8B8A8_UNORM,
             // The game's images carry their own format (`Targets::import`).
             Target::GameDepth | Target::GameColor => vk::Format::UNDEFINED,
+            Target::Custom(d) => d.format,
         }
     }
 
@@ -93,6 +115,7 @@ impl Target {
             | Target::PeelCounts => 4,
             Target::Hdr | Target::Normal | Target::Ids | Target::PeelLists => 8,
             Target::GameDepth | Target::GameColor => 0,
+            Target::Custom(d) => d.texel_bytes,
         }
     }
 
@@ -105,6 +128,7 @@ impl Target {
             }
             Target::PeelCounts | Target::PeelLists => "an instance with a thickness = \"peel\" material",
             Target::GameDepth | Target::GameColor => "a game's image handed to record_frame",
+            Target::Custom(d) => d.needs,
             _ => "a frame recorded first",
         }
     }
@@ -131,6 +155,7 @@ impl Target {
             Target::PeelCounts => base | vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
             Target::PeelLists => base | vk::ImageUsageFlags::STORAGE,
             Target::GameDepth | Target::GameColor => vk::ImageUsageFlags::empty(),
+            Target::Custom(d) => base | vk::ImageUsageFlags::STORAGE | d.usage,
             _ => base | vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
         }
     }
@@ -245,10 +270,19 @@ impl Targets {
         })
     }
 
-    /// The handles of a target a pass declared in `images()` (the runner made it).
+    /// The handles of a target a pass declared in `images()` (the runner made it); a pass that
+    /// asks for one it did not declare gets null handles (an error of that pass, which the
+    /// validation layers name) and an error in the log, never a panic in the frame path.
     pub fn image(&self, target: Target) -> ImageHandles {
-        self.get(target)
-            .unwrap_or_else(|| panic!("target {} was not created: a pass did not declare it", target.name()))
+        self.get(target).unwrap_or_else(|| {
+            log::error!("image {} was not created: no pass of this frame declares it", target.name());
+            ImageHandles {
+                raw: vk::Image::null(),
+                view: vk::ImageView::null(),
+                format: target.format(),
+                extent: self.extent,
+            }
+        })
     }
 
     /// The barrier taking `target` to `next`, recording `next` as its last use. Reads in one

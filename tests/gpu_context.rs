@@ -50,15 +50,23 @@ fn device_filter_picks_by_name_and_lists_refusals() {
     let name = rt.device_info().name.clone();
     let piece: String = name.chars().take(4).collect();
     drop(rt);
-    let picked =
-        Runtime::new(&RuntimeOptions { validation: true, device: Some(piece.to_uppercase()) }).unwrap();
+    let picked = Runtime::new(&RuntimeOptions {
+        validation: true,
+        device: Some(piece.to_uppercase()),
+        ..Default::default()
+    })
+    .unwrap();
     assert_eq!(picked.device_info().name, name);
     let log = picked.validation_log();
     drop(picked);
     common::assert_log_clean(&log, "the device picked by name, after it was destroyed");
-    let err = Runtime::new(&RuntimeOptions { validation: false, device: Some("no-such-device-42".into()) })
-        .err()
-        .expect("a filter matching nothing must fail");
+    let err = Runtime::new(&RuntimeOptions {
+        validation: false,
+        device: Some("no-such-device-42".into()),
+        ..Default::default()
+    })
+    .err()
+    .expect("a filter matching nothing must fail");
     let msg = err.to_string();
     assert!(msg.contains(&name) && msg.contains("no-such-device-42"), "{msg}");
 }

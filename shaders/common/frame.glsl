@@ -17,6 +17,11 @@ struct FrameUniforms {
     vec4 background;  // rgb
     uvec4 counts;     // x: lights, y: width, z: height, w: instances
     Light lights[MAX_LIGHTS];
+    // The camera's ray frame for camera_pixel_ray (common/camera.glsl): right and up scaled by
+    // the lens, w their ndc offsets; ray_forward.w is the camera's far distance.
+    vec4 ray_right;
+    vec4 ray_up;
+    vec4 ray_forward;
 };
 
 struct InstanceData {

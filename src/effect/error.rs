@@ -16,6 +16,14 @@ pub enum EffectError {
     /// Two passes registered under one name (their timings and labels would be confused).
     #[error("two passes are registered as `{0}` (expected unique pass names across effects)")]
     DuplicatePass(String),
+    /// A pass whose `Pass::name()` is not the name its `EffectPass` registers.
+    #[error("the pass registered as `{registered}` names itself `{named}` (expected the same name)")]
+    PassName {
+        /// The `EffectPass::name`.
+        registered: &'static str,
+        /// What the built pass's `name()` says.
+        named: &'static str,
+    },
     /// A scene-file table claimed twice (by two effects, or by an effect and hadou's own schema).
     #[error("scene-file table [{table}] of effect `{effect}` is already read by {owner}")]
     TableClaimed {
@@ -43,7 +51,9 @@ pub enum EffectError {
         declared: String,
     },
     /// A pass reads an image that no pass of the frame writes before it.
-    #[error("pass {pass} reads image {image}, which no earlier pass of this frame writes (it needs {needs})")]
+    #[error(
+        "pass {pass} reads image {image}, which no earlier pass of this frame writes (it needs {needs})"
+    )]
     NotWritten {
         /// The pass.
         pass: &'static str,

@@ -1,5 +1,150 @@
-//! Effects as plug-ins (placeholder while being written).
+//! Effects as plug-ins: what a game (or hadou itself) writes to add an effect, and nothing else.
+//!
+//! An effect is one type implementing [`Effect`]. It owns
+//! - its **scene-file tables** (`tables()`; `load()` reads them through [`SceneFile`] into its own
+//!   world data, with errors at `file:line:col` like hadou's own);
+//! - its **world data**: any `Clone + Debug` type, kept in [`Scene::effects`](crate::scene::Scene)
+//!   under the effect's name, changed at run time with `Renderer::update_effect` (the passes follow:
+//!   a pass the world no longer needs is parked, built, not run);
+//! - its **passes** (`passes()`): each an [`EffectPass`] — a name, when the scene needs it, the
+//!   variant it is built for, how it is built — implementing [`Pass`]: the images it touches
+//!   ([`ImageUse`], hadou's frame images or its own [`ImageDesc`]), its bindings, its commands.
+//!
+//! A game registers its effects with `Effects::builtin().with(MyEffect)?` in
+//! `RendererOptions::effects` / `RuntimeOptions::effects`, and reads scene files with
+//! [`crate::scene::load_scene_with`]. hadou's own energy wave, metaballs and translucency are
+//! registered the same way (`effect::builtin`); the raster, the depth import/out and the output
+//! pass are the core frame around them. `examples/custom_effect/` is a whole one: a height fog.
 
+mod builtin;
 mod error;
+mod frame_check;
+mod registry;
+mod scene_file;
+mod state;
 
+pub use builtin::{EnergyWave, Metaballs, Translucency};
 pub use error::EffectError;
+pub(crate) use frame_check::{check_bindings, check_reads};
+pub use registry::Effects;
+pub(crate) use registry::{ScenePasses, SharedData};
+pub(crate) use scene_file::top_level_keys;
+pub use scene_file::SceneFile;
+pub use state::{EffectState, EffectStates};
+
+pub use crate::gpu::barriers::ImageAccess;
+pub use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
+pub use crate::gpu::recorder::Recorder;
+pub use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
+pub use crate::passes::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
+pub use crate::targets::{ImageDesc, Target};
+
+use std::any::{Any, TypeId};
+
+use crate::gpu::memory::Memory;
+use crate::gpu::shader::ShaderCompiler;
+use crate::scene::{Scene, SceneError};
+
+/// An effect: its scene-file tables, its world data, its passes. See the module docs.
+pub trait Effect: Send + Sync + 'static {
+    /// Unique among the registered effects: the key of its data in `Scene::effects`, its passes'
+    /// owner in errors.
+    fn name(&self) -> &'static str;
+
+    /// The top-level scene-file tables it reads (`"fog"` for `[fog]` or `[[fog]]`). A scene file
+    /// with a table no registered effect (and not hadou's format) reads is refused.
+    fn tables(&self) -> &'static [&'static str] {
+        &[]
+    }
+
+    /// Reads its tables of a scene file (called when the file has at least one of them) into its
+    /// world data; `Ok(None)` leaves the scene without its data.
+    fn load(&self, _file: &SceneFile) -> Result<Option<Box<dyn EffectState>>, SceneError> {
+        Ok(None)
+    }
+
+    /// Its passes, in frame order (the registration order of effects orders their passes).
+    fn passes(&self) -> Vec<EffectPass>;
+
+    /// Checks the scene's data of this effect after a run-time change (`Renderer::update_effect`,
+    /// `insert_effect`): `Err(expected)` undoes the change, which returns
+    /// `Error::InvalidUpdate` with `expected` (what the values must be).
+    fn check(&self, _scene: &Scene) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Leaves the effect out of `scene` (the viewer's toggle, a report's baseline): by default
+    /// its data is removed, so none of its passes is needed.
+    fn switch_off(&self, scene: &mut Scene) {
+        scene.effects.remove(self.name());
+    }
+}
+
+/// One pass of an effect: when a scene needs it and how it is built.
+#[derive(Clone, Copy)]
+pub struct EffectPass {
+    /// The pass's `Pass::name()` (checked when it is built): label, timestamp scope, profile row.
+    pub name: &'static str,
+    /// Whether the scene needs the pass now (e.g. `|s| s.effects.get::<Fog>().is_some()`).
+    pub needed: fn(&Scene) -> bool,
+    /// What of the scene its build depends on: a pass built for another variant is built again
+    /// (and the old one parked); `String::new()` when nothing does.
+    pub variant: fn(&Scene) -> String,
+    /// Builds it.
+    pub build: fn(&mut PassBuilder) -> GpuResult<Box<dyn Pass>>,
+}
+
+impl EffectPass {
+    /// A pass needed when `needed` says so, with one variant.
+    pub fn new(
+        name: &'static str,
+        needed: fn(&Scene) -> bool,
+        build: fn(&mut PassBuilder) -> GpuResult<Box<dyn Pass>>,
+    ) -> Self {
+        EffectPass { name, needed, variant: |_| String::new(), build }
+    }
+}
+
+/// What building a pass has at hand: the device, the scene, the shader compiler, and data the
+/// passes of one scene share (built by the first pass that asks).
+pub struct PassBuilder<'a> {
+    /// The device.
+    pub ctx: &'a GpuContext,
+    pub(crate) memory: &'a Memory,
+    pub(crate) compiler: &'a mut ShaderCompiler,
+    /// The scene the pass is built for.
+    pub scene: &'a Scene,
+    pub(crate) shared: &'a mut SharedData,
+    /// The shared data this pass was given (a pass built on data that is replaced is rebuilt).
+    pub(crate) used: Vec<TypeId>,
+}
+
+impl PassBuilder<'_> {
+    /// The scene's shared `T`, made by `make` for the first pass that asks.
+    pub fn shared<T: Any + Send + Sync>(
+        &mut self,
+        make: impl FnOnce(&GpuContext, &Memory, &Scene) -> GpuResult<T>,
+    ) -> GpuResult<std::sync::Arc<T>> {
+        self.used.push(TypeId::of::<T>());
+        self.shared.get_or_make(|| make(self.ctx, self.memory, self.scene))
+    }
+
+    /// A compute pipeline from GLSL `source` (a `.comp` shader; `#include "common/…"` reaches
+    /// hadou's shared GLSL, e.g. `common/frame.glsl` for `FrameUniforms` with the camera's ray
+    /// frame). Its descriptor set layout and push-constant range come from the shader; a
+    /// push-constant block of another size than `push_constant_bytes` is refused.
+    pub fn compute_pipeline(
+        &mut self,
+        name: &str,
+        source: &str,
+        push_constant_bytes: u32,
+    ) -> GpuResult<Pipeline> {
+        let spirv = self.compiler.compile_source(&format!("{name}.comp"), source, &[])?;
+        create_compute_pipeline(self.ctx, name, &spirv, push_constant_bytes)
+    }
+
+    /// The device memory allocator (for buffers and images a pass owns).
+    pub fn memory(&self) -> &Memory {
+        self.memory
+    }
+}

@@ -45,8 +45,20 @@ impl ShaderCompiler {
     /// Compiles a shader by name, with `#define`s, to SPIR-V words for Vulkan 1.3.
     pub fn compile(&mut self, name: &str, defines: &[(&str, &str)]) -> GpuResult<Vec<u32>> {
         let source = self.source(name)?;
+        self.compile_source(name, &source, defines)
+    }
+
+    /// Compiles GLSL `source` (not one of hadou's files: an effect's own shader) named `name`,
+    /// whose extension gives the stage (.comp, .vert, .frag). `#include "common/…"` reaches
+    /// hadou's shared GLSL.
+    pub fn compile_source(
+        &mut self,
+        name: &str,
+        source: &str,
+        defines: &[(&str, &str)],
+    ) -> GpuResult<Vec<u32>> {
         let key_defines: String = defines.iter().map(|(k, v)| format!("{k}={v};")).collect();
-        let key = (format!("{name}|{key_defines}"), source.clone());
+        let key = (format!("{name}|{key_defines}"), source.to_string());
         if let Some(words) = self.cache.get(&key) {
             return Ok(words.clone());
         }
@@ -66,7 +78,7 @@ impl ShaderCompiler {
         options.set_include_callback(move |requested, _, _, _| include(dir.as_ref(), requested));
         let artifact = self
             .compiler
-            .compile_into_spirv(&source, kind, name, "main", Some(&options))
+            .compile_into_spirv(source, kind, name, "main", Some(&options))
             .map_err(|e| GpuError::Shader { name: name.into(), message: e.to_string() })?;
         if artifact.get_num_warnings() > 0 {
             log::warn!("shader {name}: {}", artifact.get_warning_messages());

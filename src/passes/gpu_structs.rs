@@ -29,9 +29,18 @@ pub struct FrameUniforms {
     /// x: lights, y: width, z: height, w: instances.
     pub counts: [u32; 4],
     pub lights: [GpuLight; MAX_LIGHTS],
+    /// The camera's ray frame (`Camera::ray_frame`, shaders/common/camera.glsl's
+    /// `camera_pixel_ray`): xyz right × the lens's x scale, w its ndc offset.
+    pub ray_right: [f32; 4],
+    /// xyz image up × the lens's y scale, w its ndc offset.
+    pub ray_up: [f32; 4],
+    /// xyz the unit view direction, w the camera's far distance.
+    pub ray_forward: [f32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(FrameUniforms as "FrameUniforms" { view_proj, camera_pos, ambient, background, counts, lights });
+crate::gpu::layout::gpu_layout!(FrameUniforms as "FrameUniforms" {
+    view_proj, camera_pos, ambient, background, counts, lights, ray_right, ray_up, ray_forward
+});
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -67,7 +76,7 @@ pub const THICKNESS_PEEL: u32 = 2;
 
 const _: () = {
     assert!(std::mem::size_of::<GpuLight>() == 32);
-    assert!(std::mem::size_of::<FrameUniforms>() == 128 + 32 * MAX_LIGHTS);
+    assert!(std::mem::size_of::<FrameUniforms>() == 128 + 32 * MAX_LIGHTS + 48);
     assert!(std::mem::offset_of!(FrameUniforms, camera_pos) == 64);
     assert!(std::mem::offset_of!(FrameUniforms, counts) == 112);
     assert!(std::mem::offset_of!(FrameUniforms, lights) == 128);
@@ -96,6 +105,8 @@ impl FrameUniforms {
             slot.direction = vec4_f32(light.direction, 0.0);
             slot.radiance = vec4_f32(light.color * light.intensity, 0.0);
         }
+        let [ray_right, ray_up, mut ray_forward] = scene.camera.ray_frame(width, height).to_f32();
+        ray_forward[3] = scene.camera.far as f32;
         FrameUniforms {
             view_proj: mat4_f32(scene.camera.view_projection(width, height)),
             camera_pos: vec4_f32(scene.camera.position, 1.0),
@@ -103,6 +114,9 @@ impl FrameUniforms {
             background: vec4_f32(scene.render.background, 1.0),
             counts: [scene.lights.len().min(MAX_LIGHTS) as u32, width, height, scene.instances.len() as u32],
             lights,
+            ray_right,
+            ray_up,
+            ray_forward,
         }
     }
 }

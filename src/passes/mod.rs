@@ -3,7 +3,7 @@
 //! commands; the runner (frame.rs) derives the images to make, the barriers, the descriptor set,
 //! the debug label and the timestamps from that declaration. See docs/ARCHITECTURE.md.
 //!
-//! Adding an effect: a pass file here, its shader, and one line in `registry::PASSES`.
+//! Which passes a scene runs: `crate::effect` (each effect registers its passes).
 
 pub mod composite;
 pub mod depth_import;
@@ -15,9 +15,7 @@ pub mod light_id;
 pub mod metaballs;
 pub mod peel;
 pub mod raster;
-pub(crate) mod registry;
 
-pub use registry::plan;
 pub mod tonemap;
 pub mod translucency;
 
@@ -63,6 +61,7 @@ pub enum Reader {
 }
 
 impl Reader {
+    /// The stage and access the reader uses the buffer with (the barriers' destination).
     pub fn stage(self) -> (vk::PipelineStageFlags2, vk::AccessFlags2) {
         match self {
             Reader::Host => (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
@@ -80,9 +79,13 @@ impl Reader {
 /// What a pass sees while preparing a frame: the scene, the frame's parameters and the slot's
 /// upload ring. The slot's previous frame has finished.
 pub struct FrameContext<'a> {
+    /// The device.
     pub ctx: &'a GpuContext,
+    /// Its memory allocator.
     pub memory: &'a Memory,
+    /// The world as it is this frame (effects' data in `scene.effects`).
     pub scene: &'a Scene,
+    /// The scene's GPU data: meshes, draws.
     pub scene_gpu: &'a SceneGpu,
     /// This frame's scene uniforms, instance and material tables (in the slot's ring).
     pub uniforms: BufferRange,
@@ -90,6 +93,7 @@ pub struct FrameContext<'a> {
     pub materials: BufferRange,
     /// Scene time in seconds.
     pub time: f64,
+    /// The frame's size in pixels.
     pub extent: vk::Extent2D,
     /// The frame slot being recorded (0..frames_in_flight).
     pub slot: usize,
@@ -121,13 +125,19 @@ impl FrameContext<'_> {
 
 /// What every pass sees while recording.
 pub struct PassRecording<'a> {
+    /// Records into the frame's command buffer.
     pub rec: &'a Recorder<'a>,
+    /// The frame's images (those the pass declared exist).
     pub targets: &'a Targets,
+    /// The scene's GPU data.
     pub scene_gpu: &'a SceneGpu,
+    /// The world as it is this frame.
     pub scene: &'a Scene,
     /// The pass's descriptor sets of this frame, one per pipeline of `Pass::pipelines`, in order.
     pub sets: Vec<vk::DescriptorSet>,
+    /// See `FrameContext::embedded`.
     pub embedded: bool,
+    /// See `FrameContext::depth_imported`.
     pub depth_imported: bool,
 }
 
@@ -141,18 +151,27 @@ impl PassRecording<'_> {
 /// A frame image a pass touches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ImageUse {
+    /// The image.
     pub target: Target,
+    /// How the pass uses it: stage, access, layout (the runner's barriers).
     pub access: ImageAccess,
     /// Its own size (the light maps), else the frame's.
     pub extent: Option<vk::Extent2D>,
 }
 
 impl ImageUse {
+    /// `target` used with `access`, at the frame's size.
     pub fn new(target: Target, access: ImageAccess) -> Self {
         ImageUse { target, access, extent: None }
     }
 }
 
+/// The names of the scene passes `scene` needs with hadou's own effects, in frame order.
+pub fn plan(scene: &Scene) -> Vec<&'static str> {
+    crate::effect::Effects::builtin().plan(scene)
+}
+
+/// A pass: what it touches, what it binds, what it records. See docs/ARCHITECTURE.md.
 pub trait Pass: Send {
     /// The pass's one name: file, shader, debug label, timestamp scope, test.
     fn name(&self) -> &'static str;
@@ -163,6 +182,7 @@ pub trait Pass: Send {
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>>;
     /// The pipelines the pass records with (a set is written for each, in this order).
     fn pipelines(&self) -> Vec<&Pipeline>;
+    /// Records the pass's commands (after the runner's barriers, inside its label and timestamps).
     fn record(&self, pass: &PassRecording);
     /// After the frame recorded in `slot` has finished: adds what the pass counted on the device.
     fn finished(&self, _slot: usize, _stats: &mut FrameStats) {}

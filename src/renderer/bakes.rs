@@ -49,8 +49,8 @@ pub(super) struct Bakes {
 }
 
 /// The scene's current tables, if the translucency passes were ever built.
-fn current_data(shared: &crate::passes::registry::Shared) -> Option<Arc<TranslucentData>> {
-    shared.iter().find_map(|s| s.clone().downcast::<TranslucentData>().ok())
+fn current_data(shared: &crate::effect::SharedData) -> Option<Arc<TranslucentData>> {
+    shared.get::<TranslucentData>()
 }
 
 impl Renderer {
@@ -58,7 +58,7 @@ impl Renderer {
     pub(super) fn table_known(&self, key: (usize, u32)) -> bool {
         let Some(loaded) = &self.loaded else { return false };
         let b = &loaded.bakes;
-        current_data(&loaded.shared).is_some_and(|d| d.keys.contains(&key))
+        current_data(&loaded.passes.shared).is_some_and(|d| d.keys.contains(&key))
             || b.job.as_ref().is_some_and(|j| j.adds.contains(&key))
             || b.queued.contains(&key)
             || b.failed.contains(&key)
@@ -69,10 +69,10 @@ impl Renderer {
     pub(super) fn ensure_tables(&mut self) -> Result<(), Error> {
         let limit = self.ctx.limits.max_texel_buffer_elements;
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
-        if current_data(&loaded.shared).is_none() {
+        if current_data(&loaded.passes.shared).is_none() {
             let packed = pack_keys(&loaded.scene, Vec::new(), limit, &|_, _| {})?;
             let data = TranslucentData::upload(&self.ctx, &self.memory, packed)?;
-            loaded.shared.push(Arc::new(data));
+            loaded.passes.shared.replace(data);
         }
         Ok(())
     }
@@ -95,7 +95,7 @@ impl Renderer {
             return;
         }
         let adds = std::mem::take(&mut loaded.bakes.queued);
-        let mut keys = current_data(&loaded.shared).map_or(Vec::new(), |d| d.keys.clone());
+        let mut keys = current_data(&loaded.passes.shared).map_or(Vec::new(), |d| d.keys.clone());
         keys.extend(&adds);
         let scene = loaded.scene.clone();
         let (done, total) = (Arc::new(AtomicUsize::new(0)), Arc::new(AtomicUsize::new(0)));
@@ -126,13 +126,10 @@ impl Renderer {
         });
         match packed.and_then(|p| TranslucentData::upload(&self.ctx, &self.memory, p)) {
             Ok(data) => {
-                loaded.shared.retain(|s| s.clone().downcast::<TranslucentData>().is_err());
-                loaded.shared.push(Arc::new(data));
-                // The passes holding the old tables go (retired with the frames that use them);
+                loaded.passes.shared.replace(data);
+                // The passes built on the old tables go (retired with the frames that use them);
                 // sync_passes builds them again on the new ones.
-                let stale = |a: &super::Active| a.name == "translucency" || a.name == "light_id";
-                loaded.passes.retain(|a| !stale(a));
-                loaded.parked.retain(|a| !stale(a));
+                loaded.passes.drop_users_of::<TranslucentData>();
             }
             Err(e) => {
                 let names: Vec<String> = job

@@ -21,6 +21,7 @@
 
 pub mod bakes;
 mod deform;
+mod effects;
 pub mod ids;
 mod inputs;
 pub mod instances;
@@ -45,7 +46,7 @@ use crate::gpu::GpuContext;
 use crate::passes::composite::CompositePass;
 use crate::passes::depth_import::DepthImportPass;
 use crate::passes::depth_out::DepthOutPass;
-use crate::passes::registry::{Active, Shared};
+use crate::effect::{Effects, ScenePasses};
 use crate::passes::tonemap::TonemapPass;
 use crate::passes::Pass;
 use crate::scene::Scene;
@@ -64,11 +65,14 @@ pub struct RendererOptions {
     /// Where the pipeline cache file lives; `None`: the bake cache's folder
     /// (`effects::bake_cache::default_cache_dir`), no file when that is unknown.
     pub pipeline_cache_dir: Option<std::path::PathBuf>,
+    /// The effects it runs (`Effects::builtin()` by default); a scene read with other effects'
+    /// tables is refused by `load_scene`.
+    pub effects: Effects,
 }
 
 impl Default for RendererOptions {
     fn default() -> Self {
-        RendererOptions { frames_in_flight: 2, pipeline_cache_dir: None }
+        RendererOptions { frames_in_flight: 2, pipeline_cache_dir: None, effects: Effects::builtin() }
     }
 }
 
@@ -78,12 +82,8 @@ pub const MAX_FRAMES_IN_FLIGHT: usize = 4;
 struct Loaded {
     scene: Scene,
     gpu: SceneGpu,
-    /// The scene passes the world needs now, in frame order.
-    passes: Vec<Active>,
-    /// Passes the world needed before and does not now: kept built, not run.
-    parked: Vec<Active>,
-    /// Data the scene's passes share (the baked thickness tables).
-    shared: Shared,
+    /// The scene passes (running and parked) and the data they share.
+    passes: ScenePasses,
     /// The id of each of `scene.waves` and `scene.metaballs` (spawned or from the file).
     wave_ids: Vec<u64>,
     group_ids: Vec<u64>,
@@ -101,7 +101,7 @@ struct Loaded {
 
 impl Loaded {
     fn pass_list(&self) -> impl Iterator<Item = &dyn Pass> {
-        self.passes.iter().map(|a| a.pass.as_ref())
+        self.passes.running.iter().map(|a| a.pass.as_ref())
     }
 }
 
@@ -130,6 +130,7 @@ pub struct Renderer {
     /// Frames up to this one are known to have finished.
     finished_through: Option<u64>,
     latest: Option<FinishedFrame>,
+    effects: Effects,
     compiler: ShaderCompiler,
     pipeline_cache: Option<PipelineCache>,
     memory: Memory,
@@ -165,6 +166,7 @@ impl Renderer {
             current: None,
             finished_through: None,
             latest: None,
+            effects: options.effects.clone(),
             compiler,
             pipeline_cache: Some(pipeline_cache),
             memory,
@@ -221,22 +223,19 @@ impl Renderer {
     /// are uploaded through a one-off command buffer on the context's queue, waited for by its
     /// own fence: call it while nothing else submits to that queue.
     pub fn load_scene(&mut self, scene: Scene) -> Result<(), Error> {
+        self.effects.check_scene(&scene)?;
         let gpu = SceneGpu::new(&self.ctx, &self.memory, &scene)?;
-        let mut shared = Shared::new();
-        let passes =
-            crate::passes::registry::build(&self.ctx, &self.memory, &mut self.compiler, &scene, &mut shared)?;
+        let mut passes = ScenePasses::default();
+        passes.sync(&self.ctx, &self.memory, &mut self.compiler, &self.effects, &scene)?;
         let wave_ids = (0..scene.waves.len()).map(|_| self.next_id()).collect();
         let group_ids = (0..scene.metaballs.len()).map(|_| self.next_id()).collect();
         let instance_ids = (0..scene.instances.len()).map(|_| self.next_id()).collect();
         let light_ids = (0..scene.lights.len()).map(|_| self.next_id()).collect();
         let material_ids = (0..scene.materials.len()).map(|_| self.next_id()).collect();
-        let parked = Vec::new();
         self.loaded = Some(Loaded {
             scene,
             gpu,
             passes,
-            parked,
-            shared,
             wave_ids,
             group_ids,
             instance_ids,

@@ -164,7 +164,7 @@ impl Renderer {
         let recorded = record_passes(&mut f, &mut [pass], &mut timestamps, &mut s.scopes);
         if let Err(e) = recorded {
             self.abandon_frame();
-            return Err(e.into());
+            return Err(e);
         }
         s.record_timestamp_copy(&self.ctx, cmd);
         Ok(frame)
@@ -225,7 +225,7 @@ impl Renderer {
         if let (Some(_), Some(p)) = (&inputs.depth, &mut self.edges.depth_import) {
             passes.push(p);
         }
-        passes.extend(loaded.passes.iter_mut().map(|a| a.pass.as_mut() as &mut dyn Pass));
+        passes.extend(loaded.passes.running.iter_mut().map(|a| a.pass.as_mut() as &mut dyn Pass));
         match (&inputs.color, &mut self.edges.composite, &mut self.edges.tonemap) {
             (Some(_), Some(c), _) => passes.push(c),
             (None, _, Some(t)) => passes.push(t),

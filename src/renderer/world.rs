@@ -6,7 +6,7 @@
 
 use glam::{DMat4, DVec3};
 
-use super::{Active, Renderer};
+use super::Renderer;
 use crate::effects::metaballs::{Ball, CastMethod, Kernel};
 use crate::scene::model::{AnimatedBall, MetaballGroup, Wave, WaveMethod};
 use crate::scene::transform::{Transform, TransformOp};
@@ -224,33 +224,6 @@ impl Renderer {
     /// when built before with the same variant), the others are parked (kept built, not run).
     pub(super) fn sync_passes(&mut self) -> Result<(), Error> {
         let Some(loaded) = &mut self.loaded else { return Ok(()) };
-        let scene = &loaded.scene;
-        let wanted: Vec<(&'static str, String)> = crate::passes::registry::PASSES
-            .iter()
-            .filter(|e| (e.needed)(scene))
-            .map(|e| (e.name, (e.variant)(scene)))
-            .collect();
-        if loaded.passes.iter().map(|a| (a.name, a.variant.clone())).eq(wanted.iter().cloned()) {
-            return Ok(());
-        }
-        let mut pool: Vec<Active> = loaded.passes.drain(..).chain(loaded.parked.drain(..)).collect();
-        for (name, variant) in wanted {
-            match pool.iter().position(|a| a.name == name && a.variant == variant) {
-                Some(i) => loaded.passes.push(pool.swap_remove(i)),
-                None => {
-                    let pass = crate::passes::registry::build_one(
-                        &self.ctx,
-                        &self.memory,
-                        &mut self.compiler,
-                        &loaded.scene,
-                        name,
-                        &mut loaded.shared,
-                    )?;
-                    loaded.passes.push(Active { name, variant, pass });
-                }
-            }
-        }
-        loaded.parked = pool;
-        Ok(())
+        loaded.passes.sync(&self.ctx, &self.memory, &mut self.compiler, &self.effects, &loaded.scene)
     }
 }

@@ -23,6 +23,7 @@ use super::model::{
     ThicknessMode,
 };
 use super::transform::{Transform, TransformOp};
+use crate::effect::{EffectStates, Effects, SceneFile};
 
 /// The most directional lights a scene may have (the raster pass's uniform array).
 pub const MAX_LIGHTS: usize = 8;
@@ -47,9 +48,19 @@ pub const MAX_EXTENT: f64 = 281474976710656.0;
 /// Albedo (each channel) of the built-in default material and of a `[[material]]` that gives none.
 pub const DEFAULT_ALBEDO: f64 = 0.7;
 
-/// Reads and validates the scene file at `path`.
+/// The top-level tables of hadou's own scene format (docs/scene-format.md); an effect's tables
+/// (`Effect::tables`) come after them.
+pub const SCENE_TABLES: &[&str] =
+    &["render", "camera", "light", "mesh", "material", "instance", "wave", "metaballs", "gltf"];
+
+/// Reads and validates the scene file at `path` with hadou's own effects.
 /// A .gltf or .glb file is read as a glTF scene (`scene::gltf::load_gltf`).
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    load_scene_with(path, &Effects::builtin())
+}
+
+/// Reads and validates the scene file at `path`; the tables of `effects` are read by them.
+pub fn load_scene_with(path: &Path, effects: &Effects) -> Result<Scene, SceneError> {
     if super::gltf::is_gltf(path) {
         return super::gltf::load_gltf(path);
     }
@@ -62,12 +73,21 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     }
     let bytes = std::fs::read(path).map_err(unreadable)?;
     let text = String::from_utf8(bytes).map_err(|e| not_utf8(path, &e))?;
-    parse_scene(&text, path)
+    parse_scene_with(&text, path, effects)
 }
 
-/// Validates scene `text`; `path` names it in errors and anchors relative OBJ paths.
+/// Validates scene `text` with hadou's own effects; `path` names it in errors and anchors
+/// relative OBJ paths.
 pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    parse_scene_with(text, path, &Effects::builtin())
+}
+
+/// Validates scene `text`; the tables of `effects` are read by them (`Effect::load`), any other
+/// table that is not hadou's own is refused at its line:col.
+pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Scene, SceneError> {
     let ctx = Ctx { text, path };
+    let tables = crate::effect::top_level_keys(text).map_err(|e| ctx.toml(&e))?;
+    check_tables(ctx, &tables, effects)?;
     let def: SceneDef = toml::from_str(text).map_err(|e| ctx.toml(&e))?;
     let render = render(ctx, def.render.as_ref())?;
     // With a [[gltf]] the camera may come from the glTF file (or frame the scene).
@@ -96,6 +116,7 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
     }
     let materials = materials.list;
     warn_unused(path, &meshes, &materials, &instances, &metaballs);
+    let effects = effect_states(text, path, &tables, effects)?;
     Ok(Scene {
         source: path.to_path_buf(),
         render,
@@ -106,7 +127,42 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
         instances,
         waves,
         metaballs,
+        effects,
     })
+}
+
+/// Refuses a top-level table that neither hadou's format nor a registered effect reads.
+fn check_tables(ctx: Ctx, tables: &[Spanned<String>], effects: &Effects) -> Result<(), SceneError> {
+    let known = |t: &str| SCENE_TABLES.contains(&t) || effects.reading(t).is_some();
+    let Some(unknown) = tables.iter().find(|t| !known(t.get_ref())) else { return Ok(()) };
+    let names: Vec<String> = SCENE_TABLES
+        .iter()
+        .copied()
+        .chain(effects.iter().flat_map(|e| e.tables().iter().copied()))
+        .map(|t| format!("`{t}`"))
+        .collect();
+    let message = format!("unknown field `{}`, expected one of {}", unknown.get_ref(), names.join(", "));
+    Err(ctx.err(unknown.span(), message))
+}
+
+/// The world data of each effect whose tables the file has.
+fn effect_states(
+    text: &str,
+    path: &Path,
+    tables: &[Spanned<String>],
+    effects: &Effects,
+) -> Result<EffectStates, SceneError> {
+    let mut states = EffectStates::default();
+    let file = SceneFile::new(text, path);
+    for effect in effects.iter() {
+        if !tables.iter().any(|t| effect.tables().contains(&t.get_ref().as_str())) {
+            continue;
+        }
+        if let Some(state) = effect.load(&file)? {
+            states.insert_boxed(effect.name(), state);
+        }
+    }
+    Ok(states)
 }
 
 fn not_utf8(path: &Path, e: &std::string::FromUtf8Error) -> SceneError {

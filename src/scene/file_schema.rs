@@ -12,8 +12,10 @@ use serde::de::{self, Deserializer, IgnoredAny, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize;
 use toml::Spanned;
 
+/// Unknown top-level tables are refused before (`file::check_tables`): an effect's own tables
+/// (`crate::effect`) are read by the effect.
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields, expecting = "a scene: TOML tables such as [camera] and [[mesh]]")]
+#[serde(expecting = "a scene: TOML tables such as [camera] and [[mesh]]")]
 pub(super) struct SceneDef {
     pub render: Option<Spanned<RenderDef>>,
     pub camera: Option<Spanned<CameraDef>>,

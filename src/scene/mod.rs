@@ -22,6 +22,6 @@ pub mod wave_track;
 pub mod wobble;
 
 pub use error::SceneError;
-pub use file::{load_scene, parse_scene};
+pub use file::{load_scene, load_scene_with, parse_scene, parse_scene_with};
 pub use model::*;
 pub use wave_track::WaveState;

@@ -39,7 +39,16 @@ pub fn runtime() -> CheckedRuntime {
 
 /// A runtime with validation on and no check at drop: for tests that provoke messages on purpose.
 pub fn runtime_unchecked() -> Runtime {
-    let options = RuntimeOptions { validation: true, device: std::env::var("HADOU_DEVICE").ok() };
+    runtime_with_effects_unchecked(hadou::effect::Effects::builtin())
+}
+
+/// As `runtime`, running `effects` (a game's own effects registered after hadou's).
+pub fn runtime_with_effects(effects: hadou::effect::Effects) -> CheckedRuntime {
+    CheckedRuntime(Some(runtime_with_effects_unchecked(effects)))
+}
+
+fn runtime_with_effects_unchecked(effects: hadou::effect::Effects) -> Runtime {
+    let options = RuntimeOptions { validation: true, device: std::env::var("HADOU_DEVICE").ok(), effects };
     Runtime::new(&options).unwrap_or_else(|e| panic!("GPU tests need a Vulkan device (lavapipe in CI): {e}"))
 }
 

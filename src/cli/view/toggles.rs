@@ -48,11 +48,16 @@ impl Toggles {
     /// The scene to load: `file` with the disabled passes' inputs left out and the switches applied.
     pub fn apply(&self, file: &Scene) -> Scene {
         let mut scene = file.clone();
-        if !self.energy_wave {
-            scene.waves.clear();
-        }
-        if !self.metaballs {
-            scene.metaballs.clear();
+        let effects = hadou::effect::Effects::builtin();
+        let off = [
+            ("energy_wave", self.energy_wave),
+            ("metaballs", self.metaballs),
+            ("translucency", self.translucency),
+        ];
+        for (name, on) in off {
+            if let Some(effect) = effects.get(name).filter(|_| !on) {
+                effect.switch_off(&mut scene);
+            }
         }
         let file_steps = file.waves.iter().find_map(|w| match w.method {
             WaveMethod::Raymarch { steps, .. } => Some(steps),
@@ -71,13 +76,10 @@ impl Toggles {
             }
         }
         for material in &mut scene.materials {
-            if let MaterialKind::Translucent { thickness, .. } = &mut material.kind {
-                if !self.translucency {
-                    // Shaded as an opaque surface of the same albedo: the translucency pass is not built.
-                    material.kind = MaterialKind::Lambert;
-                } else if let Some(mode) = self.thickness {
-                    *thickness = mode;
-                }
+            if let (MaterialKind::Translucent { thickness, .. }, Some(mode)) =
+                (&mut material.kind, self.thickness)
+            {
+                *thickness = mode;
             }
         }
         scene

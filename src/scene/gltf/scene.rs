@@ -52,6 +52,7 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
         instances: imp.instances,
         waves: Vec::new(),
         metaballs: Vec::new(),
+        effects: Default::default(),
     })
 }
 

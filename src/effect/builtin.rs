@@ -1,0 +1,125 @@
+//! hadou's own effects, registered through the same `Effect` API a game's effect uses, and the
+//! core frame's raster. Their scene-file tables (`[[wave]]`, `[[metaballs]]`, translucent
+//! `[[material]]`s) are still read by hadou's scene format into `Scene`'s own fields.
+//!
+//! Frame order: the raster first (it clears the G-buffer every later pass reads); metaballs right
+//! after it, whose images they bind (on lavapipe a dispatch waits only for the render passes that
+//! wrote what it binds, so after light_id it would overlap light_id's rasterizing and its
+//! timestamps would straddle the wrong work); light_id (the light's view of translucent
+//! instances), peel (the peel instances' crossing lists), translucency (reads what raster and
+//! metaballs wrote), the energy wave last, adding on top.
+
+use std::sync::Arc;
+
+use super::{Effect, EffectPass, PassBuilder};
+use crate::gpu::GpuResult;
+use crate::passes::energy_wave::EnergyWavePass;
+use crate::passes::light_id::LightIdPass;
+use crate::passes::metaballs::{self, MetaballsPass};
+use crate::passes::peel::{self, PeelPass};
+use crate::passes::raster::RasterPass;
+use crate::passes::translucency::{self, TranslucencyPass, TranslucentData};
+use crate::passes::Pass;
+use crate::scene::{MaterialKind, Scene};
+
+fn boxed(pass: impl Pass + 'static) -> Box<dyn Pass> {
+    Box::new(pass)
+}
+
+/// The core frame's scene pass: the raster, always.
+pub(super) fn core_passes() -> Vec<EffectPass> {
+    vec![EffectPass::new("raster", |_| true, |b| Ok(boxed(RasterPass::new(b.ctx, b.compiler)?)))]
+}
+
+pub(super) fn effects() -> Vec<Arc<dyn Effect>> {
+    vec![Arc::new(Metaballs), Arc::new(Translucency), Arc::new(EnergyWave)]
+}
+
+/// Seed 000: `[[metaballs]]` groups ray-cast with Bézier clipping.
+#[derive(Clone, Copy, Debug)]
+pub struct Metaballs;
+
+impl Effect for Metaballs {
+    fn name(&self) -> &'static str {
+        "metaballs"
+    }
+
+    fn switch_off(&self, scene: &mut Scene) {
+        scene.metaballs.clear();
+    }
+
+    fn passes(&self) -> Vec<EffectPass> {
+        vec![EffectPass {
+            name: "metaballs",
+            needed: |s| !s.metaballs.is_empty(),
+            variant: metaballs::variant,
+            build: |b| Ok(boxed(MetaballsPass::new(b.ctx, b.compiler, b.scene)?)),
+        }]
+    }
+}
+
+/// Seed 003: translucent materials, exp(−σ·d) with d from the thickness LUT, shadow maps or peel.
+#[derive(Clone, Copy, Debug)]
+pub struct Translucency;
+
+fn translucent_data(b: &mut PassBuilder) -> GpuResult<Arc<TranslucentData>> {
+    b.shared(TranslucentData::new)
+}
+
+impl Effect for Translucency {
+    fn name(&self) -> &'static str {
+        "translucency"
+    }
+
+    /// Translucent materials are shaded as opaque ones of the same albedo.
+    fn switch_off(&self, scene: &mut Scene) {
+        for material in &mut scene.materials {
+            if matches!(material.kind, MaterialKind::Translucent { .. }) {
+                material.kind = MaterialKind::Lambert;
+            }
+        }
+    }
+
+    fn passes(&self) -> Vec<EffectPass> {
+        vec![
+            EffectPass::new("light_id", translucency::needed, |b| {
+                let data = translucent_data(b)?;
+                Ok(boxed(LightIdPass::new(b.ctx, b.compiler, data, b.scene)?))
+            }),
+            EffectPass::new("peel", peel::needed, |b| Ok(boxed(PeelPass::new(b.ctx, b.compiler, b.scene)?))),
+            EffectPass {
+                name: "translucency",
+                needed: translucency::needed,
+                // With or without the field's march and the peel lists.
+                variant: translucency::variant,
+                build: |b| {
+                    let data = translucent_data(b)?;
+                    let (lut, peel) = (translucency::reads_lut(b.scene), peel::needed(b.scene));
+                    Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, data, lut, peel)?))
+                },
+            },
+        ]
+    }
+}
+
+/// Seed 004: `[[wave]]`s, the closed-form line integral of an emissive volume along view rays.
+#[derive(Clone, Copy, Debug)]
+pub struct EnergyWave;
+
+impl Effect for EnergyWave {
+    fn name(&self) -> &'static str {
+        "energy_wave"
+    }
+
+    fn switch_off(&self, scene: &mut Scene) {
+        scene.waves.clear();
+    }
+
+    fn passes(&self) -> Vec<EffectPass> {
+        vec![EffectPass::new(
+            "energy_wave",
+            |s| !s.waves.is_empty(),
+            |b| Ok(boxed(EnergyWavePass::new(b.ctx, b.compiler)?)),
+        )]
+    }
+}

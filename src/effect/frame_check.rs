@@ -1,0 +1,62 @@
+//! The checks the runner makes on a frame's pass list before preparing it: every image a pass
+//! binds is one it declared, bound the way its declared access allows, and every image a pass
+//! only reads is written by an earlier pass of the frame (or is the game's own). A frame that
+//! fails is refused with an error naming the pass and the image, before any command is recorded.
+
+use super::EffectError;
+use crate::gpu::vk;
+use crate::passes::{Binding, ImageUse, Pass};
+use crate::targets::Target;
+
+/// Refuses a pass reading an image no earlier pass of `passes` writes.
+pub(crate) fn check_reads(passes: &[&mut dyn Pass]) -> Result<(), EffectError> {
+    let mut written: Vec<Target> = Vec::new();
+    for pass in passes {
+        let uses = pass.images();
+        for u in &uses {
+            if !u.access.writes() && !u.target.is_external() && !written.contains(&u.target) {
+                return Err(EffectError::NotWritten {
+                    pass: pass.name(),
+                    image: u.target.name(),
+                    needs: u.target.needs(),
+                });
+            }
+        }
+        written.extend(uses.iter().filter(|u| u.access.writes()).map(|u| u.target));
+    }
+    Ok(())
+}
+
+/// Refuses an image binding of `pass` that its `images()` does not declare, or declares for
+/// another kind of access (a storage image is used in the GENERAL layout).
+pub(crate) fn check_bindings(
+    pass: &dyn Pass,
+    uses: &[ImageUse],
+    bindings: &[Binding],
+) -> Result<(), EffectError> {
+    for b in bindings {
+        let (target, binding) = match *b {
+            Binding::Image(t) => (t, "a storage image"),
+            Binding::SampledImage(t, _) => (t, "a sampled image"),
+            _ => continue,
+        };
+        let declared: Vec<&ImageUse> = uses.iter().filter(|u| u.target == target).collect();
+        let fits = |u: &&ImageUse| match b {
+            Binding::Image(_) => u.access.layout == vk::ImageLayout::GENERAL,
+            _ => true,
+        };
+        if !declared.iter().any(fits) {
+            let declared = match declared.first() {
+                None => "images() does not declare it".to_string(),
+                Some(u) => format!("images() declares it in layout {:?}", u.access.layout),
+            };
+            return Err(EffectError::Undeclared {
+                pass: pass.name(),
+                image: target.name(),
+                binding,
+                declared,
+            });
+        }
+    }
+    Ok(())
+}
