@@ -5,6 +5,7 @@
 // CPU twins: src/effects/energy_wave.rs (f64), src/effects/energy_wave_f32.rs (this arithmetic).
 #include "common/camera.glsl"
 #include "common/energy_wave.glsl"
+#include "common/frame.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -19,14 +20,13 @@ layout(set = 0, binding = 1, rgba16f) uniform image2D hdr;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D energy;
 layout(set = 0, binding = 3, std430) readonly buffer Waves { Wave waves[]; };
 layout(set = 0, binding = 4, std430) readonly buffer Styles { WaveStyle styles[]; };
+// The camera's ray frame (ray_right, ray_up, ray_forward; ray_forward.w: the far distance) and
+// the frame's size (counts.yz).
+layout(set = 0, binding = 5, std140) uniform FrameBlock { FrameUniforms frame; };
 
-// RayParams in src/passes/energy_wave.rs (size checked at pipeline creation).
-layout(push_constant) uniform RayParams {
-    vec4 right;    // right × tan(fov/2) × aspect (the lens); w: its ndc offset x
-    vec4 up;       // up × tan(fov/2) (the lens); w: its ndc offset y
-    vec4 forward;
-    uvec4 dims;    // width, height, wave count
-    vec4 far;      // x: far distance
+// EnergyWaveParams in src/passes/energy_wave.rs (size checked at pipeline creation).
+layout(push_constant) uniform EnergyWaveParams {
+    uvec4 counts;  // x: wave count
 } params;
 
 // Largest finite RGBA16F value: emission is clamped so HDR never holds Inf.
@@ -56,11 +56,12 @@ void main() {
     Wave wave0 = waves[0];
     WaveStyle style0 = styles[0];
     uvec2 p = gl_GlobalInvocationID.xy;
-    bool inside = p.x < params.dims.x && p.y < params.dims.y;
-    ivec2 pix = ivec2(min(p, params.dims.xy - 1u));
+    uvec2 size = frame.counts.yz;
+    bool inside = p.x < size.x && p.y < size.y;
+    ivec2 pix = ivec2(min(p, size - 1u));
     // The ray through the pixel centre, as Camera::pixel_ray builds it.
-    vec3 u = camera_pixel_ray(pix, params.dims.xy, params.right, params.up, params.forward.xyz);
-    float L = min(imageLoad(distance_image, pix).r, params.far.x);
+    vec3 u = camera_pixel_ray(pix, size, frame.ray_right, frame.ray_up, frame.ray_forward.xyz);
+    float L = min(imageLoad(distance_image, pix).r, frame.ray_forward.w);
     L = max(L, 0.0);
 
     float total = 0.0;
@@ -76,11 +77,11 @@ void main() {
         float H = style.method.x == 0u
             ? wave_line_integral(wave, u, L)
             : wave_raymarch(wave, u, L, style.method.y, style.method.z != 0u ? pixel_jitter(p, i) : 0.5);
-        bool live = i < params.dims.z;
+        bool live = i < params.counts.x;
         total += live ? H : 0.0;
         emitted += live ? style.emission.rgb * max(H - style.emission.w, 0.0) : vec3(0.0);
         ++i;
-    } while (i < params.dims.z);
+    } while (i < params.counts.x);
     if (inside) {
         imageStore(energy, pix, vec4(total, 0.0, 0.0, 0.0));
         vec4 c = imageLoad(hdr, pix);

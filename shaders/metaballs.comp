@@ -106,13 +106,11 @@ float chunk_key(uvec4 run, uint k, vec3 o) { return mb_entry_key(load_ball(entri
 #define MB_TANGENT_FLAGS 0  // this pass never reads MB_TANGENT
 #include "common/metaballs.glsl"
 
-// Keep in sync with MetaballParams in src/passes/metaballs.rs.
+// Keep in sync with MetaballParams in src/passes/metaballs.rs. The camera's ray frame, the far
+// distance (ray_forward.w) and the frame's size (counts.yz) are the frame's uniforms.
 layout(push_constant) uniform MetaballParams {
-    vec4 right;    // right × tan(fov/2) × aspect (the lens); w: its ndc offset x
-    vec4 up;       // up × tan(fov/2) (the lens); w: its ndc offset y
-    vec4 forward;  // w: the camera's near distance (view depth)
-    uvec4 dims;    // width, height, active tiles, instance id of group 0 (scene instances)
-    vec4 range;    // x: the camera's far distance
+    uvec4 counts;  // x: active tiles, y: instance id of group 0 (scene instances)
+    vec4 near;     // x: the camera's near distance (a view depth; not in FrameUniforms)
 } params;
 
 #define STAT_DROPPED 0         // pixels whose search could not finish (MB_NOT_CONVERGED:
@@ -166,7 +164,7 @@ void store_hit(uvec2 p, vec3 u, MetaHit best, uint best_group) {
     imageStore(hdr, ivec2(p), vec4(color, 1.0));
     imageStore(distance_image, ivec2(p), vec4(best.t, 0.0, 0.0, 0.0));
     imageStore(normal_image, ivec2(p), vec4(n, 1.0));
-    imageStore(ids, ivec2(p), uvec4(params.dims.w + best_group + 1u, g.info.w, 0u, 0u));
+    imageStore(ids, ivec2(p), uvec4(params.counts.y + best_group + 1u, g.info.w, 0u, 0u));
 }
 
 // Lavapipe (Mesa's gallivm) ends every loop of a SIMD group, silently, once all its loops
@@ -222,7 +220,7 @@ void main() {
         uint tile = stream[4u + w];
         uvec4 header = tiles(tile);
         uvec2 p = tile_pixel(header, lane);
-        bool inside = p.x < params.dims.x && p.y < params.dims.y;
+        bool inside = p.x < frame.counts.y && p.y < frame.counts.z;
         uvec4 record = uvec4(0u, 0u, 0xffffffffu, 0u);
         if (inside) record = pending_runs[64u * tile + lane];
         uint pending_lo = record.x;
@@ -231,11 +229,11 @@ void main() {
         bool was_hit = (record.w & 0x80000000u) != 0u;
         bool pending = pending_lo != 0u || pending_hi != 0u || pending_rest < header.y;
         bool crowded = pending;  // this pixel's hit is counted here, not by the rounds
-        vec3 u = camera_pixel_ray(p, params.dims.xy, params.right, params.up, params.forward.xyz);
+        vec3 u = camera_pixel_ray(p, frame.counts.yz, frame.ray_right, frame.ray_up, frame.ray_forward.xyz);
         vec3 origin = frame.camera_pos.xyz;
-        float t_min = params.forward.w / dot(u, params.forward.xyz);
+        float t_min = params.near.x / dot(u, frame.ray_forward.xyz);
         float t_max = -1.0;
-        if (pending) t_max = min(imageLoad(distance_image, ivec2(p)).r, params.range.x);
+        if (pending) t_max = min(imageLoad(distance_image, ivec2(p)).r, frame.ray_forward.w);
         bool found = false;
         MetaHit best;
         best.iterations = record.w & 0x7fffffffu;
@@ -292,10 +290,10 @@ void main() {
     // tile, so the loops over the tile's runs and balls are uniform.
     uint tile = gl_WorkGroupID.y * TILES_PER_ROW + gl_WorkGroupID.x;
     uvec4 header = uvec4(0u);
-    if (tile < params.dims.z) header = tiles(tile);
+    if (tile < params.counts.x) header = tiles(tile);
     uint lane = gl_LocalInvocationIndex;
     uvec2 p = tile_pixel(header, lane);
-    bool inside = tile < params.dims.z && p.x < params.dims.x && p.y < params.dims.y;
+    bool inside = tile < params.counts.x && p.x < frame.counts.y && p.y < frame.counts.z;
     uint dropped = 0u;
     uint streamed = 0u;
     // Runs (groups of the tile) whose cast is crowded, streamed after the rounds (below).
@@ -306,13 +304,13 @@ void main() {
     MetaHit best;
     uint best_group = 0u;
     // The ray through the pixel centre, as Camera::pixel_ray and energy_wave.comp build it.
-    vec3 u = camera_pixel_ray(p, params.dims.xy, params.right, params.up, params.forward.xyz);
+    vec3 u = camera_pixel_ray(p, frame.counts.yz, frame.ray_right, frame.ray_up, frame.ray_forward.xyz);
     vec3 origin = frame.camera_pos.xyz;
     // t_max: the raster's distance (+inf where nothing was hit), at most the far distance;
     // t_min: the near plane, measured along this ray.
     float t_max = -1.0;
-    if (inside && header.y != 0u) t_max = min(imageLoad(distance_image, ivec2(p)).r, params.range.x);
-    float t_min = params.forward.w / dot(u, params.forward.xyz);
+    if (inside && header.y != 0u) t_max = min(imageLoad(distance_image, ivec2(p)).r, frame.ray_forward.w);
+    float t_min = params.near.x / dot(u, frame.ray_forward.xyz);
 
     for (uint r = 0u; r < header.y; ++r) {
         uvec4 run = tiles(header.x + r);

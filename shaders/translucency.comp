@@ -30,15 +30,12 @@ uint field_word(uint i) { return texelFetch(field_texels, int(i)).x; }
 #endif
 #include "common/translucency.glsl"
 
-// Keep in sync with TranslucencyParams in src/passes/translucency.rs.
+// Keep in sync with TranslucencyParams in src/passes/translucency.rs. The camera's ray frame and
+// position and the frame's size (counts.yz) are the frame's uniforms (binding 12).
 struct TranslucencyParams {
-    vec4 right;     // camera right × tan(fov/2) × aspect (the lens); w: its ndc offset x
-    vec4 up;        // image up × tan(fov/2) (the lens); w: its ndc offset y
-    vec4 forward;
-    vec4 camera;    // xyz: position
     vec4 radiance;  // rgb: the first light's colour × intensity; w: 1 when the scene has a light
     LightViewData view;
-    uvec4 dims;     // frame width, height, light map size, scene instances
+    uvec4 dims;     // light map size, scene instances
     uvec4 lut;      // unused
     uvec4 rect;     // the pixels [x, z) × [y, w) that can show a translucent instance (dispatch origin)
 };
@@ -52,12 +49,13 @@ layout(set = 0, binding = 5, r32f) uniform readonly image2D light_z;
 layout(set = 0, binding = 6, r32f) uniform writeonly image2D thickness_image;
 layout(set = 0, binding = 10, std430) readonly buffer Materials { MaterialData materials[]; };
 layout(set = 0, binding = 11, rgba16f) uniform readonly image2D normal_image;
+layout(set = 0, binding = 12, std140) uniform FrameBlock { FrameUniforms frame; };
 
 const float HALF_MAX = 65504.0;
 
 #ifdef WITH_PEEL
-layout(set = 0, binding = 12, r32ui) uniform readonly uimage2D peel_counts;
-layout(set = 0, binding = 13, rg32ui) uniform readonly uimage2D peel_lists;
+layout(set = 0, binding = 13, r32ui) uniform readonly uimage2D peel_counts;
+layout(set = 0, binding = 14, rg32ui) uniform readonly uimage2D peel_lists;
 #include "common/translucency_peel.glsl"
 #endif
 
@@ -66,7 +64,7 @@ layout(set = 0, binding = 13, rg32ui) uniform readonly uimage2D peel_lists;
 ivec2 own_texel(ivec2 centre, uint instance) {
     const ivec2 order[9] = ivec2[9](ivec2(0, 0), ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1),
                                     ivec2(1, 1), ivec2(-1, 1), ivec2(1, -1), ivec2(-1, -1));
-    int last = int(params.dims.z) - 1;
+    int last = int(params.dims.x) - 1;
     for (int k = 0; k < 9; ++k) {
         ivec2 t = clamp(centre + order[k], ivec2(0), ivec2(last));
         if (imageLoad(light_ids, t).x == instance + 1u) return t;
@@ -76,8 +74,8 @@ ivec2 own_texel(ivec2 centre, uint instance) {
 
 float thickness_at(vec3 P, uint instance, uint mode) {
     vec3 lp = light_project(params.view, P);
-    float size = float(params.dims.z);
-    ivec2 centre = clamp(ivec2(floor((lp.xy * 0.5 + 0.5) * size)), ivec2(0), ivec2(params.dims.z - 1u));
+    float size = float(params.dims.x);
+    ivec2 centre = clamp(ivec2(floor((lp.xy * 0.5 + 0.5) * size)), ivec2(0), ivec2(params.dims.x - 1u));
 #ifdef WITH_PEEL
     // peel (common/translucency_peel.glsl); an overflowed list falls back to TSM below.
     if (mode == THICKNESS_PEEL) {
@@ -113,7 +111,7 @@ float thickness_at(vec3 P, uint instance, uint mode) {
 // The pixels outside `rect`: no translucent surface there (run over the whole frame first).
 void main() {
     uvec2 p = gl_GlobalInvocationID.xy;
-    if (p.x >= params.dims.x || p.y >= params.dims.y) return;
+    if (p.x >= frame.counts.y || p.y >= frame.counts.z) return;
     imageStore(thickness_image, ivec2(p), vec4(uintBitsToFloat(0x7f800000u), 0.0, 0.0, 0.0));
 }
 #else
@@ -123,13 +121,14 @@ void main() {
     uvec2 ids = imageLoad(ids_image, ivec2(p)).xy;
     float d = uintBitsToFloat(0x7f800000u);  // +inf: no translucent surface
     // Instance ids past the scene's instances (metaball groups) have no light map entry.
-    if (ids.x != 0u && ids.x <= params.dims.w && params.radiance.w != 0.0) {
+    if (ids.x != 0u && ids.x <= params.dims.y && params.radiance.w != 0.0) {
         uint instance = ids.x - 1u;
         MaterialData mat = materials[ids.y];
         if (mat.kind.x == MATERIAL_TRANSLUCENT && translucent_instance_at(translucent_texels, instance).info.y != 0u) {
             // The pixel ray as Camera::pixel_ray builds it, to the raster's distance.
-            vec3 u = camera_pixel_ray(p, params.dims.xy, params.right, params.up, params.forward.xyz);
-            vec3 P = params.camera.xyz + u * imageLoad(distance_image, ivec2(p)).r;
+            vec3 u =
+                camera_pixel_ray(p, frame.counts.yz, frame.ray_right, frame.ray_up, frame.ray_forward.xyz);
+            vec3 P = frame.camera_pos.xyz + u * imageLoad(distance_image, ivec2(p)).r;
             d = thickness_at(P, instance, mat.kind.y);
             float w = max(dot(imageLoad(normal_image, ivec2(p)).xyz, params.view.dir.xyz), 0.0);
             vec3 light = w * params.radiance.rgb * mat.albedo.rgb * exp(-mat.sigma.rgb * d);

@@ -353,7 +353,7 @@ mod tests {
     use super::*;
     use crate::effects::energy_wave_f32::GpuWave;
     use crate::gpu::shader::ShaderCompiler;
-    use crate::passes::energy_wave::{RayParams, WaveStyle};
+    use crate::passes::energy_wave::{EnergyWaveParams, WaveStyle};
     use crate::passes::gpu_structs::{FrameUniforms, InstanceData, MaterialData};
     use crate::passes::metaballs::MetaballParams;
     use crate::passes::translucency::TranslucencyParams;
@@ -376,7 +376,8 @@ mod tests {
         let ew = interface("energy_wave.comp", &[]);
         assert_eq!(element(&ew, 3), size(size_of::<GpuWave>()));
         assert_eq!(element(&ew, 4), size(size_of::<WaveStyle>()));
-        assert_eq!(ew.push_bytes, size(size_of::<RayParams>()));
+        assert_eq!(element(&ew, 5), size(size_of::<FrameUniforms>()));
+        assert_eq!(ew.push_bytes, size(size_of::<EnergyWaveParams>()));
         let probe = interface("energy_probe.comp", &[]);
         assert_eq!(element(&probe, 0), size(size_of::<GpuWave>()));
         let raster = interface("raster.vert", &[]);
@@ -391,6 +392,7 @@ mod tests {
         let tr = interface("translucency.comp", &[]);
         assert_eq!(element(&tr, 0), size(size_of::<TranslucencyParams>()));
         assert_eq!(element(&tr, 10), size(size_of::<MaterialData>()));
+        assert_eq!(element(&tr, 12), size(size_of::<FrameUniforms>()));
         assert_eq!(interface("tonemap.comp", &[]).push_bytes, 12);
     }
 

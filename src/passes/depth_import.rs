@@ -6,7 +6,7 @@ use gpu_allocator::MemoryLocation;
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
 use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::Buffer;
-use crate::gpu::pipeline::{create_compute_pipeline, BufferRange, Pipeline};
+use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
 use crate::gpu::sampler::Sampler;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
@@ -36,18 +36,20 @@ pub fn store_depth(z: f64, convention: DepthConvention) -> f64 {
     -a + b / z
 }
 
-/// Push constants of shaders/depth_import.comp (size checked against the shader).
+/// Push constants of shaders/depth_import.comp (size checked against the shader). The camera's
+/// ray frame, its far distance and the frame's size are the frame's uniforms (`FrameUniforms`:
+/// `ray_right`, `ray_up`, `ray_forward`, `counts`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct Params {
-    right: [f32; 4],
-    up: [f32; 4],
-    forward: [f32; 4],
+    /// x: 1 if the game's depth is reverse-Z; y: the staging buffer's row length (the width
+    /// rounded up to whole 8-pixel workgroups).
     dims: [u32; 4],
+    /// The game's projection (stored d = −A + B / z): A, B; hadou's near distance.
     planes: [f32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(Params as "Params" { right, up, forward, dims, planes });
+crate::gpu::layout::gpu_layout!(Params as "Params" { dims, planes });
 
 /// Runs first in an embedded frame whose game hands its depth (`FrameInputs::depth`). The game's
 /// depth image is the frame's `GameDepth` target, imported for that frame only: its view is bound
@@ -60,6 +62,8 @@ pub struct DepthImportPass {
     /// write after the previous frame's copy.
     staging: Option<Buffer>,
     params: Params,
+    /// The frame's size: the dispatch.
+    extent: vk::Extent2D,
     convention: DepthConvention,
 }
 
@@ -72,6 +76,7 @@ impl DepthImportPass {
             sampler: Sampler::nearest(ctx, "depth_import sampler")?,
             staging: None,
             params: Params::default(),
+            extent: vk::Extent2D::default(),
             convention: DepthConvention::ReverseZ { near: 1.0, far: 2.0 },
         })
     }
@@ -107,16 +112,12 @@ impl Pass for DepthImportPass {
             self.staging =
                 Some(frame.memory.create_buffer(frame.ctx, name, size, usage, MemoryLocation::GpuOnly)?);
         }
-        let camera = &frame.scene.camera;
-        let [right, up, forward] = camera.ray_frame(extent.width, extent.height).to_f32();
         let (a, b) = self.convention.coefficients();
         self.params = Params {
-            right,
-            up,
-            forward,
-            dims: [extent.width, extent.height, u32::from(self.convention.reversed()), row],
-            planes: [a as f32, b as f32, camera.near as f32, camera.far as f32],
+            dims: [u32::from(self.convention.reversed()), row, 0, 0],
+            planes: [a as f32, b as f32, frame.scene.camera.near as f32, 0.0],
         };
+        self.extent = extent;
         let staging = self
             .staging
             .as_ref()
@@ -125,6 +126,7 @@ impl Pass for DepthImportPass {
             Binding::SampledImage(Target::GameDepth, self.sampler.raw),
             Binding::Image(Target::Distance),
             Binding::Written(staging, Reader::Copy),
+            Binding::Bound(Bound::Uniform(frame.uniforms)),
         ])
     }
 
@@ -134,13 +136,13 @@ impl Pass for DepthImportPass {
 
     fn record(&self, pass: &PassRecording) {
         let rec = pass.rec;
-        let [width, height, ..] = self.params.dims;
+        let vk::Extent2D { width, height } = self.extent;
         rec.bind_pipeline(&self.pipeline, pass.set(0));
         rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
         rec.dispatch_2d(width, height, (8, 8));
         rec.compute_to_copy_barrier();
         if let Some(staging) = &self.staging {
-            rec.copy_buffer_to_depth(staging, self.params.dims[3], &pass.targets.image(Target::Depth));
+            rec.copy_buffer_to_depth(staging, self.params.dims[1], &pass.targets.image(Target::Depth));
         }
     }
 }

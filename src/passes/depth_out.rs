@@ -7,23 +7,23 @@
 
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
 use crate::gpu::barriers::ImageAccess;
-use crate::gpu::pipeline::{create_graphics_pipeline, Blend, GraphicsDesc, Pipeline};
+use crate::gpu::pipeline::{create_graphics_pipeline, Blend, Bound, GraphicsDesc, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::renderer::DepthConvention;
 use crate::targets::Target;
 
-/// Push constants of shaders/depth_out.frag (size checked against the shader).
+/// Push constants of shaders/depth_out.frag (size checked against the shader). The camera's ray
+/// frame and the frame's size are the frame's uniforms (`FrameUniforms`: `ray_right`, `ray_up`,
+/// `ray_forward`, `counts`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct Params {
-    right: [f32; 4],
-    up: [f32; 4],
-    forward: [f32; 4],
+    /// The game's projection (stored d = −A + B / z): A, B; z, w: 0.
     planes: [f32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(Params as "Params" { right, up, forward, planes });
+crate::gpu::layout::gpu_layout!(Params as "Params" { planes });
 
 /// A storage image read by the fragment shader.
 const FRAGMENT_STORAGE_READ: ImageAccess = ImageAccess {
@@ -109,12 +109,13 @@ impl Pass for DepthOutPass {
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
-        let e = frame.extent;
-        let [right, up, forward] = frame.scene.camera.ray_frame(e.width, e.height).to_f32();
         let (a, b) = self.convention.map_or((0.0, 1.0), |c| c.coefficients());
-        let planes = [a as f32, b as f32, e.width as f32, e.height as f32];
-        self.params = Params { right, up, forward, planes };
-        Ok(vec![Binding::Image(Target::Ids), Binding::Image(Target::Distance)])
+        self.params = Params { planes: [a as f32, b as f32, 0.0, 0.0] };
+        Ok(vec![
+            Binding::Image(Target::Ids),
+            Binding::Image(Target::Distance),
+            Binding::Bound(Bound::Uniform(frame.uniforms)),
+        ])
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {

@@ -11,7 +11,7 @@ use crate::gpu::barriers::ImageAccess;
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
-use crate::scene::{Scene, WaveMethod, WaveState};
+use crate::scene::{WaveMethod, WaveState};
 use crate::targets::Target;
 
 /// How a wave is drawn: `WaveStyle` in shaders/energy_wave.comp.
@@ -26,42 +26,22 @@ pub struct WaveStyle {
 
 crate::gpu::layout::gpu_layout!(WaveStyle as "WaveStyle" { emission, method });
 
-/// Push constants: the camera frame for the pixel rays (size checked against
-/// shaders/energy_wave.comp when the pipeline is made).
+/// Push constants (size checked against shaders/energy_wave.comp when the pipeline is made). The
+/// camera's ray frame, the frame size and the far distance are the frame's uniforms
+/// (`FrameUniforms`: `ray_right`, `ray_up`, `ray_forward`, `counts`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct RayParams {
-    /// x: right × tan(fov/2) × aspect.
-    pub right: [f32; 4],
-    /// y: image up × tan(fov/2).
-    pub up: [f32; 4],
-    pub forward: [f32; 4],
-    /// width, height, wave count, 0.
-    pub dims: [u32; 4],
-    /// x: the camera's far distance (L where no surface is hit).
-    pub far: [f32; 4],
+pub struct EnergyWaveParams {
+    /// x: the wave count (the live waves uploaded); y, z, w: 0.
+    pub counts: [u32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(RayParams as "RayParams" { right, up, forward, dims, far });
+crate::gpu::layout::gpu_layout!(EnergyWaveParams as "EnergyWaveParams" { counts });
 
 const _: () = {
     assert!(std::mem::size_of::<WaveStyle>() == 32);
-    assert!(std::mem::size_of::<RayParams>() == 80);
+    assert!(std::mem::size_of::<EnergyWaveParams>() == 16);
 };
-
-impl RayParams {
-    pub fn new(scene: &Scene, extent: vk::Extent2D, wave_count: u32) -> Self {
-        let cam = &scene.camera;
-        let [right, up, forward] = cam.ray_frame(extent.width, extent.height).to_f32();
-        RayParams {
-            right,
-            up,
-            forward,
-            dims: [extent.width, extent.height, wave_count, 0],
-            far: [cam.far as f32, 0.0, 0.0, 0.0],
-        }
-    }
-}
 
 /// The f64 parameters of a wave's state (what the references integrate).
 pub fn wave_params(state: &WaveState) -> WaveParams {
@@ -86,15 +66,18 @@ pub fn wave_style(state: &WaveState, method: WaveMethod) -> WaveStyle {
 
 pub struct EnergyWavePass {
     pipeline: Pipeline,
-    params: RayParams,
+    params: EnergyWaveParams,
+    /// The frame's size: the dispatch.
+    extent: vk::Extent2D,
 }
 
 impl EnergyWavePass {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
         let spirv = compiler.compile("energy_wave.comp", &[])?;
-        let push = std::mem::size_of::<RayParams>() as u32;
+        let push = std::mem::size_of::<EnergyWaveParams>() as u32;
         let pipeline = create_compute_pipeline(ctx, "energy_wave", &spirv, push)?;
-        Ok(EnergyWavePass { pipeline, params: RayParams::default() })
+        let extent = vk::Extent2D::default();
+        Ok(EnergyWavePass { pipeline, params: EnergyWaveParams::default(), extent })
     }
 }
 
@@ -123,7 +106,8 @@ impl Pass for EnergyWavePass {
             .collect();
         let waves: Vec<GpuWave> = live.iter().map(|(s, _)| gpu_wave(&wave_params(s), camera)).collect();
         let styles: Vec<WaveStyle> = live.iter().map(|(s, m)| wave_style(s, *m)).collect();
-        self.params = RayParams::new(scene, frame.extent, waves.len() as u32);
+        self.params = EnergyWaveParams { counts: [waves.len() as u32, 0, 0, 0] };
+        self.extent = frame.extent;
         // The shader reads wave 0 before its loop (count 0 still binds one, zeroed, unused).
         let (waves, styles) = if waves.is_empty() {
             (vec![bytemuck::Zeroable::zeroed()], vec![WaveStyle::default()])
@@ -136,6 +120,7 @@ impl Pass for EnergyWavePass {
             Binding::Image(Target::Energy),
             Binding::Bound(Bound::Storage(frame.upload(&waves)?)),
             Binding::Bound(Bound::Storage(frame.upload(&styles)?)),
+            Binding::Bound(Bound::Uniform(frame.uniforms)),
         ])
     }
 
@@ -144,7 +129,7 @@ impl Pass for EnergyWavePass {
     }
 
     fn record(&self, pass: &PassRecording) {
-        let [width, height, ..] = self.params.dims;
+        let vk::Extent2D { width, height } = self.extent;
         pass.rec.bind_pipeline(&self.pipeline, pass.set(0));
         pass.rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
         pass.rec.dispatch_2d(width, height, (8, 8));

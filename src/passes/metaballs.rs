@@ -87,24 +87,21 @@ pub const TILE: u32 = 8;
 const TILES_PER_ROW: u32 = 8192;
 
 /// Push constants of shaders/metaballs.comp (size checked against the shader at pipeline creation).
+/// The camera's ray frame, the far distance and the frame's size are the frame's uniforms
+/// (`FrameUniforms`: `ray_right`, `ray_up`, `ray_forward`, `counts`); the near distance is not
+/// among them, so it stays here.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct MetaballParams {
-    /// xyz: right × tan(fov/2) × aspect (the lens's scale); w: its ndc offset x.
-    pub right: [f32; 4],
-    /// xyz: image up × tan(fov/2) (the lens's scale); w: its ndc offset y.
-    pub up: [f32; 4],
-    /// xyz: forward; w: the camera's near distance (a view depth).
-    pub forward: [f32; 4],
-    /// width, height, active tiles, the instance id of group 0 (= the scene's instance count).
-    pub dims: [u32; 4],
-    /// x: the camera's far distance.
-    pub range: [f32; 4],
+    /// x: active tiles; y: the instance id of group 0 (= the scene's instance count); z, w: 0.
+    pub counts: [u32; 4],
+    /// x: the camera's near distance (a view depth); y, z, w: 0.
+    pub near: [f32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(MetaballParams as "MetaballParams" { right, up, forward, dims, range });
+crate::gpu::layout::gpu_layout!(MetaballParams as "MetaballParams" { counts, near });
 
-const _: () = assert!(std::mem::size_of::<MetaballParams>() == 80);
+const _: () = assert!(std::mem::size_of::<MetaballParams>() == 32);
 
 /// Indices into the stats buffer. Keep in sync with STAT_* in shaders/metaballs.comp.
 const STAT_DROPPED: usize = 0;
@@ -115,16 +112,11 @@ const STAT_STREAMED: usize = 4;
 const STAT_COUNT: usize = 5;
 
 impl MetaballParams {
-    pub fn new(scene: &Scene, extent: vk::Extent2D) -> Self {
-        let cam = &scene.camera;
-        let [right, up, mut forward] = cam.ray_frame(extent.width, extent.height).to_f32();
-        forward[3] = cam.near as f32;
+    /// The parameters of a frame of `scene` with `active` tiles.
+    pub fn new(scene: &Scene, active: u32) -> Self {
         MetaballParams {
-            right,
-            up,
-            forward,
-            dims: [extent.width, extent.height, 0, scene.instances.len() as u32],
-            range: [cam.far as f32, 0.0, 0.0, 0.0],
+            counts: [active, scene.instances.len() as u32, 0, 0],
+            near: [scene.camera.near as f32, 0.0, 0.0, 0.0],
         }
     }
 }
@@ -438,8 +430,7 @@ impl Pass for MetaballsPass {
             bins.push(GroupBins::new(&params, &scene.camera, extent));
         }
         let lists = bin_balls(&scene.camera, extent, &bins);
-        self.params = MetaballParams::new(scene, extent);
-        self.params.dims[2] = lists.active;
+        self.params = MetaballParams::new(scene, lists.active);
         // The slot's counters: its previous frame has finished and was reported.
         while self.stats.len() <= frame.slot {
             let name = format!("metaballs stats {}", self.stats.len());
@@ -510,7 +501,7 @@ impl Pass for MetaballsPass {
         rec.bind_pipeline(&self.pipeline, pass.set(0));
         rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
         // One 8×8 workgroup per tile that holds any ball, TILES_PER_ROW tiles per row.
-        let active = self.params.dims[2];
+        let active = self.params.counts[0];
         if active > 0 {
             let rows = active.div_ceil(TILES_PER_ROW);
             rec.dispatch_2d(8 * active.min(TILES_PER_ROW), 8 * rows, (8, 8));

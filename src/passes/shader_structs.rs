@@ -8,7 +8,7 @@ use crate::effects::energy_wave_f32::GpuWave;
 use crate::gpu::layout::{GpuLayout, Layout};
 use crate::gpu::reflect::structs;
 use crate::gpu::shader::ShaderCompiler;
-use crate::passes::energy_wave::{RayParams, WaveStyle};
+use crate::passes::energy_wave::{EnergyWaveParams, WaveStyle};
 use crate::passes::gpu_structs::{FrameUniforms, GpuLight, InstanceData, MaterialData};
 use crate::passes::metaballs::MetaballParams;
 use crate::passes::translucency::{LightViewData, TranslucencyParams};
@@ -19,18 +19,27 @@ type Row = (&'static str, Vec<(&'static str, &'static str)>, Vec<Layout>);
 /// Every variant a pass compiles.
 fn table() -> Vec<Row> {
     let frame = || vec![FrameUniforms::layout(), GpuLight::layout()];
+    let translucency = || {
+        [frame(), vec![MaterialData::layout(), TranslucencyParams::layout(), LightViewData::layout()]]
+            .concat()
+    };
     let mut rows = vec![
-        ("energy_wave.comp", vec![], vec![GpuWave::layout(), WaveStyle::layout(), RayParams::layout()]),
+        (
+            "energy_wave.comp",
+            vec![],
+            [frame(), vec![GpuWave::layout(), WaveStyle::layout(), EnergyWaveParams::layout()]].concat(),
+        ),
         ("energy_probe.comp", vec![], vec![GpuWave::layout(), super::energy_probe::ProbeParams::layout()]),
         ("tonemap.comp", vec![], vec![super::tonemap::Params::layout()]),
         ("composite.frag", vec![], vec![super::composite::Params::layout()]),
-        ("depth_out.frag", vec![], vec![super::depth_out::Params::layout()]),
-        ("depth_import.comp", vec![], vec![super::depth_import::Params::layout()]),
+        ("depth_out.frag", vec![], [frame(), vec![super::depth_out::Params::layout()]].concat()),
+        ("depth_import.comp", vec![], [frame(), vec![super::depth_import::Params::layout()]].concat()),
         ("raster.vert", vec![], [frame(), vec![InstanceData::layout(), MaterialData::layout()]].concat()),
         ("raster.frag", vec![], frame()),
         ("light_id.vert", vec![], vec![InstanceData::layout(), LightViewData::layout()]),
         ("peel.vert", vec![], vec![InstanceData::layout(), LightViewData::layout()]),
-        ("translucency.comp", vec![], vec![TranslucencyParams::layout(), LightViewData::layout()]),
+        ("translucency.comp", vec![], translucency()),
+        ("translucency.comp", vec![("FILL_ONLY", "1")], frame()),
     ];
     for (clip, trace) in [("1", "0"), ("0", "1"), ("1", "1")] {
         let uses = [frame(), vec![MaterialData::layout(), MetaballParams::layout()]].concat();
@@ -41,11 +50,7 @@ fn table() -> Vec<Row> {
     for defines in
         [vec![("WITH_LUT", "1")], vec![("WITH_PEEL", "1")], vec![("WITH_LUT", "1"), ("WITH_PEEL", "1")]]
     {
-        rows.push((
-            "translucency.comp",
-            defines,
-            vec![TranslucencyParams::layout(), LightViewData::layout()],
-        ));
+        rows.push(("translucency.comp", defines, translucency()));
     }
     rows
 }

@@ -122,20 +122,15 @@ pub struct LightViewData {
 crate::gpu::layout::gpu_layout!(LightViewData as "LightViewData" { centre, right, up, dir });
 
 /// The translucency pass's uniforms (size checked against shaders/translucency.comp when bound).
+/// The camera's ray frame and position and the frame's size are the frame's uniforms
+/// (`FrameUniforms`: `ray_right`, `ray_up`, `ray_forward`, `camera_pos`, `counts`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TranslucencyParams {
-    /// xyz: camera right × tan(fov/2) × aspect.
-    pub right: [f32; 4],
-    /// xyz: image up × tan(fov/2).
-    pub up: [f32; 4],
-    pub forward: [f32; 4],
-    /// xyz: camera position.
-    pub camera: [f32; 4],
     /// rgb: the first light's colour × intensity; w: 1 when the scene has a light.
     pub radiance: [f32; 4],
     pub view: LightViewData,
-    /// Frame width, height, light map size, scene instances.
+    /// Light map size, scene instances, 0, 0.
     pub dims: [u32; 4],
     /// Unused (kept for the layout).
     pub lut: [u32; 4],
@@ -143,16 +138,16 @@ pub struct TranslucencyParams {
     pub rect: [u32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(TranslucencyParams as "TranslucencyParams" { right, up, forward, camera, radiance, view, dims, lut, rect });
+crate::gpu::layout::gpu_layout!(TranslucencyParams as "TranslucencyParams" { radiance, view, dims, lut, rect });
 
 const _: () = {
     assert!(std::mem::size_of::<LutRecord>() == 48);
     assert!(std::mem::size_of::<TranslucentInstance>() == 144);
     assert!(std::mem::offset_of!(TranslucentInstance, info) == 128);
     assert!(std::mem::size_of::<LightViewData>() == 64);
-    assert!(std::mem::size_of::<TranslucencyParams>() == 192);
-    assert!(std::mem::offset_of!(TranslucencyParams, view) == 80);
-    assert!(std::mem::offset_of!(TranslucencyParams, dims) == 144);
+    assert!(std::mem::size_of::<TranslucencyParams>() == 128);
+    assert!(std::mem::offset_of!(TranslucencyParams, view) == 16);
+    assert!(std::mem::offset_of!(TranslucencyParams, dims) == 80);
 };
 
 fn v4(v: glam::DVec3, w: f32) -> [f32; 4] {
@@ -528,19 +523,13 @@ impl Pass for TranslucencyPass {
         let data = &self.data;
         // Instances may have moved: this frame's light view and matrices.
         let now = TranslucentFrame::new(scene, data);
-        let cam = &scene.camera;
-        let [right, up, forward] = cam.ray_frame(extent.width, extent.height).to_f32();
         self.rect = translucent_pixels(scene, extent);
         self.extent = extent;
         let params = TranslucencyParams {
-            right,
-            up,
-            forward,
-            camera: v4(cam.position, 1.0),
             radiance: v4(now.radiance, if now.view.is_some() { 1.0 } else { 0.0 }),
             view: now.view_data,
             // light_id sized its maps from the same frame.
-            dims: [extent.width, extent.height, now.map_size, scene.instances.len() as u32],
+            dims: [now.map_size, scene.instances.len() as u32, 0, 0],
             lut: [0; 4],
             rect: self.rect.map_or([0; 4], |r| [r.x0, r.y0, r.x1, r.y1]),
         };
@@ -557,6 +546,7 @@ impl Pass for TranslucencyPass {
             Binding::Bound(frame.texels("translucency instances", &now.instances, Texels::U32x4)?),
             Binding::Bound(Bound::Storage(frame.materials)),
             Binding::Image(Target::Normal),
+            Binding::Bound(Bound::Uniform(frame.uniforms)),
         ];
         if self.peel {
             bindings.extend([Binding::Image(Target::PeelCounts), Binding::Image(Target::PeelLists)]);
