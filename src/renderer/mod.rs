@@ -39,6 +39,7 @@ pub use readback::AovReadback;
 pub use timings::FrameTimings;
 pub use update::WaveUpdate;
 
+use crate::effect::{Effects, ScenePasses};
 use crate::gpu::memory::Memory;
 use crate::gpu::pipeline_cache::PipelineCache;
 use crate::gpu::shader::ShaderCompiler;
@@ -46,7 +47,6 @@ use crate::gpu::GpuContext;
 use crate::passes::composite::CompositePass;
 use crate::passes::depth_import::DepthImportPass;
 use crate::passes::depth_out::DepthOutPass;
-use crate::effect::{Effects, ScenePasses};
 use crate::passes::tonemap::TonemapPass;
 use crate::passes::Pass;
 use crate::scene::Scene;
