@@ -28,7 +28,7 @@ demo: build check-vulkan
 
 # The whole test suite on lavapipe (or any Vulkan device), validation on in every GPU test.
 test: check-vulkan
-	$(CARGO) test
+	$(CARGO) test --workspace
 
 # After an intended visual change: re-make the golden references of tests/golden (then look at
 # them and commit). `make test` compares against them bit-exact (tests/golden.rs).
@@ -37,4 +37,4 @@ bless: check-vulkan
 
 lint:
 	$(CARGO) fmt --all -- --check
-	$(CARGO) clippy --all-targets -- -D warnings
+	$(CARGO) clippy --workspace --all-targets -- -D warnings

@@ -1,28 +1,13 @@
-//! Links glslang and SPIRV-Tools statically: Debian's `libshaderc_combined.a` leaves them out,
-//! and linking the shared `libshaderc.so` against glslang 12 archives crashes (see DESIGN.md).
-//! Also lists every file under `shaders/` for `gpu::shader::EMBEDDED`, so a new shader needs no
-//! registration of its own.
+//! Links glslang and SPIRV-Tools statically for this package's binaries (the shared function in
+//! crates/hadou-gpu/link_shaderc.rs, see DESIGN.md), and lists every file under `shaders/` for
+//! `passes::SHADERS`, so a new shader needs no registration of its own.
+include!("crates/hadou-gpu/link_shaderc.rs");
+
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-changed=crates/hadou-gpu/link_shaderc.rs");
     embed_shaders();
-    println!("cargo:rerun-if-env-changed=SHADERC_LIB_DIR");
-    let dir = std::env::var("SHADERC_LIB_DIR").unwrap_or_else(|_| "/usr/lib/x86_64-linux-gnu".into());
-    println!("cargo:rustc-link-search=native={dir}");
-    // Link arguments go after every crate's archives on the command line, so the static
-    // archives resolve the symbols shaderc_combined (inside shaderc-sys) leaves undefined.
-    for lib in [
-        "glslang",
-        "MachineIndependent",
-        "GenericCodeGen",
-        "OSDependent",
-        "OGLCompiler",
-        "SPIRV",
-        "SPIRV-Tools-opt",
-        "SPIRV-Tools",
-    ] {
-        println!("cargo:rustc-link-arg=-l:lib{lib}.a");
-    }
-    println!("cargo:rustc-link-arg=-lstdc++");
+    link_shaderc();
 }
 
 /// Writes `$OUT_DIR/shaders.rs`: `(path under shaders/, include_str!(..))` for every shader file.

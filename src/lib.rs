@@ -1,5 +1,8 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
+// Vulkan is called only by the GPU crate (hadou-gpu); this crate records through its safe types.
+// The one exception is the signal handler of `output::interrupt` (tests/layers.rs checks both).
+#![deny(unsafe_code)]
 
 pub mod aov;
 pub mod builtin;
@@ -9,13 +12,13 @@ pub mod effect;
 pub mod effects;
 #[doc(hidden)]
 pub mod frame;
-pub mod gpu;
+pub use hadou_gpu as gpu;
 #[doc(hidden)]
 pub mod output;
 #[doc(hidden)]
 pub mod passes;
 #[doc(hidden)]
-pub mod present;
+pub use hadou_gpu::present;
 #[doc(hidden)]
 pub mod profile;
 #[doc(hidden)]
@@ -107,7 +110,7 @@ pub enum Error {
         "external depth: format {0:?} is not a depth format hadou samples (D32_SFLOAT, D16_UNORM, \
          D24_UNORM_S8_UINT)"
     )]
-    DepthFormat(ash::vk::Format),
+    DepthFormat(gpu::vk::Format),
     /// An update named a part of an object by a position it does not have (a ball of a metaball
     /// group past its list).
     #[error("{kind} {index}: the scene has {count}")]

@@ -1,5 +1,8 @@
 //! The `hadou` command: a thin layer over the library.
 
+// No Vulkan of its own: the viewer's window surface is made by hadou-gpu (tests/layers.rs).
+#![deny(unsafe_code)]
+
 mod cli;
 
 use std::process::ExitCode;

@@ -12,6 +12,8 @@
 //! - SIGINT and SIGTERM remove this process's temporaries before it exits (`interrupt`), and a
 //!   set is never half renamed by them.
 
+// Signal handling through libc: the one place this crate needs `unsafe`.
+#[allow(unsafe_code)]
 pub mod interrupt;
 mod memory;
 

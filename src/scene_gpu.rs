@@ -8,11 +8,11 @@
 //! reading the vertices it was recorded with. The draws of a frame use its slot's buffer
 //! (`GpuMesh::vertex_buffer`).
 
+use crate::gpu::memory::MemoryLocation;
 use crate::gpu::memory::{Buffer, Memory};
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::passes::gpu_structs::{instance_records, material_records, InstanceData, MaterialData};
 use crate::scene::Scene;
-use gpu_allocator::MemoryLocation;
 
 pub struct GpuMesh {
     /// The vertices as loaded (position, normal: 24 bytes).
@@ -189,8 +189,9 @@ impl SceneGpu {
 /// normal.
 pub(crate) fn vertex_input(
     with_normal: bool,
-) -> ([ash::vk::VertexInputBindingDescription; 1], Vec<ash::vk::VertexInputAttributeDescription>) {
-    use ash::vk;
+) -> ([crate::gpu::vk::VertexInputBindingDescription; 1], Vec<crate::gpu::vk::VertexInputAttributeDescription>)
+{
+    use crate::gpu::vk;
     let binding = [vk::VertexInputBindingDescription::default()
         .binding(0)
         .stride(24)

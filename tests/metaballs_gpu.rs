@@ -10,7 +10,6 @@ mod common;
 
 use glam::DMat3;
 use glam::DVec3;
-use gpu_allocator::MemoryLocation;
 use hadou::effects::metaballs::{cast, gradient, Ball, Kernel, MetaballGroupParams};
 use hadou::effects::metaballs_f32::{
     cast_f32, gpu_balls, gpu_group, tangency, GpuMetaBall, GpuMetaGroup, BAND_C, MB_HIT, MB_NOT_CONVERGED,
@@ -19,6 +18,7 @@ use hadou::effects::metaballs_f32::{
 use hadou::gpu::barriers::{cmd_barriers, memory_barrier};
 use hadou::gpu::commands::FrameCommands;
 use hadou::gpu::memory::Memory;
+use hadou::gpu::memory::MemoryLocation;
 use hadou::gpu::pipeline::{create_compute_pipeline, write_set, Bound, BufferRange, DescriptorPool};
 use hadou::gpu::vk;
 use hadou::scene::transform::{Transform, TransformOp};

@@ -3,7 +3,7 @@
 //! screenshot is taken and the viewer exits cleanly — validation on, zero errors and warnings.
 //! Hot reload is seen through notify, each edit handled in order (the reload's latency is printed,
 //! not asserted: on a loaded machine it measures the load). The reload logic, the debounce and the
-//! minimized-window path are unit tests (src/cli/view/reload.rs, src/present/swapchain.rs): they
+//! minimized-window path are unit tests (src/cli/view/reload.rs, crates/hadou-gpu/src/present/swapchain.rs): they
 //! need no window. No read in these tests blocks without a limit: a stuck viewer fails the test.
 
 mod common;

@@ -1,7 +1,7 @@
 //! depth_import: the game's depth → hadou's `distance` (along each pixel's view ray) and its own
 //! reverse-Z `depth`. `import_depth` is the f64 twin of shaders/depth_import.comp.
 
-use gpu_allocator::MemoryLocation;
+use crate::gpu::memory::MemoryLocation;
 
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
 use crate::gpu::barriers::ImageAccess;

@@ -3,7 +3,7 @@
 //! pass like the others, recorded by the same runner in a frame of its own
 //! (`Runtime::energy_probe`).
 
-use gpu_allocator::MemoryLocation;
+use crate::gpu::memory::MemoryLocation;
 
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
 use crate::effects::energy_wave_f32::GpuWave;

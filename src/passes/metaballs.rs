@@ -44,8 +44,8 @@
 //! `steps`), carried in the group header and the run flags ([`RUN_TRACE`]). The pipeline is
 //! compiled with only the casts the scene's groups use (`MB_WITH_CLIP`, `MB_WITH_TRACE`).
 
+use crate::gpu::memory::MemoryLocation;
 use glam::DVec3;
-use gpu_allocator::MemoryLocation;
 
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
 use crate::effects::metaballs::{CastMethod, MetaballGroupParams};

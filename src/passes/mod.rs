@@ -166,6 +166,10 @@ impl ImageUse {
     }
 }
 
+/// Every shader file of hadou's passes, by its path under `shaders/` (listed by build.rs): what
+/// the renderer's `ShaderCompiler` compiles (`HADOU_SHADER_DIR` points at a tree to use instead).
+pub const SHADERS: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+
 /// The names of the scene passes `scene` needs with hadou's own effects, in frame order.
 pub fn plan(scene: &Scene) -> Vec<&'static str> {
     crate::effect::Effects::builtin().plan(scene)

@@ -40,7 +40,7 @@
 //! building the pass without it fails naming the feature. The pass and its images exist only for
 //! scenes with an instance drawn with a peel material (registry: `needed`).
 
-use gpu_allocator::MemoryLocation;
+use crate::gpu::memory::MemoryLocation;
 
 use super::translucency::LightViewData;
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};

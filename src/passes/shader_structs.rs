@@ -6,12 +6,13 @@
 
 use crate::effects::energy_wave_f32::GpuWave;
 use crate::gpu::layout::{GpuLayout, Layout};
-use crate::gpu::reflect::structs;
+use crate::gpu::reflect::{reflect, structs, Interface};
 use crate::gpu::shader::ShaderCompiler;
 use crate::passes::energy_wave::{EnergyWaveParams, WaveStyle};
 use crate::passes::gpu_structs::{FrameUniforms, GpuLight, InstanceData, MaterialData};
 use crate::passes::metaballs::MetaballParams;
 use crate::passes::translucency::{LightViewData, TranslucencyParams};
+use std::mem::size_of;
 
 /// A shader, its defines, and the Rust twins of the structs it shares.
 type Row = (&'static str, Vec<(&'static str, &'static str)>, Vec<Layout>);
@@ -57,7 +58,7 @@ fn table() -> Vec<Row> {
 
 #[test]
 fn every_shared_struct_matches_its_glsl_twin_member_by_member() {
-    let mut compiler = ShaderCompiler::new().unwrap();
+    let mut compiler = ShaderCompiler::new(super::SHADERS).unwrap();
     let mut failures = Vec::new();
     for (shader, defines, layouts) in table() {
         let words = compiler.compile(shader, &defines).unwrap();
@@ -81,14 +82,8 @@ fn a_swapped_member_is_refused() {
              layout(set = 0, binding = 0, std430) buffer B {{ Wave waves[]; }};\n\
              void main() {{ waves[0] = waves[1]; }}\n"
         );
-        let compiler = shaderc::Compiler::new().unwrap();
-        let mut options = shaderc::CompileOptions::new().unwrap();
-        options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_3 as u32);
-        options.set_generate_debug_info();
-        let words = compiler
-            .compile_into_spirv(&source, shaderc::ShaderKind::Compute, "t.comp", "main", Some(&options))
-            .unwrap();
-        structs("t.comp", words.as_binary()).unwrap()
+        let words = ShaderCompiler::new(&[]).unwrap().compile_source("t.comp", &source, &[]).unwrap();
+        structs("t.comp", &words).unwrap()
     };
     let wave = GpuWave::layout();
     let same = compile("struct Wave { vec4 dir; vec4 rperp; vec4 strength; uvec4 flags; };");
@@ -110,4 +105,42 @@ fn a_field_left_out_of_the_declaration_is_refused() {
     assert_eq!(layout.check_complete(), Ok(()));
     layout.members.remove(2);
     assert!(layout.check_complete().unwrap_err().contains("bytes 80..96"));
+}
+
+fn interface(name: &str, defines: &[(&str, &str)]) -> Interface {
+    let words = ShaderCompiler::new(super::SHADERS).unwrap().compile(name, defines).unwrap();
+    reflect(name, &words).unwrap()
+}
+
+fn element(i: &Interface, binding: u32) -> u32 {
+    i.bindings.iter().find(|b| b.binding == binding).map_or(0, |b| b.element_bytes)
+}
+
+/// Every Rust struct a pass binds has its GLSL twin's size, as the shader's SPIR-V lays it
+/// out (std140/std430 offsets and strides included): the check `bind_set` makes each frame,
+/// made here for every shader at once.
+#[test]
+fn rust_structs_have_their_shader_twins_sizes() {
+    let size = |n: usize| n as u32;
+    let ew = interface("energy_wave.comp", &[]);
+    assert_eq!(element(&ew, 3), size(size_of::<GpuWave>()));
+    assert_eq!(element(&ew, 4), size(size_of::<WaveStyle>()));
+    assert_eq!(element(&ew, 5), size(size_of::<FrameUniforms>()));
+    assert_eq!(ew.push_bytes, size(size_of::<EnergyWaveParams>()));
+    let probe = interface("energy_probe.comp", &[]);
+    assert_eq!(element(&probe, 0), size(size_of::<GpuWave>()));
+    let raster = interface("raster.vert", &[]);
+    assert_eq!(element(&raster, 0), size(size_of::<FrameUniforms>()));
+    assert_eq!(element(&raster, 1), size(size_of::<InstanceData>()));
+    assert_eq!(element(&raster, 2), size(size_of::<MaterialData>()));
+    assert_eq!(element(&interface("light_id.vert", &[]), 0), size(size_of::<InstanceData>()));
+    let mb = interface("metaballs.comp", &[("MB_WITH_CLIP", "1"), ("MB_WITH_TRACE", "1")]);
+    assert_eq!(element(&mb, 4), size(size_of::<FrameUniforms>()));
+    assert_eq!(element(&mb, 5), size(size_of::<MaterialData>()));
+    assert_eq!(mb.push_bytes, size(size_of::<MetaballParams>()));
+    let tr = interface("translucency.comp", &[]);
+    assert_eq!(element(&tr, 0), size(size_of::<TranslucencyParams>()));
+    assert_eq!(element(&tr, 10), size(size_of::<MaterialData>()));
+    assert_eq!(element(&tr, 12), size(size_of::<FrameUniforms>()));
+    assert_eq!(interface("tonemap.comp", &[]).push_bytes, 12);
 }

@@ -152,10 +152,10 @@ impl Renderer {
             return Err(Error::FramesInFlight(n));
         }
         let memory = Memory::new(&ctx)?;
-        let compiler = ShaderCompiler::new()?;
+        let compiler = ShaderCompiler::new(crate::passes::SHADERS)?;
         let dir = options.pipeline_cache_dir.clone().or_else(crate::effects::bake_cache::default_cache_dir);
         let pipeline_cache = PipelineCache::open(&ctx, dir.as_deref())?;
-        ctx.resources().set_pipeline_cache(pipeline_cache.raw);
+        ctx.set_pipeline_cache(pipeline_cache.raw);
         let slots = (0..n).map(|i| Slot::new(&ctx, i)).collect::<Result<Vec<_>, _>>()?;
         Ok(Renderer {
             loaded: None,
@@ -292,7 +292,7 @@ impl Renderer {
                 }
             }
         }
-        self.ctx.resources().collect(frame);
+        self.ctx.frames_finished(frame);
         Ok(())
     }
 
@@ -338,9 +338,9 @@ impl Drop for Renderer {
         self.targets = None;
         self.edges = Edges::default();
         self.slots.clear();
-        self.ctx.resources().set_pipeline_cache(Default::default());
+        self.ctx.set_pipeline_cache(Default::default());
         self.pipeline_cache = None;
-        self.ctx.resources().collect_all();
+        self.ctx.destroy_retired();
         // The context (the last field) is dropped after this.
     }
 }

@@ -1,7 +1,7 @@
 //! Reading hadou's images back to the host, in both modes: recorded after `record_frame` into the
 //! same command buffer, read after the caller's fence.
 
-use gpu_allocator::MemoryLocation;
+use crate::gpu::memory::MemoryLocation;
 
 use super::Renderer;
 use crate::aov::{Aov, AovImage};

@@ -105,7 +105,7 @@ impl Renderer {
         if let Some(done) = frame.checked_sub(slots) {
             self.frame_finished(done)?;
         }
-        self.ctx.resources().set_frame(frame);
+        self.ctx.begin_frame(frame);
         let slot = (frame % slots) as usize;
         self.slots[slot].begin(&self.ctx, frame)?;
         self.next_frame += 1;

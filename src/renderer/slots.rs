@@ -3,7 +3,7 @@
 
 use super::timings::FinishedFrame;
 use crate::frame::{pass_timings, FrameStats, Scope};
-use gpu_allocator::MemoryLocation;
+use crate::gpu::memory::MemoryLocation;
 
 use crate::gpu::memory::{Buffer, Memory};
 use crate::gpu::pipeline::DescriptorPool;

@@ -3,7 +3,7 @@
 //! device does at best. The ceiling is the best of the runs (the least disturbed), p50 is shown
 //! beside it.
 
-use gpu_allocator::MemoryLocation;
+use crate::gpu::memory::MemoryLocation;
 
 use crate::gpu::barriers::{cmd_barriers, memory_barrier};
 use crate::gpu::commands::FrameCommands;
@@ -76,8 +76,7 @@ fn time_runs(
         rec.bind_pipeline(pipeline, set);
         rec.push_constants(pipeline, push);
         stamps.write(ctx, cmd);
-        // SAFETY: cmd is recording with a compute pipeline and its set bound.
-        unsafe { ctx.device.cmd_dispatch(cmd, groups.0, groups.1, 1) };
+        rec.dispatch_groups(groups.0, groups.1);
         stamps.write(ctx, cmd);
         ctx.end_label(cmd);
         commands.submit_and_wait(ctx, &pipeline.name)?;
@@ -140,7 +139,7 @@ fn fma_iterations(quick: bool) -> u32 {
 fn measure(runtime: &Runtime, quick: bool, steps: &mut Steps) -> GpuResult<(Runs, Runs)> {
     let ctx = runtime.context();
     let memory = Memory::new(ctx)?;
-    let mut compiler = ShaderCompiler::new()?;
+    let mut compiler = ShaderCompiler::new(crate::passes::SHADERS)?;
     let runs = if quick { 3 } else { 10 };
     let iterations = fma_iterations(quick);
     steps.next("ceiling: FMA kernel");

@@ -65,7 +65,7 @@ pub struct App {
     totals: Totals,
     // Field order is drop order: the GPU side (surface) before the window it presents to.
     gpu: Option<ViewerGpu>,
-    window: Option<Window>,
+    window: Option<std::sync::Arc<Window>>,
 }
 
 impl App {
@@ -141,8 +141,8 @@ impl App {
         let attributes = Window::default_attributes()
             .with_title(format!("hadou view {}", self.scene_path.display()))
             .with_inner_size(PhysicalSize::new(self.size.0, self.size.1));
-        let window = event_loop.create_window(attributes)?;
-        let mut gpu = ViewerGpu::new(&window)?;
+        let window = std::sync::Arc::new(event_loop.create_window(attributes)?);
+        let mut gpu = ViewerGpu::new(window.clone())?;
         self.log = Some(gpu.validation_log());
         let scene = self.toggles.apply(self.file.get());
         gpu.load(&scene, self.control.camera()).map_err(anyhow::Error::msg)?;
@@ -443,8 +443,9 @@ impl ApplicationHandler for App {
 
 /// Compiles every shader stage hadou has from `HADOU_SHADER_DIR` (none takes `#define`s).
 fn check_shaders() -> Result<(), String> {
-    let mut compiler = hadou::gpu::shader::ShaderCompiler::new().map_err(|e| e.to_string())?;
-    for (name, _) in hadou::gpu::shader::EMBEDDED {
+    let mut compiler =
+        hadou::gpu::shader::ShaderCompiler::new(hadou::passes::SHADERS).map_err(|e| e.to_string())?;
+    for (name, _) in hadou::passes::SHADERS {
         if !name.starts_with("common/") {
             compiler.compile(name, &[]).map_err(|e| e.to_string())?;
         }

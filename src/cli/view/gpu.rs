@@ -8,12 +8,11 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use hadou::gpu::validation::ValidationLog;
-use hadou::gpu::{ContextOptions, GpuContext, PresentRequest};
-use hadou::present::{PixelCopier, PresentConfig, Presenter};
+use hadou::gpu::ContextOptions;
+use hadou::present::{PresentConfig, WindowOutput};
 use hadou::scene::camera::Camera;
 use hadou::scene::Scene;
 use hadou::{FrameRequest, FrameStats, Runtime};
-use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 use winit::window::Window;
 
 /// A frame that reached the window.
@@ -28,46 +27,19 @@ pub struct Presented {
 }
 
 pub struct ViewerGpu {
-    presenter: Presenter,
-    copier: PixelCopier,
+    output: WindowOutput<Window>,
     runtime: Runtime,
 }
 
 impl ViewerGpu {
-    /// The window must outlive the returned value (the surface refers to it).
-    pub fn new(window: &Window) -> anyhow::Result<Self> {
-        let display = window.display_handle().context("window display handle")?.as_raw();
-        let handle = window.window_handle().context("window handle")?.as_raw();
-        let extensions = ash_window::enumerate_required_extensions(display)
-            .context("no Vulkan surface extension for this window system")?;
-        let create_surface = |entry: &ash::Entry, instance: &ash::Instance| {
-            // SAFETY: the handles come from a live window that outlives the surface (see above).
-            unsafe { ash_window::create_surface(entry, instance, display, handle, None) }
-        };
-        let request = PresentRequest { instance_extensions: extensions, create_surface: &create_surface };
-        let (ctx, surface) = GpuContext::new_presenting(&ContextOptions::from_env(), &request)?;
-        let config = PresentConfig::default();
-        let frames = config.frames_in_flight;
-        // SAFETY: the surface and device belong to ctx's instance; both are destroyed (Drop below)
-        // before the runtime, which owns ctx, is dropped.
-        let mut presenter = unsafe {
-            Presenter::new(&ctx.entry, &ctx.instance, ctx.physical_device, &ctx.device, surface, config)
-        }?;
-        // SAFETY: as above, ctx's handles; `frames` is the presenter's frames in flight, and the
-        // copier is destroyed (Drop below) before the runtime drops the device.
-        let copier = match unsafe {
-            PixelCopier::new(&ctx.instance, ctx.physical_device, &ctx.device, ctx.queue_family, frames)
-        } {
-            Ok(c) => c,
-            Err(e) => {
-                presenter.destroy();
-                return Err(e.into());
-            }
-        };
+    /// A device presenting to `window` (held as long as its surface).
+    pub fn new(window: Arc<Window>) -> anyhow::Result<Self> {
+        let (ctx, output) = WindowOutput::open(window, &ContextOptions::from_env(), PresentConfig::default())
+            .context("opening the window's Vulkan surface")?;
         // On failure `with_context` has dropped the device already: the presenter and copier have
         // no Drop of their own, so their handles are simply abandoned with it.
         let runtime = Runtime::with_context(ctx)?;
-        Ok(ViewerGpu { presenter, copier, runtime })
+        Ok(ViewerGpu { output, runtime })
     }
 
     pub fn validation_log(&self) -> Arc<ValidationLog> {
@@ -81,7 +53,7 @@ impl ViewerGpu {
     }
 
     pub fn window_resized(&mut self) {
-        self.presenter.window_resized();
+        self.output.presenter.window_resized();
     }
 
     /// Renders at the swapchain's size and presents. `None`: nothing to draw now (minimized, or the
@@ -92,7 +64,7 @@ impl ViewerGpu {
         camera: Camera,
         time: f64,
     ) -> anyhow::Result<Option<Presented>> {
-        let Some(acquired) = self.presenter.acquire(window)? else { return Ok(None) };
+        let Some(acquired) = self.output.presenter.acquire(window)? else { return Ok(None) };
         let (width, height) = (acquired.extent.width, acquired.extent.height);
         self.runtime.renderer().set_camera(camera)?;
         let mut request = FrameRequest::new(width, height);
@@ -101,8 +73,8 @@ impl ViewerGpu {
         let rgba = frame.color.context("the runtime returned no colour")?;
         let queue = self.runtime.context().queue;
         let start = std::time::Instant::now();
-        self.copier.copy_and_submit(queue, &acquired, &rgba)?;
-        self.presenter.present(queue, &acquired)?;
+        self.output.copier.copy_and_submit(queue, &acquired, &rgba)?;
+        self.output.presenter.present(queue, &acquired)?;
         let present_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(Some(Presented { width, height, rgba, stats: frame.stats, present_ms }))
     }
@@ -111,7 +83,6 @@ impl ViewerGpu {
 impl Drop for ViewerGpu {
     fn drop(&mut self) {
         // Before the runtime (declared after them) drops the device and instance.
-        self.copier.destroy();
-        self.presenter.destroy();
+        self.output.destroy();
     }
 }

@@ -28,9 +28,7 @@ pub struct Interface {
     pub push_bytes: u32,
 }
 
-#[cfg(test)]
 const OP_NAME: u32 = 5;
-#[cfg(test)]
 const OP_MEMBER_NAME: u32 = 6;
 const OP_TYPE_INT: u32 = 21;
 const OP_TYPE_FLOAT: u32 = 22;
@@ -70,9 +68,7 @@ struct Module {
     member_offsets: HashMap<(u32, u32), u32>,
     /// Debug names (OpName) and member names (OpMemberName): present because shaders are
     /// compiled with debug info (`gpu::shader`); read by the tests' struct check (`gpu::layout`).
-    #[cfg(test)]
     names: HashMap<u32, String>,
-    #[cfg(test)]
     member_names: HashMap<(u32, u32), String>,
     /// (result type, id, storage class).
     variables: Vec<(u32, u32, u32)>,
@@ -103,11 +99,9 @@ fn parse(name: &str, words: &[u32]) -> GpuResult<Module> {
             OP_DECORATE if args.len() >= 2 => {
                 m.decorations.insert((args[0], args[1]), args.get(2).copied().unwrap_or(0));
             }
-            #[cfg(test)]
             OP_NAME if args.len() >= 2 => {
                 m.names.insert(args[0], literal_string(&args[1..]));
             }
-            #[cfg(test)]
             OP_MEMBER_NAME if args.len() >= 3 => {
                 m.member_names.insert((args[0], args[1]), literal_string(&args[2..]));
             }
@@ -121,7 +115,6 @@ fn parse(name: &str, words: &[u32]) -> GpuResult<Module> {
     Ok(m)
 }
 
-#[cfg(test)]
 /// A SPIR-V literal string: UTF-8 bytes packed little-endian into words, NUL-terminated.
 fn literal_string(words: &[u32]) -> String {
     let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).take_while(|&b| b != 0).collect();
@@ -133,7 +126,6 @@ impl Module {
         self.types.get(&id)
     }
 
-    #[cfg(test)]
     /// A type as GLSL spells it: `float`, `uvec4`, `mat4`, `Light[8]`, `vec4[]`, a struct's name.
     fn glsl_type(&self, id: u32) -> String {
         let Some((op, args)) = self.ty(id) else { return format!("?{id}") };
@@ -272,7 +264,6 @@ pub fn reflect(name: &str, words: &[u32]) -> GpuResult<Interface> {
     Ok(interface)
 }
 
-#[cfg(test)]
 /// One member of a struct as a shader lays it out.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ReflectedMember {
@@ -282,7 +273,6 @@ pub struct ReflectedMember {
     pub glsl: String,
 }
 
-#[cfg(test)]
 /// A struct type of a module (a block's type or a struct inside one), with its debug name.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ReflectedStruct {
@@ -290,7 +280,6 @@ pub struct ReflectedStruct {
     pub members: Vec<ReflectedMember>,
 }
 
-#[cfg(test)]
 /// Every named struct type of one SPIR-V module that has explicit member offsets (the structs
 /// inside buffer blocks and push constants: what a Rust `#[repr(C)]` twin must match). A struct
 /// used under two layouts (std140 and std430) appears once per layout, under the same name.
@@ -348,52 +337,10 @@ pub fn merge(
 
 #[cfg(test)]
 mod tests {
-    use std::mem::size_of;
-
     use super::*;
-    use crate::effects::energy_wave_f32::GpuWave;
-    use crate::gpu::shader::ShaderCompiler;
-    use crate::passes::energy_wave::{EnergyWaveParams, WaveStyle};
-    use crate::passes::gpu_structs::{FrameUniforms, InstanceData, MaterialData};
-    use crate::passes::metaballs::MetaballParams;
-    use crate::passes::translucency::TranslucencyParams;
-
-    fn interface(name: &str, defines: &[(&str, &str)]) -> Interface {
-        let words = ShaderCompiler::new().unwrap().compile(name, defines).unwrap();
-        reflect(name, &words).unwrap()
-    }
 
     fn element(i: &Interface, binding: u32) -> u32 {
         i.bindings.iter().find(|b| b.binding == binding).map_or(0, |b| b.element_bytes)
-    }
-
-    /// Every Rust struct a pass binds has its GLSL twin's size, as the shader's SPIR-V lays it
-    /// out (std140/std430 offsets and strides included): the check `bind_set` makes each frame,
-    /// made here for every shader at once.
-    #[test]
-    fn rust_structs_have_their_shader_twins_sizes() {
-        let size = |n: usize| n as u32;
-        let ew = interface("energy_wave.comp", &[]);
-        assert_eq!(element(&ew, 3), size(size_of::<GpuWave>()));
-        assert_eq!(element(&ew, 4), size(size_of::<WaveStyle>()));
-        assert_eq!(element(&ew, 5), size(size_of::<FrameUniforms>()));
-        assert_eq!(ew.push_bytes, size(size_of::<EnergyWaveParams>()));
-        let probe = interface("energy_probe.comp", &[]);
-        assert_eq!(element(&probe, 0), size(size_of::<GpuWave>()));
-        let raster = interface("raster.vert", &[]);
-        assert_eq!(element(&raster, 0), size(size_of::<FrameUniforms>()));
-        assert_eq!(element(&raster, 1), size(size_of::<InstanceData>()));
-        assert_eq!(element(&raster, 2), size(size_of::<MaterialData>()));
-        assert_eq!(element(&interface("light_id.vert", &[]), 0), size(size_of::<InstanceData>()));
-        let mb = interface("metaballs.comp", &[("MB_WITH_CLIP", "1"), ("MB_WITH_TRACE", "1")]);
-        assert_eq!(element(&mb, 4), size(size_of::<FrameUniforms>()));
-        assert_eq!(element(&mb, 5), size(size_of::<MaterialData>()));
-        assert_eq!(mb.push_bytes, size(size_of::<MetaballParams>()));
-        let tr = interface("translucency.comp", &[]);
-        assert_eq!(element(&tr, 0), size(size_of::<TranslucencyParams>()));
-        assert_eq!(element(&tr, 10), size(size_of::<MaterialData>()));
-        assert_eq!(element(&tr, 12), size(size_of::<FrameUniforms>()));
-        assert_eq!(interface("tonemap.comp", &[]).push_bytes, 12);
     }
 
     /// The reflection sees a drifted layout: a vec3 + float member pair versus vec3 + vec4.

@@ -2,7 +2,7 @@
 
 use ash::vk;
 
-use crate::gpu::error::{GpuResult, VkResultExt};
+use crate::error::{GpuResult, VkResultExt};
 
 /// What the swapchain should look like; the first supported entry of each list wins.
 #[derive(Clone, Debug)]
@@ -260,7 +260,7 @@ impl Presenter {
         let modes = modes.vk("vkGetPhysicalDeviceSurfacePresentModesKHR")?;
         let format =
             self.config.formats.iter().find_map(|f| formats.iter().find(|s| s.format == *f)).ok_or_else(
-                || crate::gpu::GpuError::SurfaceUnsupported {
+                || crate::GpuError::SurfaceUnsupported {
                     what: "swapchain format",
                     message: format!(
                         "the surface offers {:?}, none of the wanted {:?}",
@@ -277,7 +277,7 @@ impl Presenter {
             .find(|m| modes.contains(m))
             .unwrap_or(vk::PresentModeKHR::FIFO);
         if !caps.supported_usage_flags.contains(self.config.usage) {
-            return Err(crate::gpu::GpuError::SurfaceUnsupported {
+            return Err(crate::GpuError::SurfaceUnsupported {
                 what: "swapchain image usage",
                 message: format!(
                     "wanted {:?}, the surface supports {:?}",

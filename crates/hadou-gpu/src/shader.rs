@@ -1,29 +1,33 @@
-//! GLSL → SPIR-V with shaderc at start-up. Sources are embedded in the binary (so an installed
-//! `hadou` needs no shader files); `HADOU_SHADER_DIR` points at a source tree to use instead,
-//! which is how hot reload will read edited shaders. Compiled words are cached by source text.
+//! GLSL → SPIR-V with shaderc at start-up. Sources are embedded in the binary by the crate that
+//! owns them (hadou's `passes::SHADERS`, so an installed `hadou` needs no shader files) and handed
+//! to the compiler; `HADOU_SHADER_DIR` points at a source tree to use instead, which is how hot
+//! reload reads edited shaders. Compiled words are cached by source text.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
 
 use super::error::{GpuError, GpuResult};
 
-/// Every shader file hadou ships, by its path under `shaders/` (listed by build.rs).
-pub const EMBEDDED: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+/// Shader files by their path under the shader folder: `("raster.vert", source)`.
+pub type Sources = &'static [(&'static str, &'static str)];
 
+/// Compiles GLSL to SPIR-V; see the module docs.
 pub struct ShaderCompiler {
     compiler: shaderc::Compiler,
+    embedded: Sources,
     source_dir: Option<PathBuf>,
     cache: HashMap<(String, String), Vec<u32>>,
 }
 
 impl ShaderCompiler {
-    pub fn new() -> GpuResult<Self> {
+    /// A compiler reading `embedded` (and `#include`s from it) unless `HADOU_SHADER_DIR` is set.
+    pub fn new(embedded: Sources) -> GpuResult<Self> {
         let compiler = shaderc::Compiler::new().map_err(|e| GpuError::Shader {
             name: "shaderc".into(),
             message: format!("cannot create the compiler: {e}"),
         })?;
         let source_dir = std::env::var_os("HADOU_SHADER_DIR").map(PathBuf::from);
-        Ok(ShaderCompiler { compiler, source_dir, cache: HashMap::new() })
+        Ok(ShaderCompiler { compiler, embedded, source_dir, cache: HashMap::new() })
     }
 
     /// The source of `name` (e.g. "raster.vert"): from HADOU_SHADER_DIR when set, else embedded.
@@ -35,7 +39,7 @@ impl ShaderCompiler {
                 message: format!("{}: {e}", path.display()),
             });
         }
-        EMBEDDED
+        self.embedded
             .iter()
             .find(|(n, _)| *n == name)
             .map(|(_, text)| text.to_string())
@@ -74,8 +78,8 @@ impl ShaderCompiler {
         for (k, v) in defines {
             options.add_macro_definition(k, Some(v));
         }
-        let dir = self.source_dir.clone();
-        options.set_include_callback(move |requested, _, _, _| include(dir.as_ref(), requested));
+        let (dir, embedded) = (self.source_dir.clone(), self.embedded);
+        options.set_include_callback(move |requested, _, _, _| include(dir.as_ref(), embedded, requested));
         let artifact = self
             .compiler
             .compile_into_spirv(source, kind, name, "main", Some(&options))
@@ -101,10 +105,14 @@ fn shader_kind(name: &str) -> GpuResult<shaderc::ShaderKind> {
     }
 }
 
-fn include(dir: Option<&PathBuf>, requested: &str) -> Result<shaderc::ResolvedInclude, String> {
+fn include(
+    dir: Option<&PathBuf>,
+    embedded: Sources,
+    requested: &str,
+) -> Result<shaderc::ResolvedInclude, String> {
     let content = match dir {
         Some(dir) => std::fs::read_to_string(dir.join(requested)).map_err(|e| format!("{requested}: {e}"))?,
-        None => EMBEDDED
+        None => embedded
             .iter()
             .find(|(n, _)| *n == requested)
             .map(|(_, t)| t.to_string())

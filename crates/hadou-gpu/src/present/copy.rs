@@ -5,7 +5,7 @@
 use ash::vk;
 
 use super::swapchain::Acquired;
-use crate::gpu::error::{GpuError, GpuResult, VkResultExt};
+use crate::error::{GpuError, GpuResult, VkResultExt};
 
 struct Staging {
     buffer: vk::Buffer,

@@ -5,7 +5,9 @@ use std::sync::Arc;
 
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
-use gpu_allocator::{AllocationError, MemoryLocation};
+use gpu_allocator::AllocationError;
+/// Where a buffer lives: device-local, or host-visible for uploads and read-backs.
+pub use gpu_allocator::MemoryLocation;
 
 use super::context::GpuContext;
 use super::error::{GpuError, GpuResult, VkResultExt};

@@ -1,4 +1,11 @@
-//! The only code that calls ash: context, memory, pipelines, shaders, barriers, timestamps, recording.
+//! hadou's GPU layer: the only crate that depends on ash and calls Vulkan — context, memory,
+//! pipelines, shaders, barriers, timestamps, recording, presenting to a window. The layers above
+//! (`hadou`: scenes, effects, passes, the renderer; the `hadou` command line) have no `ash`
+//! dependency and no `unsafe` code of their own (`#![deny(unsafe_code)]`, checked by
+//! `tests/layers.rs`): they record through the safe types here and name Vulkan's plain types
+//! (formats, layouts, handles a game hands in) through `vk`.
+
+#![warn(missing_docs)]
 
 #[doc(hidden)]
 pub mod barriers;
@@ -8,7 +15,8 @@ pub mod context;
 pub mod error;
 #[doc(hidden)]
 pub mod fullscreen;
-pub(crate) mod layout;
+#[doc(hidden)]
+pub mod layout;
 #[doc(hidden)]
 pub mod memory;
 #[doc(hidden)]
@@ -16,8 +24,11 @@ pub mod pipeline;
 #[doc(hidden)]
 pub mod pipeline_cache;
 #[doc(hidden)]
+pub mod present;
+#[doc(hidden)]
 pub mod recorder;
-pub(crate) mod reflect;
+#[doc(hidden)]
+pub mod reflect;
 pub(crate) mod resources;
 #[doc(hidden)]
 pub mod ring;

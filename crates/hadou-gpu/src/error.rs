@@ -139,7 +139,8 @@ pub enum GpuError {
     /// The window's surface offers nothing hadou can present with (a format, an image usage).
     #[error("{what}: {message}")]
     SurfaceUnsupported {
-        /// `"swapchain format"`, `"swapchain image usage"` or `"pixel copy"`.
+        /// `"swapchain format"`, `"swapchain image usage"`, `"pixel copy"`, or the window's handles
+        /// and window system (`WindowOutput::open`).
         what: &'static str,
         /// What was wanted and what the surface offers.
         message: String,

@@ -265,6 +265,27 @@ impl GpuContext {
         &self.resources
     }
 
+    /// Numbers the frame being recorded: objects dropped from now on are retired with `frame`
+    /// (destroyed once it is known finished).
+    pub fn begin_frame(&self, frame: u64) {
+        self.resources.set_frame(frame);
+    }
+
+    /// Frame `frame` and every one before it finished: destroys what was retired with them.
+    pub fn frames_finished(&self, frame: u64) {
+        self.resources.collect(frame);
+    }
+
+    /// Destroys everything retired (teardown, after `wait_idle`).
+    pub fn destroy_retired(&self) {
+        self.resources.collect_all();
+    }
+
+    /// The pipeline cache pipelines are created with from now on (null: none).
+    pub fn set_pipeline_cache(&self, cache: vk::PipelineCache) {
+        self.resources.set_pipeline_cache(cache);
+    }
+
     /// The pipeline cache every pipeline is created with (null until a renderer sets one).
     pub(crate) fn pipeline_cache(&self) -> vk::PipelineCache {
         self.resources.pipeline_cache()

@@ -2,40 +2,39 @@
 //! twin's name and members (`gpu_layout!`), and `check` compares every member — name, offset and
 //! GLSL type — with the struct as a shader's SPIR-V lays it out (`reflect::structs`). A size check
 //! alone cannot see two `vec4` members swapped; this can. The comparison runs in the tests
-//! (`passes::shader_structs`: every shader with every struct it shares), so the declarations and
-//! the check compile only there.
+//! (hadou's `passes::shader_structs`: every shader with every struct it shares), so the
+//! declarations' impls compile only in the tests of the crate that declares them.
 
 /// Declares a `#[repr(C)]` struct's GLSL twin: `gpu_layout!(GpuLight as "Light" { direction,
 /// radiance });` lists every field in order (a field left out fails `Layout::check_complete`).
+#[macro_export]
 macro_rules! gpu_layout {
     ($ty:ident as $glsl:literal { $($field:ident),+ $(,)? }) => {
         #[cfg(test)]
-        impl $crate::gpu::layout::GpuLayout for $ty {
+        impl $crate::layout::GpuLayout for $ty {
             const GLSL_NAME: &'static str = $glsl;
-            fn layout() -> $crate::gpu::layout::Layout {
-                $crate::gpu::layout::Layout {
+            fn layout() -> $crate::layout::Layout {
+                $crate::layout::Layout {
                     rust_name: stringify!($ty),
                     glsl_name: $glsl,
                     size: std::mem::size_of::<$ty>(),
-                    members: vec![$($crate::gpu::layout::Member {
+                    members: vec![$($crate::layout::Member {
                         name: stringify!($field),
                         offset: std::mem::offset_of!($ty, $field),
-                        size: $crate::gpu::layout::field_size(|s: &$ty| &s.$field),
-                        glsl: $crate::gpu::layout::field_glsl(|s: &$ty| &s.$field),
+                        size: $crate::layout::field_size(|s: &$ty| &s.$field),
+                        glsl: $crate::layout::field_glsl(|s: &$ty| &s.$field),
                     }),+],
                 }
             }
         }
     };
 }
-pub(crate) use gpu_layout;
+pub use crate::gpu_layout;
 
-#[cfg(test)]
-pub(crate) use check::*;
+pub use check::*;
 
-#[cfg(test)]
 mod check {
-    use crate::gpu::reflect::ReflectedStruct;
+    use crate::reflect::ReflectedStruct;
 
     /// A member of a Rust struct shared with GLSL.
     #[derive(Clone, Debug, PartialEq, Eq)]

@@ -20,38 +20,14 @@
 //! [`Presenter::window_resized`], make the next `acquire` recreate the swapchain (after a device
 //! wait idle: resizes are rare, and it keeps the old images' ownership simple).
 //!
-//! Setting up on a winit window (the caller owns the context and destroys the presenter first):
-//!
-//! ```no_run
-//! use hadou::gpu::{ContextOptions, GpuContext, PresentRequest};
-//! use hadou::present::{PresentConfig, Presenter};
-//! use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
-//!
-//! type Opened = Result<(Presenter, GpuContext), Box<dyn std::error::Error>>;
-//!
-//! fn open(window: &winit::window::Window) -> Opened {
-//!     let display = window.display_handle()?.as_raw();
-//!     let handle = window.window_handle()?.as_raw();
-//!     // SAFETY: the window outlives the surface.
-//!     let create_surface = |entry: &ash::Entry, instance: &ash::Instance| unsafe {
-//!         ash_window::create_surface(entry, instance, display, handle, None)
-//!     };
-//!     let request = PresentRequest {
-//!         instance_extensions: ash_window::enumerate_required_extensions(display)?,
-//!         create_surface: &create_surface,
-//!     };
-//!     let (ctx, surface) = GpuContext::new_presenting(&ContextOptions::from_env(), &request)?;
-//!     let config = PresentConfig::default();
-//!     // SAFETY: surface and device come from ctx; `Presenter::destroy` runs before ctx is dropped.
-//!     let presenter = unsafe {
-//!         Presenter::new(&ctx.entry, &ctx.instance, ctx.physical_device, &ctx.device, surface, config)?
-//!     };
-//!     Ok((presenter, ctx))
-//! }
-//! ```
+//! On a window: `WindowOutput::open(Arc<window>, options, config)` makes the presenting context,
+//! the presenter and the pixel copier in one safe call (window.rs; the viewer uses it). A game
+//! that owns its device and surface makes its `Presenter` with `Presenter::new` on its handles.
 
 mod copy;
 mod swapchain;
+mod window;
 
 pub use copy::PixelCopier;
 pub use swapchain::{choose_extent, Acquired, PresentConfig, Presenter};
+pub use window::WindowOutput;

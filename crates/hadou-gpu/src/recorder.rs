@@ -1,5 +1,5 @@
 //! Command recording for passes: the few commands hadou's passes use, so pass code states what
-//! it does and src/gpu stays the only code that calls ash.
+//! it does and this crate stays the only code that calls ash.
 
 use ash::vk;
 
@@ -120,6 +120,13 @@ impl Recorder<'_> {
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
         );
         cmd_barriers(self.device(), self.cmd, &[], &[b]);
+    }
+
+    /// Dispatches x × y workgroups.
+    pub fn dispatch_groups(&self, x: u32, y: u32) {
+        // SAFETY: the command buffer is recording with a compute pipeline and its set bound (the
+        // caller's contract of every Recorder call after bind_pipeline).
+        unsafe { self.device().cmd_dispatch(self.cmd, x, y, 1) };
     }
 
     /// Dispatches enough `group`-sized workgroups to cover width × height.

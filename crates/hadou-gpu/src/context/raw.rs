@@ -6,9 +6,9 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::{device_info, version_string, GpuContext};
-use crate::gpu::error::{GpuError, GpuResult};
-use crate::gpu::resources::Resources;
-use crate::gpu::validation::ValidationLog;
+use crate::error::{GpuError, GpuResult};
+use crate::resources::Resources;
+use crate::validation::ValidationLog;
 
 /// The device features the game enabled in `vkCreateDevice`. Vulkan cannot be asked which features
 /// a device was created with, so the game states them and `from_raw` checks them.
