@@ -503,7 +503,7 @@ fn embedded_frame_matches_headless_and_f64() {
     let wall_n = wall_matrix().transform_vector3(DVec3::Y).normalize();
     let mask_e = cube_mask(frame.aov(Aov::Normal), None);
     let mask_h = cube_mask(&headless.aov(Aov::Normal).unwrap().data, Some(wall_n));
-    let params = wave_params(&scene(false).waves[0].at(0.0));
+    let params = wave_params(&scene(false).waves()[0].at(0.0));
     let frame_ray = cam.ray_frame(e.width, e.height);
     let conv = DepthConvention::Standard { near: 1.0, far: 60.0 };
     let u = f32::EPSILON as f64 / 2.0;
@@ -675,7 +675,7 @@ fn zero_extent_resize_and_timings() {
 /// f64 integral up to it. Returns the number of pixels checked and how many of them were sky.
 fn check_energy_on_wall(frame: &Frame, scene: &Scene, e: vk::Extent2D, wave: usize) -> (usize, usize) {
     let cam = camera().for_hadou();
-    let params = wave_params(&scene.waves[wave].at(0.0));
+    let params = wave_params(&scene.waves()[wave].at(0.0));
     let mask = cube_mask(frame.aov(Aov::Normal), None);
     let (mut checked, mut sky) = (0, 0);
     for y in 0..e.height {
@@ -738,7 +738,7 @@ fn update_api_changes_the_picture_as_predicted() {
     assert_eq!(cube_after, 0, "the moved cube is out of view");
     assert_eq!(calls::counts(device).pipelines, built, "an update rebuilt a pipeline");
     let mut moved = scene(false);
-    let w = &mut moved.waves[0];
+    let w = &mut moved.waves_mut()[0];
     (w.origin, w.direction, w.a, w.b, w.length) =
         (update.origin, update.direction.normalize(), 5.0, 0.5, 4.0);
     let (checked, _) = check_energy_on_wall(&second, &moved, e, 0);

@@ -104,7 +104,7 @@ fn apply(hadou: &mut Renderer, w: &World) {
 fn scene_of(base: &Scene, w: &World) -> Scene {
     let mut scene = base.clone();
     scene.camera = w.camera;
-    let wave = &mut scene.waves[0];
+    let wave = &mut scene.waves_mut()[0];
     wave.origin = w.wave.origin;
     wave.direction = w.wave.direction.normalize();
     wave.a = w.wave.a;
@@ -272,7 +272,7 @@ fn check_metaball_pixels(i: usize, scene: &Scene, normal: &AovImage, w: &World) 
 /// form is a few f32 ulps). Another frame's wave or camera would be off by far more. Every pixel
 /// is compared (nothing excluded).
 fn check_energy(i: usize, scene: &Scene, energy: &AovImage, distance: &AovImage) {
-    let params = wave_params(&scene.waves[0].at(0.0));
+    let params = wave_params(&scene.waves()[0].at(0.0));
     let cam = &scene.camera;
     let mut c = Comparison::new(format!("frame {i}: energy vs f64"));
     for y in 0..H {

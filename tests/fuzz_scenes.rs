@@ -167,7 +167,7 @@ fn check_limits(s: &Scene) -> Result<(), TestCaseError> {
         let n = inst.transform.normal_matrix().to_cols_array();
         prop_assert!(m.iter().chain(&n).all(|&v| f32_finite(v)), "instance transform {m:?}");
     }
-    for w in &s.waves {
+    for w in s.waves() {
         let most = w.keyframes.iter().filter_map(|k| k.intensity).fold(w.intensity, f64::max);
         prop_assert!(f32_finite(w.color.max_element() * most), "wave emission");
     }

@@ -384,7 +384,7 @@ fn camera_and_default_framing() {
 fn toml_overlay_places_the_file() {
     let s = load(&common::asset("assets/gltf/overlay.toml"));
     let alone = load(&common::asset("assets/gltf/volume_demo.glb"));
-    assert_eq!(s.waves.len(), 1);
+    assert_eq!(s.waves().len(), 1);
     assert_eq!(s.instances.len(), alone.instances.len());
     let lift = DMat4::from_translation(DVec3::new(0.0, 0.0, 0.0));
     for (a, b) in s.instances.iter().zip(&alone.instances) {

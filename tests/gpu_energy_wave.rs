@@ -28,7 +28,7 @@ fn energy_errors(scene: &Scene, w: u32, h: u32, time: f64) -> (Comparison, Vec<f
     rt.finish();
     let energy = &frame.aov(Aov::Energy).unwrap().data;
     let depth = &frame.aov(Aov::Depth).unwrap().data;
-    let waves: Vec<WaveParams> = scene.waves.iter().map(|wv| wave_params(&wv.at(time))).collect();
+    let waves: Vec<WaveParams> = scene.waves().iter().map(|wv| wave_params(&wv.at(time))).collect();
     let cam = &scene.camera;
     let mut c = Comparison::new(format!("energy AOV vs f64 at t = {time}, relative"));
     let mut errors = Vec::with_capacity((w * h) as usize);
@@ -137,7 +137,7 @@ fn opaque_plane_clips_the_integral() {
     let inst = &scene.instances[0].transform;
     let p0 = inst.transform_point(DVec3::ZERO);
     let n = inst.transform_normal(DVec3::Y);
-    let params = wave_params(&scene.waves[0].at(0.0));
+    let params = wave_params(&scene.waves()[0].at(0.0));
     let cam = &scene.camera;
     let mut clipped = Comparison::new("clipped energy vs f64 up to the GPU depth, relative");
     let mut distance = Comparison::new("GPU depth vs the f64 plane distance, relative");
@@ -209,7 +209,7 @@ fn extreme_cameras_stay_finite_and_match_f64() {
             );
         }
         let energy = &frame.aov(Aov::Energy).unwrap().data;
-        let params = wave_params(&scene.waves[0].at(0.0));
+        let params = wave_params(&scene.waves()[0].at(0.0));
         let cam = &scene.camera;
         let mut c =
             Comparison::new(format!("camera {camera:?}: energy vs f64 up to the far plane, relative"));
@@ -309,7 +309,7 @@ fn raymarch_method_matches_its_f64_twin() {
     rt.finish();
     let energy = &frame.aov(Aov::Energy).unwrap().data;
     let depth = &frame.aov(Aov::Depth).unwrap().data;
-    let params = wave_params(&scene.waves[0].at(0.0));
+    let params = wave_params(&scene.waves()[0].at(0.0));
     let mut march = Comparison::new("ray-marched energy vs f64, error / per-pixel bound");
     let mut relative = Comparison::new("ray-marched energy vs f64, relative (printed)");
     for y in 0..h {
@@ -455,7 +455,7 @@ fn cutoff_emits_only_the_energy_above_it() {
         rt.load_scene(scene.clone()).unwrap();
         let mut req = FrameRequest::new(w, h);
         req.aovs = vec![Aov::Hdr, Aov::Depth];
-        if !scene.waves.is_empty() {
+        if !scene.waves().is_empty() {
             req.aovs.push(Aov::Energy);
         }
         let frame = rt.render(&req).unwrap();
@@ -466,7 +466,7 @@ fn cutoff_emits_only_the_energy_above_it() {
     let (hdr, hdr0) = (&lit.aov(Aov::Hdr).unwrap().data, &base.aov(Aov::Hdr).unwrap().data);
     let depth = &lit.aov(Aov::Depth).unwrap().data;
     let energy = &lit.aov(Aov::Energy).unwrap().data;
-    let state = with.waves[0].at(0.0);
+    let state = with.waves()[0].at(0.0);
     let p = wave_params(&state);
     let cam = &with.camera;
     let (mut above, mut below) = (0, 0);

@@ -76,7 +76,7 @@ fn render(scene: &Scene, w: u32, h: u32, time: f64, aovs: &[Aov]) -> FrameOutput
 fn raster_only(scene: &Scene, w: u32, h: u32) -> FrameOutput {
     let mut bare = scene.clone();
     bare.metaballs.clear();
-    bare.waves.clear();
+    bare.waves_mut().clear();
     render(&bare, w, h, 0.0, &[Aov::Depth])
 }
 
@@ -482,7 +482,7 @@ fn metaballs_clip_the_energy_wave() {
     );
     let energy = &frame.aov(Aov::Energy).unwrap().data;
     let groups = groups_at(&scene, 0.0);
-    let wave = wave_params(&scene.waves[0].at(0.0));
+    let wave = wave_params(&scene.waves()[0].at(0.0));
     let cam = &scene.camera;
     let mut clipped = 0;
     let mut integral =

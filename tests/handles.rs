@@ -124,13 +124,13 @@ fn setters_follow_their_object_across_despawns() {
     };
     r.set_wave(w2, update).unwrap();
     let scene = r.scene().unwrap();
-    assert_eq!(scene.waves[1].name.as_deref(), Some("w2"));
+    assert_eq!(scene.waves()[1].name.as_deref(), Some("w2"));
     assert_eq!(
-        (scene.waves[1].origin, scene.waves[1].direction, scene.waves[1].a, scene.waves[1].b),
+        (scene.waves()[1].origin, scene.waves()[1].direction, scene.waves()[1].a, scene.waves()[1].b),
         (update.origin, DVec3::NEG_Z, 2.0, 0.25)
     );
-    assert_eq!(scene.waves[1].length, 4.0);
-    assert_eq!(scene.waves[0], before.waves[0], "w0 unchanged");
+    assert_eq!(scene.waves()[1].length, 4.0);
+    assert_eq!(scene.waves()[0], before.waves()[0], "w0 unchanged");
     assert!(matches!(r.set_wave(w1, update), Err(Error::StaleId(_))));
     let _ = w0;
 

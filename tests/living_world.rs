@@ -197,7 +197,7 @@ fn spawn_and_despawn_over_three_hundred_frames() {
                 assert!(!d.is_nan(), "frame {i} ({x}, {y}): distance NaN");
                 let l = d.min(cam.far);
                 let reference: f64 =
-                    world.waves.iter().map(|w| line_integral(&wave_params(&w.at(0.0)), o, u, l)).sum();
+                    world.waves().iter().map(|w| line_integral(&wave_params(&w.at(0.0)), o, u, l)).sum();
                 let got = energy.data[k] as f64;
                 let rel = if reference > 0.0 { (got - reference).abs() / reference } else { got };
                 assert!(rel <= 1e-4, "frame {i} ({x}, {y}): {got} vs f64 {reference}");
@@ -277,7 +277,7 @@ fn bad_calls_are_typed_errors_and_change_nothing() {
     assert!(matches!(hadou.spawn_metaballs(&empty), Err(Error::InvalidUpdate { .. })));
     let singular = MetaballsDesc { transform: DMat4::ZERO, ..metaballs(1) };
     assert!(matches!(hadou.spawn_metaballs(&singular), Err(Error::InvalidUpdate { .. })));
-    assert_eq!(hadou.scene().unwrap().waves, before.waves, "a refused call changes nothing");
+    assert_eq!(hadou.scene().unwrap().waves(), before.waves(), "a refused call changes nothing");
     assert_eq!(hadou.scene().unwrap().metaballs, before.metaballs);
     hadou.despawn_wave(id).unwrap();
     hadou.despawn_metaballs(group).unwrap();

@@ -325,7 +325,7 @@ fn asset_scenes_have_the_promised_content() {
     assert_eq!((grid.meshes.len(), grid.instances.len()), (1, 50));
     let empty = load("empty.toml");
     assert!(empty.instances.is_empty() && empty.meshes.is_empty());
-    assert!(!showcase.waves.is_empty());
+    assert!(!showcase.waves().is_empty());
 }
 
 /// energy_wave.toml is seed 004's set-up: `--time 0/1/2/3` gives m_z of figures 15-18.
@@ -337,9 +337,9 @@ fn energy_wave_scenes_follow_the_seed() {
     let centres: Vec<DVec3> =
         hidden.instances.iter().map(|i| i.transform.transform_point(DVec3::ZERO)).collect();
     assert_eq!(centres, [DVec3::ZERO, DVec3::new(10.0, 0.0, 250.0)]);
-    assert_eq!(hidden.waves, open.waves);
+    assert_eq!(hidden.waves(), open.waves());
     assert_eq!((hidden.camera, hidden.render), (open.camera, open.render));
-    let wave = &hidden.waves[0];
+    let wave = &hidden.waves()[0];
     assert_eq!((wave.direction, wave.a, wave.b), (DVec3::X, 60.0, 30.0));
     for (time, m_z) in [(0.0, 280.0), (1.0, 70.0), (2.0, 10.0), (3.0, -140.0)] {
         assert_eq!(wave.at(time).origin, DVec3::new(0.0, 0.0, m_z), "time {time}");
@@ -354,7 +354,7 @@ const WAVE: &str = "[[wave]]\norigin = [1, 2, 3]\ndirection = [0, 0, -2]\n";
 #[test]
 fn wave_defaults_follow_the_documentation() {
     let s = parse(&format!("{WAVE}a = 5\n")).unwrap();
-    let w = &s.waves[0];
+    let w = &s.waves()[0];
     assert_eq!(
         (w.name.as_deref(), w.origin, w.velocity, w.direction),
         (None, DVec3::new(1.0, 2.0, 3.0), DVec3::ZERO, DVec3::NEG_Z)
@@ -365,9 +365,9 @@ fn wave_defaults_follow_the_documentation() {
     );
     assert_eq!((w.method, w.keyframes.len()), (WaveMethod::Analytic, 0));
     let s = parse(&format!("{WAVE}b = 1\nmethod = \"raymarch\"\n")).unwrap();
-    assert_eq!(s.waves[0].method, WaveMethod::Raymarch { steps: 64, jitter: false });
+    assert_eq!(s.waves()[0].method, WaveMethod::Raymarch { steps: 64, jitter: false });
     let s = parse(&format!("{WAVE}b = 1\nmethod = \"raymarch\"\nsteps = 65536\njitter = true\n")).unwrap();
-    assert_eq!(s.waves[0].method, WaveMethod::Raymarch { steps: 65536, jitter: true });
+    assert_eq!(s.waves()[0].method, WaveMethod::Raymarch { steps: 65536, jitter: true });
 }
 
 #[test]
@@ -375,7 +375,7 @@ fn wave_keyframes_are_read_in_order_with_unit_directions() {
     let keys = "[[wave.keyframe]]\ntime = -1\ndirection = [0, 3, 0]\nlength = 2\n\
                 [[wave.keyframe]]\ntime = 0.5\norigin = [0, 0, 9]\na = 0\nb = 2\ncore = 0.1\nintensity = 3\n";
     let s = parse(&format!("{WAVE}a = 1\nvelocity = [0, 1, 0]\n{keys}")).unwrap();
-    let w = &s.waves[0];
+    let w = &s.waves()[0];
     assert_eq!(w.keyframes.len(), 2);
     assert_eq!(
         (w.keyframes[0].time, w.keyframes[0].direction, w.keyframes[0].length),
@@ -533,7 +533,8 @@ fn documented_wave_examples_parse() {
         parse(block).unwrap_or_else(|e| panic!("{e}\n{block}"));
     }
     let figures = blocks.iter().find(|b| b.contains("time = 3")).expect("the keyframe example");
-    let wave = &parse(figures).unwrap().waves[0];
+    let scene = parse(figures).unwrap();
+    let wave = &scene.waves()[0];
     let half = wave.at(0.5);
     assert_eq!((half.origin, half.b, half.a), (DVec3::new(0.0, 0.0, 175.0), 35.0, 60.0));
     let late = wave.at(3.5);

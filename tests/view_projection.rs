@@ -82,7 +82,7 @@ fn check(label: &str, view: DMat4, proj: DMat4, far: f64) -> Vec<f32> {
     request.aovs = vec![Aov::Depth, Aov::Energy];
     let frame = rt.render(&request).unwrap();
     let (depth, energy) = (frame.aov(Aov::Depth).unwrap(), frame.aov(Aov::Energy).unwrap());
-    let params: Vec<_> = scene.waves.iter().map(|w| wave_params(&w.at(0.0))).collect();
+    let params: Vec<_> = scene.waves().iter().map(|w| wave_params(&w.at(0.0))).collect();
     let hit = |px: f64, py: f64| {
         let (o, d) = matrix_ray(view, proj, px, py);
         caster.cast(o, d).map(|h| (h.t, h.instance))

@@ -12,8 +12,8 @@
 use std::sync::Arc;
 
 use super::{Effect, EffectPass, PassBuilder};
+use crate::effects::energy_wave::EnergyWave;
 use crate::gpu::GpuResult;
-use crate::passes::energy_wave::EnergyWavePass;
 use crate::passes::light_id::LightIdPass;
 use crate::passes::metaballs::{self, MetaballsPass};
 use crate::passes::peel::{self, PeelPass};
@@ -99,27 +99,5 @@ impl Effect for Translucency {
                 },
             },
         ]
-    }
-}
-
-/// Seed 004: `[[wave]]`s, the closed-form line integral of an emissive volume along view rays.
-#[derive(Clone, Copy, Debug)]
-pub struct EnergyWave;
-
-impl Effect for EnergyWave {
-    fn name(&self) -> &'static str {
-        "energy_wave"
-    }
-
-    fn switch_off(&self, scene: &mut Scene) {
-        scene.waves.clear();
-    }
-
-    fn passes(&self) -> Vec<EffectPass> {
-        vec![EffectPass::new(
-            "energy_wave",
-            |s| !s.waves.is_empty(),
-            |b| Ok(boxed(EnergyWavePass::new(b.ctx, b.compiler)?)),
-        )]
     }
 }

@@ -23,7 +23,8 @@ mod registry;
 mod scene_file;
 mod state;
 
-pub use builtin::{EnergyWave, Metaballs, Translucency};
+pub use crate::effects::energy_wave::{EnergyWave, Waves};
+pub use builtin::{Metaballs, Translucency};
 pub use error::EffectError;
 pub(crate) use frame_check::{check_bindings, check_reads};
 pub use registry::Effects;

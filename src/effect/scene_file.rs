@@ -57,6 +57,11 @@ impl<'a> SceneFile<'a> {
         )
     }
 
+    /// hadou's own scene-file checks on this text (built-in effects' tables).
+    pub(crate) fn ctx(&self) -> crate::scene::file_check::Ctx<'a> {
+        crate::scene::file_check::Ctx { text: self.text, path: self.path }
+    }
+
     fn toml_error(&self, e: &toml::de::Error) -> SceneError {
         let message = e.message().trim().replace('\n', "; ");
         self.error(e.span().unwrap_or(0..0), message)

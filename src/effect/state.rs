@@ -63,6 +63,26 @@ impl EffectStates {
         self.entries.iter().find_map(|(_, s)| (**s).as_any().downcast_ref::<T>())
     }
 
+    /// The data of type `T`, made by `make` under effect `name` when there is none.
+    pub fn get_or_insert_with<T: EffectState>(
+        &mut self,
+        name: &'static str,
+        make: impl FnOnce() -> T,
+    ) -> &mut T {
+        let i = match self.entries.iter().position(|(_, s)| (**s).as_any().is::<T>()) {
+            Some(i) => i,
+            None => {
+                self.insert(name, make());
+                self.entries.len() - 1
+            }
+        };
+        match (*self.entries[i].1).as_any_mut().downcast_mut::<T>() {
+            Some(state) => state,
+            // The entry was found, or just pushed, as a `T`.
+            None => unreachable!("effect state {i} is a {}", std::any::type_name::<T>()),
+        }
+    }
+
     /// The data of type `T`, to change (see `Renderer::update_effect`, which also brings the
     /// passes in line).
     pub fn get_mut<T: EffectState>(&mut self) -> Option<&mut T> {

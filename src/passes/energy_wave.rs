@@ -99,7 +99,7 @@ impl Pass for EnergyWavePass {
         let camera = scene.camera.position;
         // A wave with a = b = 0 integrates to 0 everywhere: it is not uploaded or looped over.
         let live: Vec<(WaveState, WaveMethod)> = scene
-            .waves
+            .waves()
             .iter()
             .map(|w| (w.at(frame.time), w.method))
             .filter(|(s, _)| s.a != 0.0 || s.b != 0.0)

@@ -46,6 +46,7 @@ impl Renderer {
     pub fn remove_effect(&mut self, name: &str) -> Result<bool, Error> {
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
         let removed = loaded.scene.effects.remove(name).is_some();
+        self.resync_ids();
         self.sync_passes()?;
         Ok(removed)
     }
@@ -63,6 +64,19 @@ impl Renderer {
             }
             return Err(Error::InvalidUpdate { what, expected });
         }
+        self.resync_ids();
         self.sync_passes()
+    }
+
+    /// Keeps one id per wave after a change made through the effect API (the energy wave's data
+    /// replaced or removed): ids of waves that remain keep their places, new ones get new ids.
+    fn resync_ids(&mut self) {
+        let Some(loaded) = &self.loaded else { return };
+        let (have, want) = (loaded.wave_ids.len(), loaded.scene.waves().len());
+        let fresh: Vec<u64> = (have..want).map(|_| self.next_id()).collect();
+        if let Some(loaded) = &mut self.loaded {
+            loaded.wave_ids.truncate(want);
+            loaded.wave_ids.extend(fresh);
+        }
     }
 }

@@ -74,7 +74,7 @@ impl Renderer {
     /// The first wave (scene order) whose scene-file `name` is `name`; `None` when none is.
     pub fn wave_named(&self, name: &str) -> Option<WaveId> {
         let l = self.loaded.as_ref()?;
-        let i = l.scene.waves.iter().position(|o| o.name.as_deref() == Some(name))?;
+        let i = l.scene.waves().iter().position(|o| o.name.as_deref() == Some(name))?;
         Some(WaveId(l.wave_ids[i]))
     }
 

@@ -92,7 +92,7 @@ impl Renderer {
     /// following frame; `update_wave` sets all of it.
     pub fn set_wave(&mut self, id: WaveId, update: WaveUpdate) -> Result<(), Error> {
         let index = self.wave_index(id)?;
-        let wave = &mut self.loaded_mut()?.scene.waves[index];
+        let wave = &mut self.loaded_mut()?.scene.waves_mut()[index];
         let u = update;
         let ok = u.origin.is_finite()
             && u.direction.is_finite()

@@ -97,7 +97,7 @@ impl Renderer {
         check_wave(desc)?;
         let id = self.next_id();
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
-        loaded.scene.waves.push(Wave {
+        loaded.scene.waves_mut().push(Wave {
             name: None,
             origin: desc.origin,
             velocity: DVec3::ZERO,
@@ -121,7 +121,7 @@ impl Renderer {
     pub fn update_wave(&mut self, id: WaveId, desc: &WaveDesc) -> Result<(), Error> {
         check_wave(desc)?;
         let index = self.wave_index(id)?;
-        let wave = &mut self.loaded.as_mut().ok_or(Error::NoScene)?.scene.waves[index];
+        let wave = &mut self.loaded.as_mut().ok_or(Error::NoScene)?.scene.waves_mut()[index];
         (wave.origin, wave.direction) = (desc.origin, desc.direction.normalize());
         (wave.a, wave.b, wave.core, wave.length) = (desc.a, desc.b, desc.core, desc.length);
         (wave.color, wave.intensity, wave.cutoff) = (desc.color, desc.intensity, desc.cutoff);
@@ -135,7 +135,7 @@ impl Renderer {
     pub fn despawn_wave(&mut self, id: WaveId) -> Result<(), Error> {
         let index = self.wave_index(id)?;
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
-        loaded.scene.waves.remove(index);
+        loaded.scene.waves_mut().remove(index);
         loaded.wave_ids.remove(index);
         self.sync_passes()
     }

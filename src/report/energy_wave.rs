@@ -30,7 +30,7 @@ pub struct Measured {
 /// H* per pixel: the f64 closed form summed over the scene's waves along each pixel ray, up to the
 /// given per-pixel depth (clipped at the camera's far distance).
 pub fn reference(scene: &Scene, depth: &[f32], w: u32, h: u32, time: f64) -> Vec<f64> {
-    let states: Vec<_> = scene.waves.iter().map(|wave| wave_params(&wave.at(time))).collect();
+    let states: Vec<_> = scene.waves().iter().map(|wave| wave_params(&wave.at(time))).collect();
     let cam = &scene.camera;
     (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
@@ -91,7 +91,7 @@ pub fn measure(
 /// `scene` with every wave integrated by `method`.
 pub fn with_method(scene: &Scene, method: WaveMethod) -> Scene {
     let mut s = scene.clone();
-    s.waves.iter_mut().for_each(|w| w.method = method);
+    s.waves_mut().iter_mut().for_each(|w| w.method = method);
     s
 }
 
@@ -106,7 +106,7 @@ pub fn section(
     let scene = opts.load_scene("energy_wave.toml")?;
     let size = opts.effect_size;
     let pixels = size.0 as f64 * size.1 as f64;
-    let waves = scene.waves.len();
+    let waves = scene.waves().len();
     let mut columns =
         vec!["variant", "steps", "pass ms p50", "max rel err", "p99 rel err", "time vs analytic"];
     columns.extend(FRACTION_COLUMNS);

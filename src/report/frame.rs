@@ -50,8 +50,8 @@ pub fn section(
 ) -> Result<Section, ReportError> {
     let path = opts.scene("showcase.toml");
     let scene = opts.load_scene("showcase.toml")?;
-    let analytic = scene.waves.iter().all(|w| w.method == crate::scene::WaveMethod::Analytic);
-    let waves = if analytic { scene.waves.len() } else { 0 };
+    let analytic = scene.waves().iter().all(|w| w.method == crate::scene::WaveMethod::Analytic);
+    let waves = if analytic { scene.waves().len() } else { 0 };
     runtime.load_scene(scene)?;
     let mut columns = vec!["size", "pass", "ms p50", "ms p95", "ms p99", "frames"];
     columns.extend(FRACTION_COLUMNS);

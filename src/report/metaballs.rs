@@ -95,7 +95,7 @@ pub fn section(
     steps.next("metaballs: raster reference");
     let mut bare = scene.clone();
     bare.metaballs.clear();
-    bare.waves.clear();
+    bare.waves_mut().clear();
     let raster = depth(runtime, &bare, opts.effect_size)?;
     let mut table = Table::new(
         "metaballs",

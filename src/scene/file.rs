@@ -17,7 +17,6 @@ use super::file_gltf::gltf_files;
 use super::file_mesh::meshes;
 use super::file_metaballs::metaballs;
 use super::file_schema::{CameraDef, InstanceDef, LightDef, MaterialDef, OpDef, RenderDef, SceneDef, Tables};
-use super::file_wave::waves;
 use super::model::{
     DirectionalLight, Instance, Material, MaterialKind, MetaballGroup, RenderSettings, Scene, SceneMesh,
     ThicknessMode,
@@ -51,7 +50,7 @@ pub const DEFAULT_ALBEDO: f64 = 0.7;
 /// The top-level tables of hadou's own scene format (docs/scene-format.md); an effect's tables
 /// (`Effect::tables`) come after them.
 pub const SCENE_TABLES: &[&str] =
-    &["render", "camera", "light", "mesh", "material", "instance", "wave", "metaballs", "gltf"];
+    &["render", "camera", "light", "mesh", "material", "instance", "metaballs", "gltf"];
 
 /// Reads and validates the scene file at `path` with hadou's own effects.
 /// A .gltf or .glb file is read as a glTF scene (`scene::gltf::load_gltf`).
@@ -99,7 +98,6 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
     let mut meshes = meshes(ctx, &def.mesh)?;
     let mut materials = Materials::new(materials(ctx, &def.material)?);
     let mut instances = instances(ctx, &def.instance, &meshes, &mut materials)?;
-    let waves = waves(ctx, &def.wave)?;
     let metaballs = metaballs(ctx, &def.metaballs, &mut materials)?;
     let placed = gltf_files(ctx, &def.gltf, render.ambient, &mut meshes, &mut materials, &mut instances)?;
     let camera = match (toml_camera, placed.camera) {
@@ -125,7 +123,6 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
         meshes,
         materials,
         instances,
-        waves,
         metaballs,
         effects,
     })

@@ -14,7 +14,7 @@ use super::file_schema::{Array, Int, Num};
 
 /// The scene text and its path: everything needed to turn a byte span into an error.
 #[derive(Clone, Copy)]
-pub(super) struct Ctx<'a> {
+pub(crate) struct Ctx<'a> {
     pub text: &'a str,
     pub path: &'a Path,
 }
@@ -65,37 +65,37 @@ impl Ctx<'_> {
 
 /// A range rule for numbers, worded for messages ("a number > 0").
 #[derive(Clone, Copy)]
-pub(super) struct Rule {
+pub(crate) struct Rule {
     pub ok: fn(f64) -> bool,
     /// The bound as written after "a number": "> 0", "in [0, 1]".
     pub bound: &'static str,
 }
 
-pub(super) const ANY: Rule = Rule { ok: |_| true, bound: "" };
-pub(super) const POSITIVE: Rule = Rule { ok: |v| v > 0.0, bound: "> 0" };
-pub(super) const NON_NEGATIVE: Rule = Rule { ok: |v| v >= 0.0, bound: ">= 0" };
+pub(crate) const ANY: Rule = Rule { ok: |_| true, bound: "" };
+pub(crate) const POSITIVE: Rule = Rule { ok: |v| v > 0.0, bound: "> 0" };
+pub(crate) const NON_NEGATIVE: Rule = Rule { ok: |v| v >= 0.0, bound: ">= 0" };
 /// At least 0.1°: neighbouring pixel rays (16384 rows at most) differ by 2·tan(fov/2)/16384 of the
 /// view direction, which f32 (2⁻²⁴ relative) must resolve: tan(fov/2) ≥ 2⁻¹¹, fov ≥ 0.056°.
-pub(super) const FOV: Rule = Rule { ok: |v| (0.1..180.0).contains(&v), bound: "in [0.1, 180)" };
-pub(super) const UNIT: Rule = Rule { ok: |v| (0.0..=1.0).contains(&v), bound: "in [0, 1]" };
+pub(crate) const FOV: Rule = Rule { ok: |v| (0.1..180.0).contains(&v), bound: "in [0.1, 180)" };
+pub(crate) const UNIT: Rule = Rule { ok: |v| (0.0..=1.0).contains(&v), bound: "in [0, 1]" };
 /// A factor the GPU multiplies by (exposure): a normal f32, so it neither flushes to 0 (GPUs may
 /// treat subnormals as 0) nor overflows.
-pub(super) const F32_NORMAL: Rule =
+pub(crate) const F32_NORMAL: Rule =
     Rule { ok: |v| v >= f32::MIN_POSITIVE as f64, bound: ">= 1.1754944e-38 (f32's smallest normal number)" };
 /// A length the GPU squares (a metaball's support radius R, in |x − c|²/R²): R² stays a normal,
 /// finite f32, R in [2⁻⁶³, 2⁶³].
-pub(super) const SQUARED_LENGTH: Rule = Rule {
+pub(crate) const SQUARED_LENGTH: Rule = Rule {
     ok: |v| (1.0842021724855044e-19..=9.223372036854776e18).contains(&v),
     bound: "in [1.0842e-19, 9.2234e18] (2^-63 to 2^63: its square must be a normal f32)",
 };
 /// A colour written into the HDR target as it is (the background): RGBA16F holds up to 65504.
-pub(super) const HDR: Rule = Rule {
+pub(crate) const HDR: Rule = Rule {
     ok: |v| (0.0..=super::file::MAX_HDR).contains(&v),
     bound: "in [0, 65504] (the HDR target is 16-bit float)",
 };
 
 /// Numbers as a person would write them: no 300-digit expansions of 1e300.
-pub(super) fn show(v: f64) -> String {
+pub(crate) fn show(v: f64) -> String {
     let a = v.abs();
     if a != 0.0 && !(1e-4..1e9).contains(&a) {
         format!("{v:e}")
@@ -104,12 +104,12 @@ pub(super) fn show(v: f64) -> String {
     }
 }
 
-pub(super) fn show_vec(v: DVec3) -> String {
+pub(crate) fn show_vec(v: DVec3) -> String {
     format!("[{}, {}, {}]", show(v.x), show(v.y), show(v.z))
 }
 
 /// A computed vector (not one the user wrote) to 4 decimals: `[0, -0.2425, -0.9701]`.
-pub(super) fn show_vec_approx(v: DVec3) -> String {
+pub(crate) fn show_vec_approx(v: DVec3) -> String {
     let short = |x: f64| {
         let s = format!("{x:.4}");
         let s = s.trim_end_matches('0').trim_end_matches('.');
@@ -123,7 +123,7 @@ pub(super) fn show_vec_approx(v: DVec3) -> String {
 }
 
 /// One table of the scene file (`[camera]`, a `[[mesh]]`, …): its label in messages and its span.
-pub(super) struct Owner<'a> {
+pub(crate) struct Owner<'a> {
     pub ctx: Ctx<'a>,
     /// How messages name the table: `[camera]`, `mesh "ball"`, `instance 3`.
     pub label: String,
@@ -246,7 +246,7 @@ impl<'a> Owner<'a> {
 
 /// Names seen so far in one kind of table, to refuse a second table with the same name. A map,
 /// so a scene with n tables is checked in O(n), not O(n²).
-pub(super) struct UniqueNames<'a> {
+pub(crate) struct UniqueNames<'a> {
     /// "mesh" or "material", for the message.
     what: &'static str,
     seen: HashMap<&'a str, &'a Spanned<String>>,
@@ -273,7 +273,7 @@ impl<'a> UniqueNames<'a> {
 }
 
 /// "one of \"a\", \"b\"" or "\"a\"" for a single choice.
-pub(super) fn one_of(choices: &[&str]) -> String {
+pub(crate) fn one_of(choices: &[&str]) -> String {
     let quoted: Vec<String> = choices.iter().map(|c| format!("\"{c}\"")).collect();
     match quoted.len() {
         1 => quoted[0].clone(),

@@ -21,7 +21,7 @@ pub const MAX_GENERATED: u32 = 65536;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [[metaballs]] table")]
-pub(super) struct MetaballsDef {
+pub(crate) struct MetaballsDef {
     pub name: Option<Spanned<String>>,
     pub threshold: Option<Spanned<Num>>,
     pub kernel: Option<Spanned<String>>,
@@ -39,7 +39,7 @@ pub(super) struct MetaballsDef {
 /// One ball: `{ centre = [x, y, z], radius = R, q = 1, velocity = [..], q_rate = 0 }`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a ball such as { centre = [0, 0, 0], radius = 2 }")]
-pub(super) struct BallDef {
+pub(crate) struct BallDef {
     pub centre: Option<Spanned<Array<Num, 3>>>,
     pub radius: Option<Spanned<Num>>,
     pub q: Option<Spanned<Num>>,
@@ -54,7 +54,7 @@ pub(super) struct BallDef {
     deny_unknown_fields,
     expecting = "a table { count = n, bounds = [[x0, y0, z0], [x1, y1, z1]], radius = [min, max] }"
 )]
-pub(super) struct GenerateDef {
+pub(crate) struct GenerateDef {
     pub count: Option<Spanned<Int>>,
     pub seed: Option<Spanned<Int>>,
     pub bounds: Option<Spanned<Array<Array<Num, 3>, 2>>>,
@@ -66,7 +66,7 @@ pub(super) struct GenerateDef {
 /// One `[[metaballs.keyframe]]`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [[metaballs.keyframe]] table")]
-pub(super) struct MetaballKeyframeDef {
+pub(crate) struct MetaballKeyframeDef {
     pub time: Option<Spanned<Num>>,
     pub centres: Option<Spanned<Vec<Array<Num, 3>>>>,
     pub q: Option<Spanned<Vec<Num>>>,

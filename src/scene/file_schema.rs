@@ -16,7 +16,7 @@ use toml::Spanned;
 /// (`crate::effect`) are read by the effect.
 #[derive(Debug, Deserialize)]
 #[serde(expecting = "a scene: TOML tables such as [camera] and [[mesh]]")]
-pub(super) struct SceneDef {
+pub(crate) struct SceneDef {
     pub render: Option<Spanned<RenderDef>>,
     pub camera: Option<Spanned<CameraDef>>,
     #[serde(default)]
@@ -28,8 +28,6 @@ pub(super) struct SceneDef {
     #[serde(default)]
     pub instance: Tables<InstanceDef>,
     #[serde(default)]
-    pub wave: Tables<WaveDef>,
-    #[serde(default)]
     pub metaballs: Tables<super::file_metaballs::MetaballsDef>,
     #[serde(default)]
     pub gltf: Tables<GltfDef>,
@@ -37,7 +35,7 @@ pub(super) struct SceneDef {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [render] table")]
-pub(super) struct RenderDef {
+pub(crate) struct RenderDef {
     pub size: Option<Array<Spanned<Int>, 2>>,
     pub exposure: Option<Spanned<Num>>,
     pub background: Option<Spanned<Array<Num, 3>>>,
@@ -46,7 +44,7 @@ pub(super) struct RenderDef {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [camera] table")]
-pub(super) struct CameraDef {
+pub(crate) struct CameraDef {
     pub position: Option<Spanned<Array<Num, 3>>>,
     pub look_at: Option<Spanned<Array<Num, 3>>>,
     pub up: Option<Spanned<Array<Num, 3>>>,
@@ -57,7 +55,7 @@ pub(super) struct CameraDef {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [[light]] table")]
-pub(super) struct LightDef {
+pub(crate) struct LightDef {
     pub kind: Option<Spanned<String>>,
     pub direction: Option<Spanned<Array<Num, 3>>>,
     pub color: Option<Spanned<Array<Num, 3>>>,
@@ -68,7 +66,7 @@ pub(super) struct LightDef {
 /// error can say "`radius` is not a field of mesh kind `cube`"; keys no kind has are kept in
 /// `unknown` (not refused here) so their error can list the fields of the table's own kind.
 #[derive(Debug, Default)]
-pub(super) struct MeshDef {
+pub(crate) struct MeshDef {
     pub name: Option<Spanned<String>>,
     pub kind: Option<Spanned<String>>,
     pub size: Option<Spanned<Num>>,
@@ -92,7 +90,7 @@ pub(super) struct MeshDef {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [[material]] table")]
-pub(super) struct MaterialDef {
+pub(crate) struct MaterialDef {
     pub name: Option<Spanned<String>>,
     pub kind: Option<Spanned<String>>,
     pub albedo: Option<Spanned<Array<Num, 3>>>,
@@ -106,7 +104,7 @@ pub(super) struct MaterialDef {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "an [[instance]] table")]
-pub(super) struct InstanceDef {
+pub(crate) struct InstanceDef {
     pub name: Option<Spanned<String>>,
     pub mesh: Option<Spanned<String>>,
     pub material: Option<Spanned<String>>,
@@ -116,17 +114,18 @@ pub(super) struct InstanceDef {
 /// A glTF file placed in the scene (file_gltf.rs).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [[gltf]] table")]
-pub(super) struct GltfDef {
+pub(crate) struct GltfDef {
     pub name: Option<Spanned<String>>,
     pub path: Option<Spanned<String>>,
     pub transform: Option<Spanned<Tables<OpDef>>>,
     pub voxel_res: Option<Spanned<Int>>,
 }
 
-/// An energy wave; ranges, the method's fields and the keyframe rules are checked in file_wave.rs.
+/// An energy wave; ranges, the method's fields and the keyframe rules are checked in
+/// effects/energy_wave/file.rs (the energy wave effect reads `[[wave]]`).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [[wave]] table")]
-pub(super) struct WaveDef {
+pub(crate) struct WaveDef {
     pub name: Option<Spanned<String>>,
     pub origin: Option<Spanned<Array<Num, 3>>>,
     pub velocity: Option<Spanned<Array<Num, 3>>>,
@@ -148,7 +147,7 @@ pub(super) struct WaveDef {
 /// One `[[wave.keyframe]]`: a time and any subset of the animatable fields.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [[wave.keyframe]] table")]
-pub(super) struct KeyframeDef {
+pub(crate) struct KeyframeDef {
     pub time: Option<Spanned<Num>>,
     pub origin: Option<Spanned<Array<Num, 3>>>,
     pub direction: Option<Spanned<Array<Num, 3>>>,
@@ -163,7 +162,7 @@ pub(super) struct KeyframeDef {
 /// can name the keys found).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a transform step such as { translate = [0, 1, 0] }")]
-pub(super) struct OpDef {
+pub(crate) struct OpDef {
     pub translate: Option<Array<Num, 3>>,
     pub rotate: Option<RotateDef>,
     pub scale: Option<Array<Num, 3>>,
@@ -172,7 +171,7 @@ pub(super) struct OpDef {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a table { angle_deg = number, axis = [x, y, z] }")]
-pub(super) struct RotateDef {
+pub(crate) struct RotateDef {
     pub angle_deg: Num,
     pub axis: Array<Num, 3>,
 }
@@ -180,27 +179,27 @@ pub(super) struct RotateDef {
 /// A finite number that f32 holds; TOML integers are accepted too. nan, ±inf and |x| > f32::MAX
 /// are refused here so every number hadou reads is finite, in f64 and on the GPU.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Num(pub f64);
+pub(crate) struct Num(pub f64);
 
 /// A TOML integer (a float such as `32.0` is refused: counts and sizes are whole).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct Int(pub i64);
+pub(crate) struct Int(pub i64);
 
 /// Exactly `N` elements.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Array<T, const N: usize>(pub [T; N]);
+pub(crate) struct Array<T, const N: usize>(pub [T; N]);
 
 /// An array of tables (`[[mesh]]` sections or `[{ … }, { … }]`), each with its span.
 #[derive(Debug)]
-pub(super) struct Tables<T>(pub Vec<Spanned<T>>);
+pub(crate) struct Tables<T>(pub Vec<Spanned<T>>);
 
 /// How an element type is named in "expected an array of 3 numbers".
-pub(super) trait Plural {
+pub(crate) trait Plural {
     fn plural() -> String;
 }
 
 /// What a list of these tables looks like, for the error on `[mesh]` instead of `[[mesh]]`.
-pub(super) trait TableList {
+pub(crate) trait TableList {
     const LIST: &'static str;
 }
 

@@ -4,13 +4,12 @@
 pub mod camera;
 pub mod error;
 pub mod file;
-mod file_check;
+pub(crate) mod file_check;
 mod file_gltf;
 mod file_material;
 mod file_mesh;
 mod file_metaballs;
-mod file_schema;
-mod file_wave;
+pub(crate) mod file_schema;
 pub mod gltf;
 pub mod mesh;
 pub mod metaball_track;

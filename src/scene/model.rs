@@ -26,8 +26,6 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// `[[instance]]`s in file order: the drawn copies of the meshes.
     pub instances: Vec<Instance>,
-    /// Energy waves; the energy-wave pass runs only when there is at least one.
-    pub waves: Vec<Wave>,
     /// Metaball groups (`[[metaballs]]`); the metaballs pass runs only when there is at least one.
     pub metaballs: Vec<MetaballGroup>,
     /// The world data of the registered effects the scene uses (`crate::effect`), by effect name:

@@ -40,7 +40,7 @@ impl Toggles {
     /// R: switches the energy wave between analytic and raymarch, starting from the file.
     pub fn switch_wave_method(&mut self, file: &Scene) {
         let now = self.raymarch.unwrap_or_else(|| {
-            file.waves.first().is_some_and(|w| matches!(w.method, WaveMethod::Raymarch { .. }))
+            file.waves().first().is_some_and(|w| matches!(w.method, WaveMethod::Raymarch { .. }))
         });
         self.raymarch = Some(!now);
     }
@@ -59,12 +59,12 @@ impl Toggles {
                 effect.switch_off(&mut scene);
             }
         }
-        let file_steps = file.waves.iter().find_map(|w| match w.method {
+        let file_steps = file.waves().iter().find_map(|w| match w.method {
             WaveMethod::Raymarch { steps, .. } => Some(steps),
             WaveMethod::Analytic => None,
         });
         if let Some(raymarch) = self.raymarch {
-            for wave in &mut scene.waves {
+            for wave in scene.waves_mut().iter_mut() {
                 wave.method = match (raymarch, wave.method) {
                     (false, _) => WaveMethod::Analytic,
                     (true, m @ WaveMethod::Raymarch { .. }) => m,
@@ -88,7 +88,7 @@ impl Toggles {
     /// A short summary for the window title, e.g. "wave:analytic trans:lut meta:on".
     pub fn summary(&self, file: &Scene) -> String {
         let scene = self.apply(file);
-        let wave = match scene.waves.first().map(|w| w.method) {
+        let wave = match scene.waves().first().map(|w| w.method) {
             _ if !self.energy_wave => "off".to_string(),
             None => "none".into(),
             Some(WaveMethod::Analytic) => "analytic".into(),
@@ -155,12 +155,15 @@ mod tests {
             .materials
             .iter()
             .any(|m| matches!(m.kind, MaterialKind::Translucent { thickness: ThicknessMode::Tsm, .. })));
-        assert_eq!(s.waves[0].method, WaveMethod::Raymarch { steps: DEFAULT_RAYMARCH_STEPS, jitter: false });
+        assert_eq!(
+            s.waves()[0].method,
+            WaveMethod::Raymarch { steps: DEFAULT_RAYMARCH_STEPS, jitter: false }
+        );
         assert_eq!(t.summary(&file), format!("wave:raymarch {DEFAULT_RAYMARCH_STEPS} trans:tsm meta:on"));
         t.switch_thickness(&file);
         t.switch_wave_method(&file);
         let s = t.apply(&file);
-        assert_eq!(s.waves[0].method, WaveMethod::Analytic);
+        assert_eq!(s.waves()[0].method, WaveMethod::Analytic);
         assert_eq!(t.summary(&file), "wave:analytic trans:peel meta:on");
         // LUT → TSM → peel → LUT.
         t.switch_thickness(&file);

@@ -7,10 +7,12 @@ use std::ops::Range;
 use glam::DVec3;
 use toml::Spanned;
 
-use super::error::SceneError;
-use super::file_check::{one_of, show, show_vec, show_vec_approx, Ctx, Owner, ANY, NON_NEGATIVE, POSITIVE};
-use super::file_schema::{Array, KeyframeDef, Num, Tables, WaveDef};
-use super::model::{Wave, WaveKeyframe, WaveMethod};
+use crate::scene::error::SceneError;
+use crate::scene::file_check::{
+    one_of, show, show_vec, show_vec_approx, Ctx, Owner, ANY, NON_NEGATIVE, POSITIVE,
+};
+use crate::scene::file_schema::{Array, KeyframeDef, Num, Tables, WaveDef};
+use crate::scene::model::{Wave, WaveKeyframe, WaveMethod};
 
 /// The integration methods, as `method` spells them; the first is the default.
 const METHODS: &[&str] = &["analytic", "raymarch"];
@@ -21,7 +23,7 @@ pub const MAX_STEPS: u32 = 65536;
 /// normalized lerp would pass (nearly) through the zero vector.
 pub const MIN_DIRECTION_DOT: f64 = -0.99;
 
-pub(super) fn waves(ctx: Ctx, defs: &Tables<WaveDef>) -> Result<Vec<Wave>, SceneError> {
+pub(crate) fn waves(ctx: Ctx, defs: &Tables<WaveDef>) -> Result<Vec<Wave>, SceneError> {
     let wave_at = |(i, def): (usize, &Spanned<WaveDef>)| {
         let d = def.get_ref();
         let label = match &d.name {

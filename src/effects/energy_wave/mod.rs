@@ -59,6 +59,11 @@
 // `!(x > y)` on purpose: false for NaN as well, like the GLSL it mirrors.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod effect;
+pub mod file;
+
+pub use effect::{EnergyWave, Waves};
+
 use glam::DVec3;
 
 /// One energy wave.

@@ -1,0 +1,60 @@
+//! The energy wave as an effect (`crate::effect`), registered like any other: it reads the
+//! `[[wave]]` tables (file.rs) into its world data, `Waves`, kept in `Scene::effects`, and runs the
+//! `energy_wave` pass while the world has a wave. `Scene::waves()` / `waves_mut()` are shorthands
+//! for that data.
+
+use super::file;
+use crate::effect::{Effect, EffectPass, EffectState, SceneFile};
+use crate::passes::energy_wave::EnergyWavePass;
+use crate::scene::file_schema::{Tables, WaveDef};
+use crate::scene::{Scene, SceneError, Wave};
+
+/// Seed 004: `[[wave]]`s, the closed-form line integral of an emissive volume along view rays.
+#[derive(Clone, Copy, Debug)]
+pub struct EnergyWave;
+
+/// The energy wave's world data: the waves of the file (in file order), then those spawned.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Waves(pub Vec<Wave>);
+
+/// The effect's name: its key in `Scene::effects`.
+const NAME: &str = "energy_wave";
+
+impl Effect for EnergyWave {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn tables(&self) -> &'static [&'static str] {
+        &["wave"]
+    }
+
+    fn load(&self, file: &SceneFile) -> Result<Option<Box<dyn EffectState>>, SceneError> {
+        let Some(defs) = file.table::<Tables<WaveDef>>("wave")? else { return Ok(None) };
+        Ok(Some(Box::new(Waves(file::waves(file.ctx(), defs.get_ref())?))))
+    }
+
+    fn switch_off(&self, scene: &mut Scene) {
+        scene.effects.remove(NAME);
+    }
+
+    fn passes(&self) -> Vec<EffectPass> {
+        vec![EffectPass::new(
+            "energy_wave",
+            |s| !s.waves().is_empty(),
+            |b| Ok(Box::new(EnergyWavePass::new(b.ctx, b.compiler)?)),
+        )]
+    }
+}
+
+impl Scene {
+    /// The energy waves (`[[wave]]` and spawned), in order; empty when the world has none.
+    pub fn waves(&self) -> &[Wave] {
+        self.effects.get::<Waves>().map_or(&[], |w| &w.0)
+    }
+
+    /// The waves, to change; the energy wave's data is added to the scene when it had none.
+    pub fn waves_mut(&mut self) -> &mut Vec<Wave> {
+        &mut self.effects.get_or_insert_with(NAME, Waves::default).0
+    }
+}
