@@ -149,11 +149,6 @@ fn mismatches_and_bad_files_are_errors_naming_the_files() {
     let a = png(&dir, "a.png", &picture());
     let small = dir.join("small.png");
     hadou::output::write_png(&small, 16, 24, &picture()[..16 * 24 * 4]).unwrap();
-    let rgb = dir.join("rgb.png");
-    image::RgbImage::from_raw(32, 24, picture().chunks(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
-        .unwrap()
-        .save(&rgb)
-        .unwrap();
     let y = exr(&dir, "y.exr", 1, vec![1.0; 12]);
     let rgba = exr(&dir, "rgba.exr", 4, vec![1.0; 48]);
     let truncated = dir.join("truncated.png");
@@ -164,7 +159,6 @@ fn mismatches_and_bad_files_are_errors_naming_the_files() {
     let missing = dir.join("missing.png");
     for (b, says) in [
         (&small, "sizes differ: 32x24 and 16x24"),
-        (&rgb, "channels differ: RGBA 8-bit and RGB 8-bit"),
         (&y, "PNG against OpenEXR"),
         (&truncated, "truncated.png: corrupt or unsupported PNG"),
         (&junk, "junk.png: is neither a PNG nor an OpenEXR file"),
@@ -185,6 +179,61 @@ fn mismatches_and_bad_files_are_errors_naming_the_files() {
     let out = hadou(&["compare", s(&a), s(&a), "--threshold", "flop=1"]);
     assert_eq!(code(&out), 2);
     assert!(text(&out).contains("unknown metric `flop`"), "{}", text(&out));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `rgba` saved as an RGB PNG (its alpha dropped).
+fn rgb_png(dir: &Path, name: &str, rgba: &[u8]) -> PathBuf {
+    let path = dir.join(name);
+    image::RgbImage::from_raw(32, 24, rgba.chunks(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
+        .unwrap()
+        .save(&path)
+        .unwrap();
+    path
+}
+
+/// An RGBA render and the same picture saved as RGB are the same image: colour is compared, and
+/// alpha only where either file has alpha that is not opaque (a missing alpha reads as opaque).
+#[test]
+fn rgba_against_rgb_compares_colour_and_alpha_only_where_not_opaque() {
+    let dir = scratch("rgb_rgba");
+    let rgba = png(&dir, "render.png", &picture());
+    let rgb = rgb_png(&dir, "saved.png", &picture());
+    for (a, b) in [(&rgba, &rgb), (&rgb, &rgba)] {
+        let out = hadou(&["compare", s(a), s(b)]);
+        assert_eq!(code(&out), 0, "{}", text(&out));
+        let t = text(&out);
+        assert!(t.contains("same: ") && t.contains("flip_mean 0") && t.contains("alpha_abs 0"), "{t}");
+    }
+    // A colour change shows through the RGB file.
+    let mut changed = picture();
+    changed[(10 * 32 + 7) * 4 + 1] ^= 0x40;
+    let changed = rgb_png(&dir, "changed.png", &changed);
+    let out = hadou(&["compare", s(&rgba), s(&changed)]);
+    assert_eq!(code(&out), 1, "{}", text(&out));
+    assert!(text(&out).contains("mean FLIP"), "{}", text(&out));
+    // A render with a transparent pixel is not its RGB copy (which is opaque there)...
+    let mut holed = picture();
+    holed[(3 * 32 + 5) * 4 + 3] = 0;
+    let holed = png(&dir, "holed.png", &holed);
+    let out = hadou(&["compare", s(&holed), s(&rgb)]);
+    assert_eq!(code(&out), 1, "{}", text(&out));
+    assert!(text(&out).contains("alpha differs by 1.000000 > abs threshold 0"), "{}", text(&out));
+    // ... unless the tolerance allows it; the library says the same.
+    let out = hadou(&["compare", s(&holed), s(&rgb), "--threshold", "abs=1"]);
+    assert_eq!(code(&out), 0, "{}", text(&out));
+    let c = compare_files(&rgba, &rgb, &Tolerance::default()).unwrap();
+    assert!(c.same && c.metric("alpha_abs") == Some(0.0), "{c:?}");
+    // Grey against the same grey as RGB.
+    let grey: Vec<u8> = picture().chunks(4).flat_map(|p| [p[0], p[0], p[0], 255]).collect();
+    let grey_rgb = rgb_png(&dir, "grey_rgb.png", &grey);
+    let grey_l = dir.join("grey_l.png");
+    image::GrayImage::from_raw(32, 24, grey.chunks(4).map(|p| p[0]).collect())
+        .unwrap()
+        .save(&grey_l)
+        .unwrap();
+    let c = compare_files(&grey_l, &grey_rgb, &Tolerance::default()).unwrap();
+    assert!(c.same && c.metric("alpha_abs").is_none(), "{c:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

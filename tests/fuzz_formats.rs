@@ -481,7 +481,9 @@ fn check_scene_limits(s: &hadou::scene::Scene) -> Result<(), String> {
             return Err(format!("instance world matrix {m:?}"));
         }
     }
-    if let Some((lo, hi)) = hadou::scene::gltf::scene_bounds(&s.meshes, &s.instances) {
+    if let Some(hadou::scene::gltf::SceneBounds { all: (lo, hi), .. }) =
+        hadou::scene::gltf::scene_bounds(&s.meshes, &s.instances)
+    {
         let extent = lo.abs().max(hi.abs()).max_element();
         if extent.is_nan() || extent > MAX_EXTENT {
             return Err(format!("content extent {extent:e} (limit 2^48 = {MAX_EXTENT:e})"));

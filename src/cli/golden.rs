@@ -1,14 +1,16 @@
-//! `hadou test DIR [--refs REFS] [--bless] [--junit FILE] [--out DIR]`: every scene `DIR/*.toml`
-//! rendered and compared with its references `REFS/NAME.png` and `REFS/NAME.AOV.exr` under the
-//! sidecar `REFS/NAME.test.toml` (size, time, AOVs, tolerance; see `golden_case`). Exit 0 when
+//! `hadou test DIR [--refs REFS] [--bless] [--junit FILE] [--out DIR]`: every scene of DIR — a
+//! `*.toml`, `*.gltf` or `*.glb` file — rendered and compared with its references `REFS/NAME.png`
+//! and `REFS/NAME.AOV.exr` (NAME the file's stem, whatever its format) under the sidecar
+//! `REFS/NAME.test.toml` (size, time, AOVs, tolerance; see `golden_case`). Exit 0 when
 //! every scene passes (or is skipped), 1 when one differs or lacks a reference, 2 on an error.
 //!
 //! Its outputs follow `render`'s rules (`hadou::output`), checked before the GPU starts: the
 //! JUnit report, the files `--out` may write and, with `--bless`, the references are never an
 //! input (a scene, a file it reads, a sidecar, a reference compared against) nor a special file.
-//! `--bless` replaces all references or none. Nothing named `*.toml` in DIR is passed over in
-//! silence: one that is not a regular file is an error row, and look-alikes (`*.TOML`, glTF
-//! files, a stray `*.test.toml`) are named on stderr as not tested.
+//! `--bless` replaces all references or none. Nothing named like a scene in DIR is passed over in
+//! silence: one that is not a regular file is an error row, two scenes of one name (`level.toml`
+//! and `level.glb` would share `level.png`) are error rows, and look-alikes (`*.TOML`, a stray
+//! `*.test.toml`) are named on stderr as not tested.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -24,7 +26,7 @@ use super::golden_case::{Case, Outcome, Sidecar};
 
 #[derive(Args, Debug)]
 pub struct TestArgs {
-    /// Folder of scene files (`*.toml`; `*.test.toml` sidecars are not scenes).
+    /// Folder of scene files (`*.toml`, `*.gltf`, `*.glb`; `*.test.toml` sidecars are not scenes).
     dir: PathBuf,
     /// Folder of the references and sidecars (default: DIR/references).
     #[arg(long)]
@@ -44,17 +46,19 @@ pub struct TestArgs {
     max_pixels: u64,
 }
 
-/// What `DIR` holds: the scene entries (`*.toml` but `*.test.toml`), each with why it cannot be
-/// rendered when it is not a regular file, and the entries that look like scenes but are not
-/// tested (said on stderr, not skipped silently).
+/// What `DIR` holds: the scene entries (`*.toml` but `*.test.toml`, `*.gltf`, `*.glb`), each with
+/// why it cannot be rendered when it is not a regular file, and the entries that look like scenes
+/// but are not tested (said on stderr, not skipped silently).
 struct Listing {
     scenes: Vec<(PathBuf, Option<String>)>,
     notes: Vec<String>,
 }
 
-/// The scenes of `dir`, sorted by name. Every `*.toml` is a scene, whatever bytes its name holds;
-/// one that is not a regular file (a directory, FIFO, symlink to nothing) is listed with why, to
-/// be reported as an error rather than left out.
+/// The scenes of `dir`, sorted by name. Every `*.toml` is a scene, whatever bytes its name holds,
+/// and so is every glTF file (`.gltf` or `.glb` in any case, as every other command reads them:
+/// `scene::gltf::is_gltf`); one that is not a regular file (a directory, FIFO, symlink to nothing)
+/// is listed with why, to be reported as an error rather than left out. References are named
+/// after the scene's file stem, whatever its format: scenes sharing a stem are errors.
 fn scenes(dir: &Path, refs: &Path) -> anyhow::Result<Listing> {
     let entries =
         std::fs::read_dir(dir).with_context(|| format!("cannot read the folder {}", dir.display()))?;
@@ -68,7 +72,7 @@ fn scenes(dir: &Path, refs: &Path) -> anyhow::Result<Listing> {
         let shown = super::escape_os(file);
         if bytes.ends_with(b".test.toml") {
             sidecars.push((path.clone(), shown));
-        } else if bytes.ends_with(b".toml") {
+        } else if bytes.ends_with(b".toml") || is_gltf_name(bytes) {
             let problem = match std::fs::metadata(&path) {
                 Ok(m) if m.is_file() => None,
                 Ok(m) => Some(format!(
@@ -86,14 +90,11 @@ fn scenes(dir: &Path, refs: &Path) -> anyhow::Result<Listing> {
             let lower = String::from_utf8_lossy(bytes).to_lowercase();
             if lower.ends_with(".toml") {
                 listing.notes.push(format!("{shown}: not tested (scenes end in `.toml`, in lower case)"));
-            } else if lower.ends_with(".gltf") || lower.ends_with(".glb") {
-                listing.notes.push(format!(
-                    "{shown}: not tested (only `*.toml` scenes are; place a glTF file in one with [[gltf]] path = …)"
-                ));
             }
         }
     }
     listing.scenes.sort();
+    shared_names(&mut listing.scenes, refs);
     // A `*.test.toml` in DIR is a sidecar only when DIR is the references folder and its scene is
     // here; any other is said, not silently passed over.
     for (path, shown) in sidecars {
@@ -114,9 +115,42 @@ fn scenes(dir: &Path, refs: &Path) -> anyhow::Result<Listing> {
     }
     listing.notes.sort();
     if listing.scenes.is_empty() {
-        bail!("{}: no scene files (*.toml)", dir.display());
+        bail!("{}: no scene files (*.toml, *.gltf, *.glb)", dir.display());
     }
     Ok(listing)
+}
+
+/// A file name ending in `.gltf` or `.glb`, in any case (as `scene::gltf::is_gltf` reads it).
+fn is_gltf_name(name: &[u8]) -> bool {
+    let ends = |suffix: &[u8]| {
+        name.len() > suffix.len() && name[name.len() - suffix.len()..].eq_ignore_ascii_case(suffix)
+    };
+    ends(b".gltf") || ends(b".glb")
+}
+
+/// Scenes whose file stems are equal (`level.toml`, `level.glb`, `level.gltf`) would share their
+/// references and sidecar: each is an error naming the others, rather than one silently tested
+/// against the other's images.
+fn shared_names(scenes: &mut [(PathBuf, Option<String>)], refs: &Path) {
+    let stems: Vec<std::ffi::OsString> =
+        scenes.iter().map(|(p, _)| p.file_stem().unwrap_or_default().to_os_string()).collect();
+    let names: Vec<String> =
+        scenes.iter().map(|(p, _)| super::escape_os(p.file_name().unwrap_or_default())).collect();
+    for (i, (path, problem)) in scenes.iter_mut().enumerate() {
+        let others: Vec<&str> =
+            (0..stems.len()).filter(|&j| j != i && stems[j] == stems[i]).map(|j| names[j].as_str()).collect();
+        if others.is_empty() || problem.is_some() {
+            continue;
+        }
+        let png = refs.join(super::golden_case::with_suffix(&stems[i], ".png"));
+        *problem = Some(format!(
+            "{}: shares its name with {} (expected one scene per name: both would be compared with {} and read the sidecar {}; rename one)",
+            path.display(),
+            others.join(", "),
+            png.display(),
+            refs.join(super::golden_case::with_suffix(&stems[i], ".test.toml")).display(),
+        ));
+    }
 }
 
 pub fn run(args: TestArgs) -> anyhow::Result<ExitCode> {

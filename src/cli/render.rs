@@ -25,6 +25,24 @@ pub struct RenderArgs {
     aovs: Vec<String>,
 }
 
+/// An AOV is written as OpenEXR only, and its file must say so: `--aov depth=d.png` is refused
+/// rather than written as OpenEXR under a PNG name (which every image viewer would misread) or
+/// squeezed into a PNG (AOVs are linear f32 values, `+inf` for the sky's depth and negative normal
+/// components included, which 8 or 16 unsigned bits cannot hold). Checked after the outputs'
+/// own checks, so a path that is a device or an input is refused for that first.
+fn check_exr_name(aov: Aov, path: &Path) -> anyhow::Result<()> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        return Ok(());
+    }
+    bail!(
+        "--aov {}={}: AOVs are written as f32 OpenEXR only (expected a file name ending in `.exr`, e.g. {}={})",
+        aov.name(),
+        path.display(),
+        aov.name(),
+        path.with_extension("exr").display()
+    )
+}
+
 fn parse_aov(text: &str) -> anyhow::Result<(Aov, PathBuf)> {
     let (name, file) = text.split_once('=').context("expected NAME=FILE.exr")?;
     let Some(aov) = Aov::from_name(name) else {
@@ -51,6 +69,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let outputs: Vec<&Path> =
         std::iter::once(args.output.as_path()).chain(aovs.iter().map(|(_, p)| p.as_path())).collect();
     super::check_outputs(&outputs, &super::scene_inputs(&args.scene, &scene))?;
+    for (aov, path) in &aovs {
+        check_exr_name(*aov, path)?;
+    }
     let progress = super::progress::spinner("render");
     progress.set_message("building the passes (a translucent mesh bakes its table once)");
     let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
@@ -75,9 +96,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     super::finish_validated(runtime)?;
     set.commit()?;
+    let mut wrote = vec![format!("{} ({width}x{height} PNG)", args.output.display())];
+    wrote.extend(aovs.iter().map(|(aov, path)| format!("{} ({} AOV, OpenEXR)", path.display(), aov.name())));
+    println!("wrote {}", super::escape_controls(&wrote.join(", ")));
+    // One frame of a fresh runtime: its GPU times include compiling each pass's pipelines (lavapipe
+    // JIT-compiles shaders at first use, about a second for the metaballs), not what a pass costs
+    // a frame; `hadou profile` renders warm-up frames first and measures warm ones.
     let passes: Vec<String> =
         frame.stats.passes.iter().map(|p| format!("{} {:.3} ms", p.name, p.gpu_ms)).collect();
-    println!("wrote {} ({width}x{height}); gpu: {}", args.output.display(), passes.join(", "));
+    println!(
+        "gpu, first frame including pipeline compilation (warm frames: hadou profile): {}",
+        passes.join(", ")
+    );
     // What the passes counted on the device (metaballs.dropped, peel.overflowed_texels, ...).
     let counters: Vec<String> = frame.stats.counters.iter().map(|(n, v)| format!("{n} {v}")).collect();
     if !counters.is_empty() {

@@ -1,5 +1,8 @@
 //! PNG pairs: FLIP on RGB (sRGB, 67 pixels per degree: FLIP's default viewing set-up), alpha as
-//! an absolute difference.
+//! an absolute difference. The two files may store the picture differently (RGBA and RGB, grey
+//! and RGB, with or without alpha): both are compared as RGBA8, grey expanded to RGB and a missing
+//! alpha taken as opaque, so an RGBA render and the same picture saved as RGB are the same image;
+//! alpha counts only where either file has alpha that is not opaque.
 
 use super::load::LdrImage;
 use super::{magma, Comparison, Tolerance};
@@ -19,9 +22,6 @@ pub fn compare(a: &LdrImage, b: &LdrImage, tol: &Tolerance) -> Result<Comparison
     if (a.width, a.height) != (b.width, b.height) {
         return Err(format!("sizes differ: {}x{} and {}x{}", a.width, a.height, b.width, b.height));
     }
-    if a.layout != b.layout {
-        return Err(format!("channels differ: {} and {}", a.layout, b.layout));
-    }
     let map = flip_map(a.width, a.height, &rgb(&a.rgba), &rgb(&b.rgba));
     let n = map.len().max(1) as f64;
     let mean = map.iter().map(|&v| v as f64).sum::<f64>() / n;
@@ -33,11 +33,13 @@ pub fn compare(a: &LdrImage, b: &LdrImage, tol: &Tolerance) -> Result<Comparison
     if mean > tol.flip {
         reasons.push(format!("mean FLIP {mean:.6} > threshold {}", tol.flip));
     }
-    if a.has_alpha && alpha_abs > tol.abs {
+    // A missing alpha reads as 255 (`LdrImage::rgba`): against an opaque RGBA image it is 0.
+    let has_alpha = a.has_alpha || b.has_alpha;
+    if has_alpha && alpha_abs > tol.abs {
         reasons.push(format!("alpha differs by {alpha_abs:.6} > abs threshold {}", tol.abs));
     }
     let mut metrics = vec![("flip_mean", mean), ("flip_max", max), ("pixels_differing", differing as f64)];
-    if a.has_alpha {
+    if has_alpha {
         metrics.push(("alpha_abs", alpha_abs));
     }
     Ok(Comparison {

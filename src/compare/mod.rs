@@ -1,16 +1,18 @@
 //! `hadou compare`: whether two images differ beyond a tolerance, and where.
 //!
 //! - PNG (tonemapped colour): FLIP (NVIDIA's perceptual difference, through the `nv-flip` crate)
-//!   on RGB, its mean gated by `flip`; alpha, if any, compared as an absolute difference in 0..1.
+//!   on RGB, its mean gated by `flip`; alpha, if either file has it, compared as an absolute
+//!   difference in 0..1 (a missing alpha is opaque: an RGBA file and the same picture saved as RGB
+//!   are the same; grey is compared as RGB).
 //! - OpenEXR (AOVs, any layers and channels): per value absolute error |a − b| and relative
 //!   error |a − b| / max(|a|, |b|). A value fails when both exceed their thresholds (either one
 //!   within tolerance is enough, as numpy's `allclose`); +inf = +inf and −inf = −inf are equal,
 //!   an infinity against anything else fails, and a NaN in either file fails the comparison.
 //!   The images differ when more than `pixels` (a fraction) of the pixels fail, or on any NaN.
 //!
-//! A size, channel or format mismatch and an unreadable file are errors, not differences, and so
-//! is an image larger than the pixel budget ([`DEFAULT_MAX_PIXELS`]), found from its header before
-//! anything is decoded.
+//! A size mismatch, a PNG against an OpenEXR, EXR channels that differ and an unreadable file are
+//! errors, not differences, and so is an image larger than the pixel budget
+//! ([`DEFAULT_MAX_PIXELS`]), found from its header before anything is decoded.
 
 mod hdr;
 mod ldr;

@@ -8,12 +8,14 @@ use gltf::json::validation::{Error as Invalid, Validate};
 
 use super::error::{pointer_from_crate_path, GltfError};
 
-/// Extensions hadou reads (besides those the gltf crate enables): a file may require them.
-const READ: &[&str] = &["KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_volume"];
+/// The extensions hadou honours: a file may require them. Each is read as docs/scene-format.md's
+/// mapping table says (what it cannot draw of them, such as point lights or thin-walled
+/// transmission, is listed in the one warning).
+pub(super) const HONOURED: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_volume"];
 
 /// Extensions that change how geometry is stored: a file that requires one cannot be drawn
-/// without it. Any other required extension only changes the look (textures, shading) and is
-/// listed among the ignored parts instead.
+/// at all without it (its message says so).
 const GEOMETRY: &[&str] = &[
     "KHR_draco_mesh_compression",
     "EXT_meshopt_compression",
@@ -25,8 +27,6 @@ const GEOMETRY: &[&str] = &[
 pub(super) struct Parsed {
     pub doc: gltf::Document,
     pub blob: Option<Vec<u8>>,
-    /// Required extensions hadou does not read (but can draw without).
-    pub ignored_required: Vec<String>,
 }
 
 /// Reads and validates `path`.
@@ -43,8 +43,8 @@ pub(super) fn read(path: &Path) -> Result<Parsed, GltfError> {
     let bytes = std::fs::read(path).map_err(unreadable)?;
     check_glb_header(&bytes).map_err(whole)?;
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| whole(parse_message(e)))?;
-    let ignored_required = validate(path, &gltf.document)?;
-    Ok(Parsed { doc: gltf.document, blob: gltf.blob, ignored_required })
+    validate(path, &gltf.document)?;
+    Ok(Parsed { doc: gltf.document, blob: gltf.blob })
 }
 
 /// The GLB header's total length must cover the header itself: the crate subtracts 12 from it
@@ -139,9 +139,8 @@ fn parse_message(e: gltf::Error) -> String {
 }
 
 /// Runs the crate's validation; the first finding is the error. `Unsupported` findings are about
-/// `extensionsRequired`: those hadou reads are fine, geometry ones are refused, the others are
-/// returned to be listed as ignored.
-fn validate(path: &Path, doc: &gltf::Document) -> Result<Vec<String>, GltfError> {
+/// `extensionsRequired`, checked here instead (`check_required`).
+fn validate(path: &Path, doc: &gltf::Document) -> Result<(), GltfError> {
     let root = doc.as_json();
     check_version(path, &root.asset)?;
     check_position_indices(path, root)?;
@@ -173,19 +172,32 @@ fn validate(path: &Path, doc: &gltf::Document) -> Result<Vec<String>, GltfError>
         };
         return Err(GltfError::at(path, pointer_from_crate_path(&p), what));
     }
-    let mut ignored = Vec::new();
-    for (i, ext) in root.extensions_required.iter().enumerate() {
-        if GEOMETRY.contains(&ext.as_str()) {
-            let message = format!("the file requires extension {ext}, which hadou cannot read (its meshes cannot be drawn without it)");
-            return Err(GltfError::at(path, format!("/extensionsRequired/{i}"), message));
+    check_required(path, &root.extensions_required)
+}
+
+/// glTF 2.0 §3.12: "If a required extension is not supported by the client, the client must not
+/// load the asset": every extension of `extensionsRequired` must be one hadou honours
+/// (`HONOURED`), else the file is refused at its pointer, naming it. (Before, a required
+/// extension hadou does not read — `KHR_materials_unlit`, `KHR_texture_basisu` — loaded with a
+/// warning and drew something the file says is wrong.)
+fn check_required(path: &Path, required: &[String]) -> Result<(), GltfError> {
+    for (i, ext) in required.iter().enumerate() {
+        if HONOURED.contains(&ext.as_str()) {
+            continue;
         }
-        let known = READ.contains(&ext.as_str())
-            || gltf::json::extensions::ENABLED_EXTENSIONS.contains(&ext.as_str());
-        if !known {
-            ignored.push(ext.clone());
-        }
+        let shown: String = ext.chars().take(64).collect();
+        let why = if GEOMETRY.contains(&ext.as_str()) {
+            "which hadou cannot read (its meshes cannot be drawn without it)"
+        } else {
+            "which hadou does not implement (glTF 2.0 §3.12: a file that requires an extension must not be loaded without it)"
+        };
+        let message = format!(
+            "the file requires extension {shown}, {why}; expected only required extensions hadou honours: {}",
+            HONOURED.join(", ")
+        );
+        return Err(GltfError::at(path, format!("/extensionsRequired/{i}"), message));
     }
-    Ok(ignored)
+    Ok(())
 }
 
 #[cfg(test)]
@@ -224,6 +236,31 @@ mod tests {
             (asset("2.1", Some("2.1")), "/asset/minVersion"),
         ] {
             assert_eq!(check_version(p, &bad).unwrap_err().pointer, at, "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn required_extensions_must_be_honoured() {
+        let p = Path::new("a.glb");
+        let req = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        check_required(
+            p,
+            &req(&["KHR_materials_volume", "KHR_lights_punctual", "KHR_materials_transmission"]),
+        )
+        .unwrap();
+        for (list, at, words) in [
+            (
+                req(&["KHR_lights_punctual", "KHR_materials_unlit"]),
+                "/extensionsRequired/1",
+                "does not implement",
+            ),
+            (req(&["KHR_texture_basisu"]), "/extensionsRequired/0", "does not implement"),
+            (req(&["KHR_draco_mesh_compression"]), "/extensionsRequired/0", "cannot read"),
+        ] {
+            let e = check_required(p, &list).unwrap_err();
+            assert_eq!(e.pointer, at);
+            assert!(e.message.contains(list.last().unwrap()) && e.message.contains(words), "{e}");
+            assert!(e.to_string().starts_with("a.glb: /extensionsRequired/"), "{e}");
         }
     }
 }

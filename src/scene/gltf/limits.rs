@@ -20,8 +20,10 @@ use crate::scene::transform::{Transform, TransformOp};
 /// A TOML scene keeps its camera and `far` within 2⁴⁸ (every view depth below it); a glTF file
 /// without a camera is framed (`framing`): with every corner within ±L the bounding sphere's
 /// radius and centre are at most √3·L, the camera stands within L + 2.62·√3·L·0.82 ≈ 4.7·L of the
-/// origin per axis and its `far` is 2·(2.62 + 1)·√3·L ≈ 12.5·L. L = 2⁴⁴ keeps both below 2⁴⁸, as
-/// a TOML scene's; a file camera's `far` when glTF gives none (twice its reach) stays there too.
+/// origin per axis and its `far` is 2·(2.62 + 1)·√3·L ≈ 12.5·L, or 1.25 times its distance to the
+/// farthest corner (what the framing left out, ≤ 1.25·√3·5.7·L ≈ 12.4·L). L = 2⁴⁴ keeps both
+/// below 2⁴⁸, as a TOML scene's; a file camera's `far` when glTF gives none (twice its reach)
+/// stays there too.
 pub const MAX_WORLD: f64 = MAX_EXTENT / 16.0;
 
 /// A computed number (not one the file wrote) to 5 digits, in exponent form: `1.7592e13`, `1e-8`.

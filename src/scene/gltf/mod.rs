@@ -33,7 +33,7 @@ pub use nodes::MAX_DEPTH;
 pub use primitive::Spent;
 pub(crate) use scene::build_primitive;
 pub use scene::{is_gltf, load_gltf, DEFAULT_LIGHT_DIRECTION};
-pub use view::{framing, GltfCamera, FRAMING_DIRECTION, FRAMING_FOV_DEG};
+pub use view::{framing, GltfCamera, SceneBounds, BACKDROP_RATIO, FRAMING_DIRECTION, FRAMING_FOV_DEG};
 
 use super::model::{DirectionalLight, Instance, Material, SceneMesh, DEFAULT_VOXEL_RES};
 use super::transform::{Transform, TransformOp};
@@ -78,8 +78,8 @@ pub struct GltfImport {
     pub lights: Vec<DirectionalLight>,
     /// The first perspective camera of the scene's nodes.
     pub camera: Option<GltfCamera>,
-    /// World bounds (min, max) of every drawn instance.
-    pub bounds: Option<(DVec3, DVec3)>,
+    /// World bounds (min, max) of every drawn instance, and of those a framing camera frames.
+    pub bounds: Option<SceneBounds>,
     /// What was not drawn, with where.
     pub ignored: Ignored,
     /// The glTF file and the buffer files it read (outputs may not replace them).
@@ -93,7 +93,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
     let mut parsed = document::read(path)?;
     let doc = &parsed.doc;
     let mut ignored = Ignored::default();
-    note_file_level(doc, &parsed.ignored_required, &mut ignored);
+    note_file_level(doc, &mut ignored);
     let buffers = buffers::load(path, doc, &mut parsed.blob)?;
     let hierarchy = nodes::hierarchy(path, doc)?;
     let (order, other_scenes, spent) = nodes::scene_nodes(path, doc, &hierarchy, options.spent)?;
@@ -141,7 +141,8 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
         let why = if b.ignored.is_empty() { "the scene has no mesh".to_owned() } else { b.ignored.summary() };
         return Err(GltfError::at(path, "", format!("nothing to draw: {why}")));
     }
-    let bounds = scene_bounds(&b.meshes, &b.instances).unwrap_or_default();
+    let bounds = scene_bounds(&b.meshes, &b.instances);
+    let all = bounds.map(|b| b.all);
     let mut camera = None;
     for (n, cam, world) in cameras {
         let at = format!("/nodes/{n}/camera");
@@ -149,7 +150,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
             b.ignored.add("cameras after the first perspective one", at);
             continue;
         }
-        camera = view::perspective(path, &cam, &world, Some(bounds))?;
+        camera = view::perspective(path, &cam, &world, all)?;
         if camera.is_none() {
             b.ignored.add("orthographic cameras and cameras on degenerate nodes", at);
         }
@@ -162,7 +163,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
         instances: b.instances,
         lights: b.lights,
         camera,
-        bounds: Some(bounds),
+        bounds,
         ignored: b.ignored,
         files,
         spent,
@@ -181,13 +182,12 @@ pub fn referenced_files(path: &Path) -> Vec<PathBuf> {
     files
 }
 
-/// Extensions used or required that hadou does not read, and animations (never drawn).
-fn note_file_level(doc: &gltf::Document, ignored_required: &[String], ignored: &mut Ignored) {
-    const READ: &[&str] = &["KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_volume"];
+/// Extensions used (not required: those were refused) that hadou does not read, and animations
+/// (never drawn).
+fn note_file_level(doc: &gltf::Document, ignored: &mut Ignored) {
     for (i, ext) in doc.extensions_used().enumerate() {
-        if !READ.contains(&ext) {
-            let required = if ignored_required.iter().any(|r| r == ext) { ", required" } else { "" };
-            ignored.add("extensions", format!("/extensionsUsed/{i} ({ext}{required})"));
+        if !document::HONOURED.contains(&ext) {
+            ignored.add("extensions", format!("/extensionsUsed/{i} ({ext})"));
         }
     }
     for a in doc.animations() {
@@ -195,26 +195,28 @@ fn note_file_level(doc: &gltf::Document, ignored_required: &[String], ignored: &
     }
 }
 
-/// World bounds (min, max) of the instances: each mesh's box corners through its instance's
-/// matrix; None without instances.
-pub fn scene_bounds(meshes: &[SceneMesh], instances: &[Instance]) -> Option<(DVec3, DVec3)> {
-    if instances.is_empty() {
-        return None;
-    }
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for inst in instances {
-        let (a, b) = meshes[inst.mesh].mesh.bounds();
-        for k in 0..8 {
-            let corner = DVec3::new(
-                if k & 1 == 0 { a.x } else { b.x },
-                if k & 2 == 0 { a.y } else { b.y },
-                if k & 4 == 0 { a.z } else { b.z },
-            );
-            let p = inst.transform.transform_point(corner);
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
-    }
-    Some((lo, hi))
+/// The bounds of the instances, each mesh's box corners through its instance's matrix: all of
+/// them, and those a framing camera frames (`view::framed_boxes`: ground planes that dwarf the
+/// rest left out); None without instances.
+pub fn scene_bounds(meshes: &[SceneMesh], instances: &[Instance]) -> Option<SceneBounds> {
+    let boxes: Vec<(DVec3, DVec3)> = instances
+        .iter()
+        .map(|inst| {
+            let (a, b) = meshes[inst.mesh].mesh.bounds();
+            let mut lo = DVec3::splat(f64::INFINITY);
+            let mut hi = DVec3::splat(f64::NEG_INFINITY);
+            for k in 0..8 {
+                let corner = DVec3::new(
+                    if k & 1 == 0 { a.x } else { b.x },
+                    if k & 2 == 0 { a.y } else { b.y },
+                    if k & 4 == 0 { a.z } else { b.z },
+                );
+                let p = inst.transform.transform_point(corner);
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+            (lo, hi)
+        })
+        .collect();
+    SceneBounds::of_boxes(&boxes)
 }
