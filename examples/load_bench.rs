@@ -60,7 +60,7 @@ fn time(label: &str, n: usize, text: &str) {
     let start = Instant::now();
     let scene = hadou::scene::parse_scene(text, Path::new("bench.toml")).expect("generated scene is valid");
     let seconds = start.elapsed().as_secs_f64();
-    let objects = scene.instances.len() + scene.metaballs.iter().map(|g| g.balls.len()).sum::<usize>();
+    let objects = scene.instances.len() + scene.metaballs().iter().map(|g| g.balls.len()).sum::<usize>();
     println!(
         "{label:<28} N = {n:>7}  {:>6.1} MiB  {seconds:>8.3} s  ({objects} objects)",
         text.len() as f64 / 1048576.0

@@ -87,7 +87,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let size = 256;
     let base = with_count(4096)?;
     let mut bare = base.clone();
-    bare.metaballs.clear();
+    bare.metaballs_mut().clear();
     rt.load_scene(bare)?;
     let mut req = FrameRequest::new(size, size);
     req.color = false;
@@ -109,7 +109,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     for (label, method) in methods {
         let mut scene = base.clone();
-        scene.metaballs.iter_mut().for_each(|g| g.method = method);
+        scene.metaballs_mut().iter_mut().for_each(|g| g.method = method);
         let (ms, s) = measure(&mut rt, &scene, size, frames)?;
         req.aovs = vec![Aov::Depth, Aov::Normal];
         let frame = rt.render(&req)?;

@@ -329,7 +329,7 @@ fn the_fog_table_is_checked_where_it_is_written() {
     assert!(!expected.contains("`fog`"), "{e}");
     // With it registered, the list of tables names it.
     let e = parse(&text.replace("[fog]", "[mist]")).unwrap_err();
-    assert!(e.message.ends_with("`gltf`, `wave`, `fog`"), "{e}");
+    assert!(e.message.ends_with("`gltf`, `metaballs`, `wave`, `fog`"), "{e}");
 }
 
 #[test]

@@ -120,7 +120,7 @@ fn scene_of(base: &Scene, w: &World) -> Scene {
         velocity: DVec3::ZERO,
         q_rate: 0.0,
     };
-    scene.metaballs[0].balls = w.balls.iter().map(ball).collect();
+    scene.metaballs_mut()[0].balls = w.balls.iter().map(ball).collect();
     scene
 }
 
@@ -237,7 +237,7 @@ fn box_distance(transform: DMat4, o: DVec3, u: DVec3) -> Option<f64> {
 /// count, the twin's, and the twin's footprint of the blob with the box ignored.
 fn check_metaball_pixels(i: usize, scene: &Scene, normal: &AovImage, w: &World) -> (usize, usize, usize) {
     let gpu = metaball_mask(normal, w.transform);
-    let group = scene.metaballs[0].at(0.0);
+    let group = scene.metaballs()[0].at(0.0);
     let cam = &scene.camera;
     let mut footprint = 0;
     let twin: Vec<bool> = (0..W * H)

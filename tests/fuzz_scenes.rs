@@ -171,7 +171,7 @@ fn check_limits(s: &Scene) -> Result<(), TestCaseError> {
         let most = w.keyframes.iter().filter_map(|k| k.intensity).fold(w.intensity, f64::max);
         prop_assert!(f32_finite(w.color.max_element() * most), "wave emission");
     }
-    for g in &s.metaballs {
+    for g in s.metaballs() {
         prop_assert!(g.threshold >= f32::MIN_POSITIVE as f64 && f32_finite(g.threshold));
         for b in &g.balls {
             let r2 = (b.radius * b.radius) as f32;

@@ -75,13 +75,13 @@ fn render(scene: &Scene, w: u32, h: u32, time: f64, aovs: &[Aov]) -> FrameOutput
 /// The same scene without its metaballs: the raster's own distance, the pass's t_max.
 fn raster_only(scene: &Scene, w: u32, h: u32) -> FrameOutput {
     let mut bare = scene.clone();
-    bare.metaballs.clear();
+    bare.metaballs_mut().clear();
     bare.waves_mut().clear();
     render(&bare, w, h, 0.0, &[Aov::Depth])
 }
 
 fn groups_at(scene: &Scene, time: f64) -> Vec<MetaballGroupParams> {
-    scene.metaballs.iter().map(|g| g.at(time)).collect()
+    scene.metaballs().iter().map(|g| g.at(time)).collect()
 }
 
 /// How far an f32 cast may lie from the exact hit of `g` at world distance `t` on a ray outside
@@ -853,7 +853,7 @@ fn sphere_tracing_matches_its_f64_twin() {
     use hadou::effects::metaballs_trace::trace;
     let steps = 64;
     let mut scene = common::load("assets/scenes/metaballs.toml");
-    scene.metaballs.iter_mut().for_each(|g| g.method = CastMethod::SphereTrace { steps });
+    scene.metaballs_mut().iter_mut().for_each(|g| g.method = CastMethod::SphereTrace { steps });
     let (w, h) = (96u32, 96u32);
     let frame = render(&scene, w, h, 0.0, &[Aov::Depth, Aov::Normal]);
     let raster = raster_only(&scene, w, h);
@@ -938,9 +938,9 @@ fn a_surface_lost_past_the_loop_limit_is_counted_as_dropped() {
     let camera = "position = [0, 0.5, 4.5]\nlook_at = [0, 0, 0]";
     let mut scene = one_group_scene(camera, 0.1, "{ centre = [0, 0, 0], radius = 2, q = 1.5 }", false);
     let single = groups_at(&scene, 0.0);
-    let mut ball = scene.metaballs[0].balls[0];
+    let mut ball = scene.metaballs()[0].balls[0];
     ball.q /= N as f64;
-    scene.metaballs[0].balls = vec![ball; N];
+    scene.metaballs_mut()[0].balls = vec![ball; N];
     let (w, h) = (16u32, 16u32);
     let frame = render(&scene, w, h, 0.0, &[Aov::Depth]);
     let depth = &frame.aov(Aov::Depth).unwrap().data;

@@ -104,7 +104,7 @@ fn check_depth(scene_rel: &str, w: u32, h: u32, min_surface: usize) {
     let mut scene = common::load(scene_rel);
     // The raster's depth alone: metaballs (a compute pass) would add surfaces the mesh ray cast
     // does not know; they have their own test.
-    scene.metaballs.clear();
+    scene.metaballs_mut().clear();
     let caster = caster(&scene);
     let refs = reference(&scene, &caster, w, h);
     let mut rt = common::runtime();

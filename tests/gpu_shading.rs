@@ -104,7 +104,7 @@ fn render(scene: &Scene, width: u32, height: u32) -> Rendered {
     request.aovs = vec![Aov::Hdr, Aov::Normal];
     let frame = rt.render(&request).unwrap();
     common::assert_clean(&rt);
-    if !scene.metaballs.is_empty() {
+    if !scene.metaballs().is_empty() {
         assert_eq!(frame.stats.counter(hadou::passes::metaballs::DROPPED), 0);
     }
     rt.finish();
@@ -335,7 +335,7 @@ fn reference(scene: &Scene, w: u32, h: u32) -> Reference {
     let solids = solids(scene);
     let edges = projected_edges(scene, &solids, w, h);
     let edge_cap: f64 = edges.iter().map(|[a, b]| (*b - *a).length() + 2.0).sum();
-    let groups: Vec<MetaballGroupParams> = scene.metaballs.iter().map(|g| g.at(0.0)).collect();
+    let groups: Vec<MetaballGroupParams> = scene.metaballs().iter().map(|g| g.at(0.0)).collect();
     let forward = scene.camera.basis().forward;
     let mut seen = Vec::with_capacity((w * h) as usize);
     let mut mb_hit = Vec::with_capacity((w * h) as usize);
@@ -520,7 +520,7 @@ fn compare(scene: &Scene, w: u32, h: u32) -> Checks {
                 checks.raster_ldr.compare(at, code, twin, e, exposure);
             }
             Seen::Metaball { normal, group, normal_bound } => {
-                let albedo = scene.materials[scene.metaballs[group].material].albedo;
+                let albedo = scene.materials[scene.metaballs()[group].material].albedo;
                 let (_, u) = scene.camera.pixel_ray(at.0, at.1, w, h);
                 let v = -u;
                 // Shaded from the f64 normal: the GPU's f32 one is within `normal_bound` of it

@@ -140,13 +140,13 @@ fn setters_follow_their_object_across_despawns() {
     r.set_metaball_group(g2, &balls).unwrap();
     r.set_metaball(g2, 0, DVec3::new(0.0, 3.5, 0.0), 1.5).unwrap();
     let scene = r.scene().unwrap();
-    assert_eq!(scene.metaballs[1].name.as_deref(), Some("g2"));
-    assert_eq!(scene.metaballs[1].balls.len(), 1);
+    assert_eq!(scene.metaballs()[1].name.as_deref(), Some("g2"));
+    assert_eq!(scene.metaballs()[1].balls.len(), 1);
     assert_eq!(
-        (scene.metaballs[1].balls[0].centre, scene.metaballs[1].balls[0].q),
+        (scene.metaballs()[1].balls[0].centre, scene.metaballs()[1].balls[0].q),
         (DVec3::new(0.0, 3.5, 0.0), 1.5)
     );
-    assert_eq!(scene.metaballs[0], before.metaballs[0], "g0 unchanged");
+    assert_eq!(scene.metaballs()[0], before.metaballs()[0], "g0 unchanged");
     assert!(matches!(r.set_metaball_group(g1, &balls), Err(Error::StaleId(_))));
     assert!(matches!(r.set_metaball(g1, 0, DVec3::ZERO, 1.0), Err(Error::StaleId(_))));
     assert!(matches!(

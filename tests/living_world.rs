@@ -278,7 +278,7 @@ fn bad_calls_are_typed_errors_and_change_nothing() {
     let singular = MetaballsDesc { transform: DMat4::ZERO, ..metaballs(1) };
     assert!(matches!(hadou.spawn_metaballs(&singular), Err(Error::InvalidUpdate { .. })));
     assert_eq!(hadou.scene().unwrap().waves(), before.waves(), "a refused call changes nothing");
-    assert_eq!(hadou.scene().unwrap().metaballs, before.metaballs);
+    assert_eq!(hadou.scene().unwrap().metaballs(), before.metaballs());
     hadou.despawn_wave(id).unwrap();
     hadou.despawn_metaballs(group).unwrap();
     assert!(matches!(hadou.despawn_wave(id), Err(Error::StaleId(_))));

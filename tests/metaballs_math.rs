@@ -551,8 +551,8 @@ fn silhouettes_f32_vs_f64() {
 fn metaball_assets() {
     let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
     let scene = hadou::scene::load_scene(&root.join("metaballs.toml")).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(scene.metaballs.len(), 3);
-    let seed = &scene.metaballs[0];
+    assert_eq!(scene.metaballs().len(), 3);
+    let seed = &scene.metaballs()[0];
     assert_eq!((seed.balls[0].centre, seed.balls[0].radius), (DVec3::ZERO, 2.0));
     assert_eq!((seed.balls[1].centre, seed.balls[1].radius), (DVec3::new(0.0, 4.0, 0.0), 2.0));
     // The top of the (0, 4, 0) ball is covered by its support alone: the lone-ball sphere, R/2.
@@ -562,13 +562,16 @@ fn metaball_assets() {
     // At T = 1 the keyframes have lowered it by 0.6.
     let h = cast(&seed.at(1.0), DVec3::new(-5.0, 20.0, 0.0), -DVec3::Y, 0.0, 100.0).unwrap();
     assert!((h.t - 15.6).abs() < 1e-12, "{}", h.t);
-    assert!(scene.metaballs[1].balls.iter().any(|b| b.q < 0.0));
-    let m = scene.metaballs[2].transform.matrix;
+    assert!(scene.metaballs()[1].balls.iter().any(|b| b.q < 0.0));
+    let m = scene.metaballs()[2].transform.matrix;
     assert!((m.x_axis.truncate().length() - m.y_axis.truncate().length()).abs() > 0.5, "not ellipsoidal");
-    assert_eq!(scene.metaballs[2].kernel, Kernel::Murakami4);
+    assert_eq!(scene.metaballs()[2].kernel, Kernel::Murakami4);
     let swarm = hadou::scene::load_scene(&root.join("metaballs_4096.toml")).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(swarm.metaballs[0].balls.len(), 4096);
-    assert!(swarm.metaballs[0].balls.iter().all(|b| b.velocity.length() <= 0.4 && b.velocity != DVec3::ZERO));
+    assert_eq!(swarm.metaballs()[0].balls.len(), 4096);
+    assert!(swarm.metaballs()[0]
+        .balls
+        .iter()
+        .all(|b| b.velocity.length() <= 0.4 && b.velocity != DVec3::ZERO));
 }
 
 /// The sphere-tracing baseline (f64 twin of the shader's) against the exact cast on random rays.

@@ -13,9 +13,9 @@ use std::sync::Arc;
 
 use super::{Effect, EffectPass, PassBuilder};
 use crate::effects::energy_wave::EnergyWave;
+use crate::effects::metaballs::Metaballs;
 use crate::gpu::GpuResult;
 use crate::passes::light_id::LightIdPass;
-use crate::passes::metaballs::{self, MetaballsPass};
 use crate::passes::peel::{self, PeelPass};
 use crate::passes::raster::RasterPass;
 use crate::passes::translucency::{self, TranslucencyPass, TranslucentData};
@@ -33,29 +33,6 @@ pub(super) fn core_passes() -> Vec<EffectPass> {
 
 pub(super) fn effects() -> Vec<Arc<dyn Effect>> {
     vec![Arc::new(Metaballs), Arc::new(Translucency), Arc::new(EnergyWave)]
-}
-
-/// Seed 000: `[[metaballs]]` groups ray-cast with Bézier clipping.
-#[derive(Clone, Copy, Debug)]
-pub struct Metaballs;
-
-impl Effect for Metaballs {
-    fn name(&self) -> &'static str {
-        "metaballs"
-    }
-
-    fn switch_off(&self, scene: &mut Scene) {
-        scene.metaballs.clear();
-    }
-
-    fn passes(&self) -> Vec<EffectPass> {
-        vec![EffectPass {
-            name: "metaballs",
-            needed: |s| !s.metaballs.is_empty(),
-            variant: metaballs::variant,
-            build: |b| Ok(boxed(MetaballsPass::new(b.ctx, b.compiler, b.scene)?)),
-        }]
-    }
 }
 
 /// Seed 003: translucent materials, exp(−σ·d) with d from the thickness LUT, shadow maps or peel.

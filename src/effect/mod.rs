@@ -24,7 +24,8 @@ mod scene_file;
 mod state;
 
 pub use crate::effects::energy_wave::{EnergyWave, Waves};
-pub use builtin::{Metaballs, Translucency};
+pub use crate::effects::metaballs::{MetaballGroups, Metaballs};
+pub use builtin::Translucency;
 pub use error::EffectError;
 pub(crate) use frame_check::{check_bindings, check_reads};
 pub use registry::Effects;

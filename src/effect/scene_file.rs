@@ -2,6 +2,7 @@
 //! the effect's types (`toml::Spanned` fields keep their places), and errors at `file:line:col`
 //! worded like hadou's own ("expected …, found …").
 
+use std::cell::RefCell;
 use std::fmt;
 use std::marker::PhantomData;
 use std::ops::Range;
@@ -10,19 +11,43 @@ use std::path::Path;
 use serde::de::{self, DeserializeOwned, DeserializeSeed, IgnoredAny, MapAccess, Visitor};
 use toml::Spanned;
 
+use crate::scene::file::Materials;
 use crate::scene::SceneError;
 
 /// A scene file being loaded, for `Effect::load`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy)]
 pub struct SceneFile<'a> {
     text: &'a str,
     path: &'a Path,
+    /// The file's materials, resolved before effects load (none for a file made with `new`).
+    materials: Option<&'a RefCell<Materials>>,
+}
+
+impl fmt::Debug for SceneFile<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("SceneFile").field("path", &self.path).finish_non_exhaustive()
+    }
 }
 
 impl<'a> SceneFile<'a> {
     /// The scene `text` read from `path` (the path names it in errors and anchors relative paths).
     pub fn new(text: &'a str, path: &'a Path) -> Self {
-        SceneFile { text, path }
+        SceneFile { text, path, materials: None }
+    }
+
+    /// As `new`, with the file's materials (what `load_scene_with` hands effects).
+    pub(crate) fn with_materials(text: &'a str, path: &'a Path, materials: &'a RefCell<Materials>) -> Self {
+        SceneFile { text, path, materials: Some(materials) }
+    }
+
+    /// The index in `Scene::materials` of the file's `[[material]]` named `name`.
+    pub fn material(&self, name: &str) -> Option<usize> {
+        self.materials?.borrow().list.iter().position(|m| m.name == name)
+    }
+
+    /// The file's materials, to resolve (and add the built-in "default" to).
+    pub(crate) fn materials(&self) -> Option<std::cell::RefMut<'a, Materials>> {
+        self.materials.map(|m| m.borrow_mut())
     }
 
     /// The file's path.

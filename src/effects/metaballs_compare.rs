@@ -117,7 +117,7 @@ pub fn compare_metaballs(
             "metaball comparison: the images must all be {w}×{h} (normals with 3+ channels)"
         ));
     }
-    let groups: Vec<MetaballGroupParams> = scene.metaballs.iter().map(|g| g.at(time)).collect();
+    let groups: Vec<MetaballGroupParams> = scene.metaballs().iter().map(|g| g.at(time)).collect();
     let cam = &scene.camera;
     let forward = cam.basis().forward;
     let pixel = |x: u32, y: u32| -> Outcome {

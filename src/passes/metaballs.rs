@@ -356,7 +356,7 @@ pub struct MetaballsPass {
 /// Which casts the scene's groups use: (Bézier clipping, sphere tracing).
 fn casts(scene: &Scene) -> (bool, bool) {
     let trace = |g: &crate::scene::model::MetaballGroup| matches!(g.method, CastMethod::SphereTrace { .. });
-    (scene.metaballs.iter().any(|g| !trace(g)), scene.metaballs.iter().any(trace))
+    (scene.metaballs().iter().any(|g| !trace(g)), scene.metaballs().iter().any(trace))
 }
 
 /// The pass is compiled with only the casts the scene uses: a world that starts using another
@@ -419,10 +419,10 @@ impl Pass for MetaballsPass {
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let scene = frame.scene;
         let extent = frame.extent;
-        let mut gpu_groups: Vec<GpuMetaGroup> = Vec::with_capacity(scene.metaballs.len());
+        let mut gpu_groups: Vec<GpuMetaGroup> = Vec::with_capacity(scene.metaballs().len());
         let mut balls: Vec<GpuMetaBall> = Vec::new();
-        let mut bins = Vec::with_capacity(scene.metaballs.len());
-        for group in &scene.metaballs {
+        let mut bins = Vec::with_capacity(scene.metaballs().len());
+        for group in scene.metaballs() {
             let params = group.at(frame.time);
             let first = balls.len() as u32;
             gpu_groups.push(gpu_group(&params, first, group.material as u32));

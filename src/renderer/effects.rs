@@ -68,15 +68,20 @@ impl Renderer {
         self.sync_passes()
     }
 
-    /// Keeps one id per wave after a change made through the effect API (the energy wave's data
-    /// replaced or removed): ids of waves that remain keep their places, new ones get new ids.
+    /// Keeps one id per wave and per metaball group after a change made through the effect API
+    /// (their data replaced or removed): ids of objects that remain keep their places, new ones
+    /// get new ids.
     fn resync_ids(&mut self) {
         let Some(loaded) = &self.loaded else { return };
-        let (have, want) = (loaded.wave_ids.len(), loaded.scene.waves().len());
-        let fresh: Vec<u64> = (have..want).map(|_| self.next_id()).collect();
+        let waves = (loaded.wave_ids.len(), loaded.scene.waves().len());
+        let groups = (loaded.group_ids.len(), loaded.scene.metaballs().len());
+        let new_waves: Vec<u64> = (waves.0..waves.1).map(|_| self.next_id()).collect();
+        let new_groups: Vec<u64> = (groups.0..groups.1).map(|_| self.next_id()).collect();
         if let Some(loaded) = &mut self.loaded {
-            loaded.wave_ids.truncate(want);
-            loaded.wave_ids.extend(fresh);
+            loaded.wave_ids.truncate(waves.1);
+            loaded.wave_ids.extend(new_waves);
+            loaded.group_ids.truncate(groups.1);
+            loaded.group_ids.extend(new_groups);
         }
     }
 }

@@ -82,7 +82,7 @@ impl Renderer {
     /// is.
     pub fn metaballs_named(&self, name: &str) -> Option<GroupId> {
         let l = self.loaded.as_ref()?;
-        let i = l.scene.metaballs.iter().position(|o| o.name.as_deref() == Some(name))?;
+        let i = l.scene.metaballs().iter().position(|o| o.name.as_deref() == Some(name))?;
         Some(GroupId(l.group_ids[i]))
     }
 

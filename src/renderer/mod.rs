@@ -84,7 +84,7 @@ struct Loaded {
     gpu: SceneGpu,
     /// The scene passes (running and parked) and the data they share.
     passes: ScenePasses,
-    /// The id of each of `scene.waves()` and `scene.metaballs` (spawned or from the file).
+    /// The id of each of `scene.waves()` and `scene.metaballs()` (spawned or from the file).
     wave_ids: Vec<u64>,
     group_ids: Vec<u64>,
     /// The id of each of `scene.instances`, `scene.lights` and `scene.materials`.
@@ -228,7 +228,7 @@ impl Renderer {
         let mut passes = ScenePasses::default();
         passes.sync(&self.ctx, &self.memory, &mut self.compiler, &self.effects, &scene)?;
         let wave_ids = (0..scene.waves().len()).map(|_| self.next_id()).collect();
-        let group_ids = (0..scene.metaballs.len()).map(|_| self.next_id()).collect();
+        let group_ids = (0..scene.metaballs().len()).map(|_| self.next_id()).collect();
         let instance_ids = (0..scene.instances.len()).map(|_| self.next_id()).collect();
         let light_ids = (0..scene.lights.len()).map(|_| self.next_id()).collect();
         let material_ids = (0..scene.materials.len()).map(|_| self.next_id()).collect();

@@ -126,7 +126,7 @@ impl Renderer {
     /// velocities). A ball past the group's list is `Error::UnknownId`.
     pub fn set_metaball(&mut self, id: GroupId, ball: usize, centre: DVec3, q: f64) -> Result<(), Error> {
         let group = self.group_index(id)?;
-        let g = &mut self.loaded_mut()?.scene.metaballs[group];
+        let g = &mut self.loaded_mut()?.scene.metaballs_mut()[group];
         let balls = g.balls.len();
         let Some(b) = g.balls.get_mut(ball) else {
             return Err(Error::UnknownId { kind: "ball of the metaball group", index: ball, count: balls });
@@ -154,7 +154,7 @@ impl Renderer {
         balls: &[crate::effects::metaballs::Ball],
     ) -> Result<(), Error> {
         let group = self.group_index(id)?;
-        let g = &mut self.loaded_mut()?.scene.metaballs[group];
+        let g = &mut self.loaded_mut()?.scene.metaballs_mut()[group];
         let valid = |b: &crate::effects::metaballs::Ball| {
             b.centre.is_finite() && b.q.is_finite() && b.radius.is_finite() && b.radius > 0.0
         };

@@ -146,7 +146,7 @@ impl Renderer {
         let group = self.metaball_group(desc)?;
         let id = self.next_id();
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
-        loaded.scene.metaballs.push(group);
+        loaded.scene.metaballs_mut().push(group);
         loaded.group_ids.push(id);
         self.sync_passes()?;
         Ok(GroupId(id))
@@ -156,7 +156,7 @@ impl Renderer {
     pub fn despawn_metaballs(&mut self, id: GroupId) -> Result<(), Error> {
         let index = self.group_index(id)?;
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
-        loaded.scene.metaballs.remove(index);
+        loaded.scene.metaballs_mut().remove(index);
         loaded.group_ids.remove(index);
         self.sync_passes()
     }

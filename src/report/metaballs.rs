@@ -36,7 +36,7 @@ pub fn variant_methods() -> Vec<(String, CastMethod)> {
 /// `scene` with every group cast by `method`.
 fn with_method(scene: &Scene, method: CastMethod) -> Scene {
     let mut s = scene.clone();
-    s.metaballs.iter_mut().for_each(|g| g.method = method);
+    s.metaballs_mut().iter_mut().for_each(|g| g.method = method);
     s
 }
 
@@ -94,7 +94,7 @@ pub fn section(
     let scene = opts.load_scene("metaballs.toml")?;
     steps.next("metaballs: raster reference");
     let mut bare = scene.clone();
-    bare.metaballs.clear();
+    bare.metaballs_mut().clear();
     bare.waves_mut().clear();
     let raster = depth(runtime, &bare, opts.effect_size)?;
     let mut table = Table::new(

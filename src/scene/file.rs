@@ -15,7 +15,6 @@ use super::file_check::{
 };
 use super::file_gltf::gltf_files;
 use super::file_mesh::meshes;
-use super::file_metaballs::metaballs;
 use super::file_schema::{CameraDef, InstanceDef, LightDef, MaterialDef, OpDef, RenderDef, SceneDef, Tables};
 use super::model::{
     DirectionalLight, Instance, Material, MaterialKind, MetaballGroup, RenderSettings, Scene, SceneMesh,
@@ -49,8 +48,7 @@ pub const DEFAULT_ALBEDO: f64 = 0.7;
 
 /// The top-level tables of hadou's own scene format (docs/scene-format.md); an effect's tables
 /// (`Effect::tables`) come after them.
-pub const SCENE_TABLES: &[&str] =
-    &["render", "camera", "light", "mesh", "material", "instance", "metaballs", "gltf"];
+pub const SCENE_TABLES: &[&str] = &["render", "camera", "light", "mesh", "material", "instance", "gltf"];
 
 /// Reads and validates the scene file at `path` with hadou's own effects.
 /// A .gltf or .glb file is read as a glTF scene (`scene::gltf::load_gltf`).
@@ -98,7 +96,11 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
     let mut meshes = meshes(ctx, &def.mesh)?;
     let mut materials = Materials::new(materials(ctx, &def.material)?);
     let mut instances = instances(ctx, &def.instance, &meshes, &mut materials)?;
-    let metaballs = metaballs(ctx, &def.metaballs, &mut materials)?;
+    // Effects read their tables here: after the materials they may name, before the glTF files
+    // append theirs (so a "default" material an effect adds keeps its place).
+    let cell = std::cell::RefCell::new(materials);
+    let effects = effect_states(SceneFile::with_materials(text, path, &cell), &tables, effects)?;
+    let mut materials = cell.into_inner();
     let placed = gltf_files(ctx, &def.gltf, render.ambient, &mut meshes, &mut materials, &mut instances)?;
     let camera = match (toml_camera, placed.camera) {
         (Some(c), _) => c,
@@ -113,19 +115,9 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
         }
     }
     let materials = materials.list;
-    warn_unused(path, &meshes, &materials, &instances, &metaballs);
-    let effects = effect_states(text, path, &tables, effects)?;
-    Ok(Scene {
-        source: path.to_path_buf(),
-        render,
-        camera,
-        lights,
-        meshes,
-        materials,
-        instances,
-        metaballs,
-        effects,
-    })
+    let metaballs = effects.get::<crate::effects::metaballs::MetaballGroups>().map_or(&[][..], |g| &g.0);
+    warn_unused(path, &meshes, &materials, &instances, metaballs);
+    Ok(Scene { source: path.to_path_buf(), render, camera, lights, meshes, materials, instances, effects })
 }
 
 /// Refuses a top-level table that neither hadou's format nor a registered effect reads.
@@ -144,13 +136,11 @@ fn check_tables(ctx: Ctx, tables: &[Spanned<String>], effects: &Effects) -> Resu
 
 /// The world data of each effect whose tables the file has.
 fn effect_states(
-    text: &str,
-    path: &Path,
+    file: SceneFile,
     tables: &[Spanned<String>],
     effects: &Effects,
 ) -> Result<EffectStates, SceneError> {
     let mut states = EffectStates::default();
-    let file = SceneFile::new(text, path);
     for effect in effects.iter() {
         if !tables.iter().any(|t| effect.tables().contains(&t.get_ref().as_str())) {
             continue;
@@ -350,7 +340,7 @@ fn material(
 }
 
 /// The scene's materials and a name → index map, so resolving n instances costs O(n).
-pub(super) struct Materials {
+pub(crate) struct Materials {
     /// In scene order; materials of glTF files are appended without names to look up.
     pub list: Vec<Material>,
     index: HashMap<String, usize>,
@@ -365,7 +355,7 @@ impl Materials {
 
     /// The scene's "default" material, added (grey, albedo 0.7) the first time it is needed when
     /// the file declares none.
-    pub(super) fn default_index(&mut self) -> usize {
+    pub(crate) fn default_index(&mut self) -> usize {
         if let Some(&i) = self.index.get(DEFAULT_MATERIAL) {
             return i;
         }
@@ -439,7 +429,7 @@ fn instances(
     Ok(out)
 }
 
-pub(super) fn material_index(
+pub(crate) fn material_index(
     o: &Owner,
     name: &Spanned<String>,
     materials: &mut Materials,
@@ -468,7 +458,7 @@ fn not_found(o: &Owner, what: &str, name: &Spanned<String>, names: &[&str]) -> S
 type OpList = Spanned<Tables<OpDef>>;
 
 /// Checks each step where it is written, then the composition at the `transform` key.
-pub(super) fn transform(
+pub(crate) fn transform(
     o: &Owner,
     list: Option<&OpList>,
 ) -> Result<(Vec<TransformOp>, Transform), SceneError> {

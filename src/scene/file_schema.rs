@@ -28,8 +28,6 @@ pub(crate) struct SceneDef {
     #[serde(default)]
     pub instance: Tables<InstanceDef>,
     #[serde(default)]
-    pub metaballs: Tables<super::file_metaballs::MetaballsDef>,
-    #[serde(default)]
     pub gltf: Tables<GltfDef>,
 }
 

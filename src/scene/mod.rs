@@ -8,7 +8,6 @@ pub(crate) mod file_check;
 mod file_gltf;
 mod file_material;
 mod file_mesh;
-mod file_metaballs;
 pub(crate) mod file_schema;
 pub mod gltf;
 pub mod mesh;

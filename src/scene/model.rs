@@ -26,8 +26,6 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// `[[instance]]`s in file order: the drawn copies of the meshes.
     pub instances: Vec<Instance>,
-    /// Metaball groups (`[[metaballs]]`); the metaballs pass runs only when there is at least one.
-    pub metaballs: Vec<MetaballGroup>,
     /// The world data of the registered effects the scene uses (`crate::effect`), by effect name:
     /// what their scene-file tables said, changed at run time by `Renderer::update_effect`.
     pub effects: crate::effect::EffectStates,

@@ -101,7 +101,7 @@ impl Toggles {
             (true, Some(ThicknessMode::Tsm)) => "tsm",
             (true, Some(ThicknessMode::Peel)) => "peel",
         };
-        let meta = match (self.metaballs, file.metaballs.is_empty()) {
+        let meta = match (self.metaballs, file.metaballs().is_empty()) {
             (false, _) => "off",
             (true, true) => "none",
             (true, false) => "on",

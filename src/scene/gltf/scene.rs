@@ -50,7 +50,6 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
         meshes: imp.meshes,
         materials: imp.materials,
         instances: imp.instances,
-        metaballs: Vec::new(),
         effects: Default::default(),
     })
 }

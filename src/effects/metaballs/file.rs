@@ -7,12 +7,12 @@ use glam::DVec3;
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::error::SceneError;
-use super::file::{material_index, transform, Materials};
-use super::file_check::{one_of, show, show_vec, Ctx, Owner, ANY, F32_NORMAL, SQUARED_LENGTH};
-use super::file_schema::{Array, Int, Num, OpDef, TableList, Tables};
-use super::model::{AnimatedBall, MetaballGroup, MetaballKeyframe};
 use crate::effects::metaballs::{CastMethod, Kernel};
+use crate::scene::error::SceneError;
+use crate::scene::file::{material_index, transform, Materials};
+use crate::scene::file_check::{one_of, show, show_vec, Ctx, Owner, ANY, F32_NORMAL, SQUARED_LENGTH};
+use crate::scene::file_schema::{Array, Int, Num, OpDef, TableList, Tables};
+use crate::scene::model::{AnimatedBall, MetaballGroup, MetaballKeyframe};
 
 /// Threshold when `threshold` is not given (the seed's T).
 pub const DEFAULT_THRESHOLD: f64 = 0.5;
@@ -82,7 +82,7 @@ impl TableList for MetaballKeyframeDef {
     const LIST: &'static str = "an array of tables, each written [[metaballs.keyframe]]";
 }
 
-pub(super) fn metaballs(
+pub(crate) fn metaballs(
     ctx: Ctx,
     defs: &Tables<MetaballsDef>,
     materials: &mut Materials,
@@ -231,7 +231,7 @@ fn generate(o: &Owner, d: &GenerateDef) -> Result<Vec<AnimatedBall>, SceneError>
             (q0, q1)
         }
     };
-    let speed = o.num("speed", d.speed.as_ref(), 0.0, super::file_check::NON_NEGATIVE)?;
+    let speed = o.num("speed", d.speed.as_ref(), 0.0, crate::scene::file_check::NON_NEGATIVE)?;
     let mut rng = Splitmix(seed);
     Ok((0..count)
         .map(|_| {
@@ -327,7 +327,7 @@ mod tests {
         let method = |fields: &str| {
             let text =
                 format!("{HEAD}[[metaballs]]\n{fields}\nballs = [{{ centre = [0, 0, 0], radius = 2 }}]\n");
-            parse_scene(&text, Path::new("m.toml")).unwrap().metaballs[0].method
+            parse_scene(&text, Path::new("m.toml")).unwrap().metaballs()[0].method
         };
         assert_eq!(method(""), CastMethod::Bezier { tolerance: 0.0 });
         assert_eq!(method("tolerance = 0.25"), CastMethod::Bezier { tolerance: 0.25 });
@@ -343,7 +343,7 @@ mod tests {
              generate = {{ count = 100, seed = 7, bounds = [[-1, -2, -3], [1, 2, 3]], radius = [0.5, 1], speed = 2 }}\n"
         );
         let scene = parse_scene(&text, Path::new("m.toml")).unwrap();
-        let g = &scene.metaballs[0];
+        let g = &scene.metaballs()[0];
         assert_eq!(g.threshold, 0.5);
         assert_eq!(g.balls.len(), 101);
         assert_eq!(scene.materials[g.material].name, "default");
@@ -353,7 +353,7 @@ mod tests {
         }
         // Deterministic: the same seed gives the same balls.
         let again = parse_scene(&text, Path::new("m.toml")).unwrap();
-        assert_eq!(again.metaballs[0].balls, g.balls);
+        assert_eq!(again.metaballs()[0].balls, g.balls);
     }
 
     #[test]

@@ -67,6 +67,11 @@
 //! # Normals (seed eq. 25, Horner eq. 26)
 //! ∇F = Σ 2qᵢ/Rᵢ² · f′(r′ᵢ) · (x − cᵢ), f′ by Horner; world normal M⁻ᵀ(−∇F), renormalized.
 
+mod effect;
+pub mod file;
+
+pub use effect::{MetaballGroups, Metaballs};
+
 use glam::DVec3;
 
 pub use super::metaballs_trace::CastMethod;
