@@ -11,7 +11,7 @@ use crate::gpu::recorder::Recorder;
 use crate::gpu::ring::{TexelView, UploadRing};
 use crate::gpu::timestamps::TimestampPool;
 use crate::gpu::{vk, GpuContext};
-use crate::passes::{Binding, FrameContext, Pass, PassRecording, Reader};
+use crate::passes::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
 use crate::targets::Targets;
@@ -118,6 +118,8 @@ pub(crate) struct SlotFrame<'a> {
 struct Prepared {
     sets: Vec<vk::DescriptorSet>,
     written: Vec<(BufferRange, Reader)>,
+    /// The images it declared this frame (`Pass::images`, asked once).
+    uses: Vec<ImageUse>,
 }
 
 /// Records `passes` in order, each as one scope.
@@ -127,7 +129,6 @@ pub(crate) fn record_passes(
     timestamps: &mut Timestamps,
     scopes: &mut Vec<Scope>,
 ) -> Result<(), crate::Error> {
-    crate::effect::check_reads(passes)?;
     let extent = f.targets.extent;
     let mut views: Vec<TexelView> = Vec::new();
     let mut prepared = Vec::with_capacity(passes.len());
@@ -152,7 +153,7 @@ pub(crate) fn record_passes(
         let uses = pass.images();
         crate::effect::check_bindings(&**pass, &uses, &bindings)?;
         // After prepare: a pass may size its images from this frame (the light maps).
-        for image in uses {
+        for image in &uses {
             f.targets.ensure(f.ctx, f.memory, image.target, image.extent)?;
         }
         let mut written = Vec::new();
@@ -173,14 +174,17 @@ pub(crate) fn record_passes(
             .into_iter()
             .map(|p| bind_set(f.ctx, f.pool, p, &bound))
             .collect::<Result<_, _>>()?;
-        prepared.push(Prepared { sets, written });
+        prepared.push(Prepared { sets, written, uses });
     }
     // The sets are written: the views may go (they are retired with the frame).
     drop(views);
+    // Before any command: a pass reading what no earlier pass writes refuses the frame.
+    let names: Vec<&'static str> = passes.iter().map(|p| p.name()).collect();
+    crate::effect::check_reads(names.iter().copied().zip(prepared.iter().map(|p| p.uses.as_slice())))?;
     let rec = Recorder { ctx: f.ctx, cmd: f.cmd };
     for (pass, p) in passes.iter().zip(&prepared) {
         let barriers: Vec<_> =
-            pass.images().into_iter().filter_map(|u| f.targets.transition(u.target, u.access)).collect();
+            p.uses.iter().filter_map(|u| f.targets.transition(u.target, u.access)).collect();
         let stage = match pass.pipelines().first().map(|p| p.bind_point) {
             Some(vk::PipelineBindPoint::COMPUTE) => vk::PipelineStageFlags2::COMPUTE_SHADER,
             _ => vk::PipelineStageFlags2::ALL_GRAPHICS,

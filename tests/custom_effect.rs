@@ -403,7 +403,10 @@ impl Pass for Wrong {
     }
 
     fn prepare(&mut self, _frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
-        Ok(vec![Binding::Image(Target::Hdr), Binding::Image(Target::Distance)])
+        match self.reads_unwritten {
+            true => Ok(Vec::new()),
+            false => Ok(vec![Binding::Image(Target::Hdr), Binding::Image(Target::Distance)]),
+        }
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {

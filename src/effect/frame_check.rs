@@ -1,4 +1,4 @@
-//! The checks the runner makes on a frame's pass list before preparing it: every image a pass
+//! The checks the runner makes on a frame's passes once they are prepared: every image a pass
 //! binds is one it declared, bound the way its declared access allows, and every image a pass
 //! only reads is written by an earlier pass of the frame (or is the game's own). A frame that
 //! fails is refused with an error naming the pass and the image, before any command is recorded.
@@ -8,15 +8,17 @@ use crate::gpu::vk;
 use crate::passes::{Binding, ImageUse, Pass};
 use crate::targets::Target;
 
-/// Refuses a pass reading an image no earlier pass of `passes` writes.
-pub(crate) fn check_reads(passes: &[&mut dyn Pass]) -> Result<(), EffectError> {
+/// Refuses a pass reading an image no earlier pass of the frame writes; `passes` are the frame's
+/// passes in order, each with the images it declared.
+pub(crate) fn check_reads<'a>(
+    passes: impl Iterator<Item = (&'static str, &'a [ImageUse])>,
+) -> Result<(), EffectError> {
     let mut written: Vec<Target> = Vec::new();
-    for pass in passes {
-        let uses = pass.images();
-        for u in &uses {
+    for (pass, uses) in passes {
+        for u in uses {
             if !u.access.writes() && !u.target.is_external() && !written.contains(&u.target) {
                 return Err(EffectError::NotWritten {
-                    pass: pass.name(),
+                    pass,
                     image: u.target.name(),
                     needs: u.target.needs(),
                 });
