@@ -19,6 +19,9 @@ pub struct GpuMesh {
     pub vertices: Buffer,
     pub indices: Buffer,
     pub index_count: u32,
+    /// The glTF vertex attributes (`attribute_records`), None for a mesh without them: the
+    /// raster draws those with its plain pipeline.
+    pub attributes: Option<Buffer>,
     /// Once deformed: a vertex buffer per frame slot, made on the slot's first frame after that.
     deformed: Vec<Option<Buffer>>,
     /// Bit s: slot s's buffer is older than the mesh.
@@ -37,6 +40,20 @@ impl GpuMesh {
 /// The vertex buffer's contents: position and normal per vertex.
 fn interleaved(mesh: &crate::scene::mesh::Mesh) -> Vec<[f32; 6]> {
     mesh.positions.iter().zip(&mesh.normals).map(|(p, n)| [p[0], p[1], p[2], n[0], n[1], n[2]]).collect()
+}
+
+/// The second vertex buffer of a mesh with glTF attributes: per vertex the colour (RGBA, white
+/// where the mesh has none) and both texture coordinate sets (zero where absent), 32 bytes.
+pub(crate) fn attribute_records(mesh: &crate::scene::mesh::Mesh) -> Option<Vec<[f32; 8]>> {
+    let a = mesh.attributes.as_ref()?;
+    let records = (0..mesh.positions.len())
+        .map(|i| {
+            let c = a.colors.get(i).copied().unwrap_or([1.0; 4]);
+            let [u0, u1] = [0, 1].map(|k| a.texcoords[k].get(i).copied().unwrap_or([0.0; 2]));
+            [c[0], c[1], c[2], c[3], u0[0], u0[1], u1[0], u1[1]]
+        })
+        .collect();
+    Some(records)
 }
 
 /// One instanced draw: a mesh and its range in the instance table.
@@ -100,8 +117,16 @@ impl SceneGpu {
             let index_bytes = bytemuck::cast_slice(&m.mesh.indices);
             let indices = upload(ctx, memory, &name, vk::BufferUsageFlags::INDEX_BUFFER, index_bytes)?;
             let index_count = m.mesh.indices.len() as u32;
+            let attributes = match attribute_records(&m.mesh) {
+                Some(records) => {
+                    let name = format!("mesh {} vertex attributes", m.name);
+                    let usage = vk::BufferUsageFlags::VERTEX_BUFFER;
+                    Some(upload(ctx, memory, &name, usage, bytemuck::cast_slice(&records))?)
+                }
+                None => None,
+            };
             let (deformed, stale, in_use) = (Vec::new(), 0, None);
-            meshes.push(GpuMesh { vertices, indices, index_count, deformed, stale, in_use });
+            meshes.push(GpuMesh { vertices, indices, index_count, attributes, deformed, stale, in_use });
         }
         let materials = material_records(scene);
         let (instances, draws) = instance_layout(scene);
@@ -207,4 +232,28 @@ pub(crate) fn vertex_input(
         attributes.push(attribute(1, 12));
     }
     (binding, attributes)
+}
+
+/// The raster's vertex input for meshes with glTF attributes: `vertex_input(true)` plus binding
+/// 1 of `attribute_records` (32 bytes a vertex): location 2 the colour, location 3 both texture
+/// coordinate sets.
+pub(crate) fn attributed_vertex_input(
+) -> ([crate::gpu::vk::VertexInputBindingDescription; 2], Vec<crate::gpu::vk::VertexInputAttributeDescription>)
+{
+    use crate::gpu::vk;
+    let ([first], mut attributes) = vertex_input(true);
+    let second = vk::VertexInputBindingDescription::default()
+        .binding(1)
+        .stride(32)
+        .input_rate(vk::VertexInputRate::VERTEX);
+    for (location, offset) in [(2, 0), (3, 16)] {
+        attributes.push(
+            vk::VertexInputAttributeDescription::default()
+                .binding(1)
+                .location(location)
+                .format(vk::Format::R32G32B32A32_SFLOAT)
+                .offset(offset),
+        );
+    }
+    ([first, second], attributes)
 }

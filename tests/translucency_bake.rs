@@ -468,6 +468,7 @@ fn bad_meshes_and_resolutions_are_refused() {
         positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0]],
         normals: vec![[0.0, 1.0, 0.0]; 4],
         indices: vec![0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3],
+        attributes: None,
     };
     let e = err(&flat, 8, options());
     assert!(matches!(e, BakeError::Voxelize(VoxelizeError::ZeroArea { .. })), "{e}");

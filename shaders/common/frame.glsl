@@ -37,9 +37,10 @@ struct InstanceData {
 #define THICKNESS_PEEL 2u
 
 struct MaterialData {
-    vec4 albedo;         // rgb
+    vec4 albedo;         // rgb; a: the base colour's alpha
     uvec4 kind;          // x: MATERIAL_*; y (translucent): THICKNESS_*
     vec4 sigma;          // rgb (translucent): extinction per world unit
+    vec4 emission;       // rgb: added to the shaded colour; a: alpha cutoff (0: opaque)
 };
 
 #endif

@@ -1,5 +1,6 @@
 //! CPU twin of the base shading in f64: the raster surfaces of shaders/raster.frag (Lambert +
-//! ambient under the scene's directional lights) and the metaball surfaces of
+//! ambient under the scene's directional lights, times the vertex colour, plus emission, alpha
+//! masked) and the metaball surfaces of
 //! shaders/metaballs.comp (`store_hit`: the same diffuse light plus a white Blinn-Phong
 //! highlight), then `effects::tonemap` to the 8-bit sRGB code. Written from the model
 //! (docs/scene-format.md: "a surface with unit normal n receives colour · intensity ·
@@ -71,6 +72,19 @@ impl Lighting {
     /// unit normal turned toward the camera.
     pub fn raster(&self, albedo: DVec3, n: DVec3) -> DVec3 {
         albedo * self.diffuse(n)
+    }
+
+    /// The HDR colour of a raster surface of a glTF material (shaders/raster.frag): base colour
+    /// (albedo × vertex colour) × `diffuse(n)` + emission. With a white vertex colour and no
+    /// emission this is `raster` exactly (the shader multiplies by 1 and adds 0).
+    pub fn raster_surface(&self, albedo: DVec3, vertex_color: DVec3, emission: DVec3, n: DVec3) -> DVec3 {
+        albedo * vertex_color * self.diffuse(n) + emission
+    }
+
+    /// Whether the raster draws a fragment of `alpha` (base × vertex colour alpha) under a
+    /// material's alpha cutoff (`alphaMode: MASK`; 0 for opaque materials, which draw all).
+    pub fn drawn(alpha: f64, cutoff: f64) -> bool {
+        alpha >= cutoff
     }
 
     /// The light of a metaball surface of unit normal `n` (toward the camera) seen along `-v`

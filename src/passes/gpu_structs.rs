@@ -56,15 +56,19 @@ crate::gpu::layout::gpu_layout!(InstanceData as "InstanceData" { model, normal_m
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct MaterialData {
+    /// rgb: the albedo; a: the base colour's alpha (`Surface::alpha`).
     pub albedo: [f32; 4],
     /// x: `MATERIAL_LAMBERT` or `MATERIAL_TRANSLUCENT`; y (translucent): `THICKNESS_LUT` or
     /// `THICKNESS_TSM`.
     pub kind: [u32; 4],
     /// rgb (translucent): extinction σ per world unit; 0 for lambert.
     pub sigma: [f32; 4],
+    /// rgb: emission added to the shaded colour (0 for TOML materials); a: the alpha cutoff
+    /// (`Surface::alpha_cutoff`, 0: nothing discarded).
+    pub emission: [f32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(MaterialData as "MaterialData" { albedo, kind, sigma });
+crate::gpu::layout::gpu_layout!(MaterialData as "MaterialData" { albedo, kind, sigma, emission });
 
 /// `MaterialData::kind` values. Keep in sync with shaders/common/frame.glsl.
 pub const MATERIAL_LAMBERT: u32 = 0;
@@ -82,8 +86,9 @@ const _: () = {
     assert!(std::mem::offset_of!(FrameUniforms, lights) == 128);
     assert!(std::mem::size_of::<InstanceData>() == 144);
     assert!(std::mem::offset_of!(InstanceData, ids) == 128);
-    assert!(std::mem::size_of::<MaterialData>() == 48);
+    assert!(std::mem::size_of::<MaterialData>() == 64);
     assert!(std::mem::offset_of!(MaterialData, sigma) == 32);
+    assert!(std::mem::offset_of!(MaterialData, emission) == 48);
 };
 
 pub fn mat4_f32(m: DMat4) -> [[f32; 4]; 4] {
@@ -151,10 +156,11 @@ pub fn instance_records(scene: &Scene) -> (Vec<InstanceData>, Vec<(u32, u32)>) {
 pub fn material_records(scene: &Scene) -> Vec<MaterialData> {
     use crate::scene::{MaterialKind, ThicknessMode};
     let record = |m: &crate::scene::Material| {
-        let albedo = vec4_f32(m.albedo, 1.0);
+        let albedo = vec4_f32(m.albedo, m.surface.alpha as f32);
+        let emission = vec4_f32(m.surface.emission, m.surface.alpha_cutoff as f32);
         match m.kind {
             MaterialKind::Lambert => {
-                MaterialData { albedo, kind: [MATERIAL_LAMBERT, 0, 0, 0], sigma: [0.0; 4] }
+                MaterialData { albedo, kind: [MATERIAL_LAMBERT, 0, 0, 0], sigma: [0.0; 4], emission }
             }
             MaterialKind::Translucent { sigma, thickness, .. } => {
                 let mode = match thickness {
@@ -162,7 +168,8 @@ pub fn material_records(scene: &Scene) -> Vec<MaterialData> {
                     ThicknessMode::Tsm => THICKNESS_TSM,
                     ThicknessMode::Peel => THICKNESS_PEEL,
                 };
-                MaterialData { albedo, kind: [MATERIAL_TRANSLUCENT, mode, 0, 0], sigma: vec4_f32(sigma, 0.0) }
+                let kind = [MATERIAL_TRANSLUCENT, mode, 0, 0];
+                MaterialData { albedo, kind, sigma: vec4_f32(sigma, 0.0), emission }
             }
         }
     };

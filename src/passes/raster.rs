@@ -1,5 +1,9 @@
 //! raster: instanced draws (one per mesh) with dynamic rendering into reverse-Z depth, HDR colour
-//! and the G-buffer (normal, ids, view distance). Lambert + ambient under the directional lights.
+//! and the G-buffer (normal, ids, view distance). Lambert + ambient under the directional lights,
+//! plus the material's emission; alpha-masked fragments discarded. Meshes with glTF vertex
+//! attributes (colours, texture coordinates) are drawn by a second pipeline, the same shaders
+//! compiled with VERTEX_ATTRIBUTES and a second vertex buffer; every other mesh by the first,
+//! which reads no attributes (its base colour is the albedo itself).
 
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
 use crate::gpu::barriers::ImageAccess;
@@ -10,6 +14,8 @@ use crate::targets::Target;
 
 pub struct RasterPass {
     pipeline: Pipeline,
+    /// For meshes with `GpuMesh::attributes`.
+    attributed: Pipeline,
 }
 
 /// Colour attachments in shader location order.
@@ -17,19 +23,35 @@ const COLOR_TARGETS: [Target; 4] = [Target::Hdr, Target::Normal, Target::Ids, Ta
 
 impl RasterPass {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
-        let vertex = compiler.compile("raster.vert", &[])?;
-        let fragment = compiler.compile("raster.frag", &[])?;
-        let (vertex_bindings, vertex_attributes) = crate::scene_gpu::vertex_input(true);
+        let (bindings, attributes) = crate::scene_gpu::vertex_input(true);
+        let pipeline = Self::pipeline(ctx, compiler, "raster", &[], &bindings, &attributes)?;
+        let (bindings, attributes) = crate::scene_gpu::attributed_vertex_input();
+        let defines = [("VERTEX_ATTRIBUTES", "1")];
+        let attributed =
+            Self::pipeline(ctx, compiler, "raster (vertex attributes)", &defines, &bindings, &attributes)?;
+        Ok(RasterPass { pipeline, attributed })
+    }
+
+    fn pipeline(
+        ctx: &GpuContext,
+        compiler: &mut ShaderCompiler,
+        name: &'static str,
+        defines: &[(&str, &str)],
+        vertex_bindings: &[vk::VertexInputBindingDescription],
+        vertex_attributes: &[vk::VertexInputAttributeDescription],
+    ) -> GpuResult<Pipeline> {
+        let vertex = compiler.compile("raster.vert", defines)?;
+        let fragment = compiler.compile("raster.frag", defines)?;
         let color_formats = COLOR_TARGETS.map(Target::format);
-        let pipeline = create_graphics_pipeline(
+        create_graphics_pipeline(
             ctx,
             &GraphicsDesc {
-                name: "raster",
+                name,
                 vertex: &vertex,
                 fragment: &fragment,
                 push_constant_bytes: 0,
-                vertex_bindings: &vertex_bindings,
-                vertex_attributes: &vertex_attributes,
+                vertex_bindings,
+                vertex_attributes,
                 color_formats: &color_formats,
                 depth_format: Target::Depth.format(),
                 // Reverse-Z: nearer is larger.
@@ -38,8 +60,7 @@ impl RasterPass {
                 cull_mode: vk::CullModeFlags::NONE,
                 blend: Blend::Replace,
             },
-        )?;
-        Ok(RasterPass { pipeline })
+        )
     }
 }
 
@@ -64,7 +85,7 @@ impl Pass for RasterPass {
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
-        vec![&self.pipeline]
+        vec![&self.pipeline, &self.attributed]
     }
 
     fn record(&self, pass: &PassRecording) {
@@ -93,10 +114,23 @@ impl Pass for RasterPass {
         let depth_clear =
             vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: 0.0, stencil: 0 } };
         rec.begin_rendering_views(t.extent, &colors, Some((t.image(Target::Depth).view, kept(depth_clear))));
-        if !pass.scene_gpu.draws.is_empty() {
-            rec.bind_pipeline(&self.pipeline, pass.set(0));
-            for draw in &pass.scene_gpu.draws {
+        // The plain pipeline's draws, then those of meshes with vertex attributes.
+        for (p, pipeline) in [&self.pipeline, &self.attributed].into_iter().enumerate() {
+            let mut draws = pass
+                .scene_gpu
+                .draws
+                .iter()
+                .filter(|d| pass.scene_gpu.meshes[d.mesh].attributes.is_some() == (p == 1))
+                .peekable();
+            if draws.peek().is_none() {
+                continue;
+            }
+            rec.bind_pipeline(pipeline, pass.set(p));
+            for draw in draws {
                 let mesh = &pass.scene_gpu.meshes[draw.mesh];
+                if let Some(attributes) = &mesh.attributes {
+                    rec.bind_vertex_buffer(1, attributes);
+                }
                 rec.draw_mesh(
                     mesh.vertex_buffer(),
                     &mesh.indices,

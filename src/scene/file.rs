@@ -336,7 +336,7 @@ fn material(
     let at = def.voxel_res.as_ref().map_or(o.span.start, |v| v.span().start);
     let (line, column) = lines.line_column(at);
     let voxel_res_at = format!("{}:{line}:{column}", o.ctx.path.display());
-    Ok(Material { name: name.to_owned(), kind, albedo, voxel_res_at })
+    Ok(Material { name: name.to_owned(), kind, albedo, voxel_res_at, surface: Default::default() })
 }
 
 /// The scene's materials and a name → index map, so resolving n instances costs O(n).
@@ -366,6 +366,7 @@ impl Materials {
             kind: MaterialKind::Lambert,
             albedo,
             voxel_res_at,
+            surface: Default::default(),
         });
         self.index.insert(DEFAULT_MATERIAL.into(), self.list.len() - 1);
         self.list.len() - 1

@@ -17,6 +17,19 @@ pub struct Mesh {
     pub normals: Vec<[f32; 3]>,
     /// Three indices per triangle, counter-clockwise seen from the side the normal points to.
     pub indices: Vec<u32>,
+    /// Per-vertex attributes a glTF primitive brings (`COLOR_0`, `TEXCOORD_0/1`); None for every
+    /// other mesh, which the raster draws exactly as before (colour 1, no coordinates).
+    pub attributes: Option<Box<VertexAttributes>>,
+}
+
+/// Optional per-vertex data of a glTF primitive, each list empty or one entry per position.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VertexAttributes {
+    /// `COLOR_0` as linear RGBA in [0, 1] (alpha 1 for a VEC3 accessor), multiplied into the
+    /// material's base colour; empty: white.
+    pub colors: Vec<[f32; 4]>,
+    /// `TEXCOORD_0` and `TEXCOORD_1` (glTF's uv: origin at the image's top left); empty: (0, 0).
+    pub texcoords: [Vec<[f32; 2]>; 2],
 }
 
 /// What a scene asks for; `MeshSpec::build` turns it into a `Mesh`.
@@ -252,6 +265,20 @@ impl Mesh {
         if let Some(i) = self.positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(format!("position {i} is not finite: {:?}", self.positions[i]));
         }
+        if let Some(a) = &self.attributes {
+            let n = self.positions.len();
+            for (what, len) in [
+                ("colours", a.colors.len()),
+                ("TEXCOORD_0", a.texcoords[0].len()),
+                ("TEXCOORD_1", a.texcoords[1].len()),
+            ] {
+                if len != 0 && len != n {
+                    return Err(format!(
+                        "mesh has {len} {what} for {n} positions (expected one per position)"
+                    ));
+                }
+            }
+        }
         for (i, n) in self.normals.iter().enumerate() {
             let len = DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64).length();
             // Written so a NaN length fails too.
@@ -390,6 +417,7 @@ mod tests {
             normals: vec![[0.0, 1.0, 0.0]; 4],
             positions,
             indices: vec![0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3],
+            attributes: None,
         }
     }
 

@@ -53,7 +53,9 @@ pub struct DirectionalLight {
     pub direction: DVec3,
     /// Linear RGB, each ≥ 0.
     pub color: DVec3,
-    /// ≥ 0. A surface with unit normal n receives color · intensity · max(0, −n·direction).
+    /// ≥ 0. A surface with unit normal n receives color · intensity · max(0, −n·direction), so a
+    /// white Lambertian surface facing the light has luminance color · intensity: in physical
+    /// units, intensity = illuminance (lux) / π, in cd/m² (a glTF light's lux are divided by π).
     pub intensity: f64,
 }
 
@@ -82,6 +84,29 @@ pub struct Material {
     /// Where the material's `voxel_res` was given ("file:line:column"; its table when the file
     /// gives none), for errors found after loading: a thickness table too large for the device.
     pub voxel_res_at: String,
+    /// What a glTF material adds to the albedo: emission, alpha mask, base-colour texture
+    /// (`Surface::default()`, none of them, for TOML materials).
+    pub surface: Surface,
+}
+
+/// The parts of a glTF material the raster draws beyond the albedo. The default changes
+/// nothing: emission exactly 0 is added, no fragment is discarded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Surface {
+    /// Linear RGB radiance added to the shaded colour: `emissiveFactor` ×
+    /// `KHR_materials_emissive_strength` (each ≥ 0, finite).
+    pub emission: DVec3,
+    /// The base colour's alpha (`baseColorFactor[3]`), in [0, 1].
+    pub alpha: f64,
+    /// `alphaMode: MASK`: a fragment whose alpha (base × vertex colour × texture alpha) is below
+    /// this is not drawn; 0 (opaque) discards nothing.
+    pub alpha_cutoff: f64,
+}
+
+impl Default for Surface {
+    fn default() -> Self {
+        Surface { emission: DVec3::ZERO, alpha: 1.0, alpha_cutoff: 0.0 }
+    }
 }
 
 /// How a material shades.

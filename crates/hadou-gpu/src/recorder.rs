@@ -220,6 +220,14 @@ impl Recorder<'_> {
         }
     }
 
+    /// Binds `vertices` at vertex input `binding` (a pipeline's second binding; `draw_mesh` binds
+    /// binding 0), for the draws that follow.
+    pub fn bind_vertex_buffer(&self, binding: u32, vertices: &Buffer) {
+        // SAFETY: recording with a graphics pipeline bound; the buffer is live until the frame's
+        // fence.
+        unsafe { self.device().cmd_bind_vertex_buffers(self.cmd, binding, &[vertices.raw], &[0]) };
+    }
+
     /// A full-screen triangle (no vertex buffer: the vertex shader makes it from gl_VertexIndex).
     pub fn draw_fullscreen(&self) {
         // SAFETY: recording inside rendering with a graphics pipeline bound; no buffers are read.

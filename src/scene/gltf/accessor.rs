@@ -155,6 +155,57 @@ impl Source<'_> {
         self.read(a, at, 12, decode, [0.0; 3])
     }
 
+    /// A vertex colour or texture coordinate: `dims` (the types glTF allows for it) of FLOAT, or
+    /// of normalized UNSIGNED_BYTE or UNSIGNED_SHORT (c / 255, c / 65535), padded with `pad`
+    /// past the accessor's components (a VEC3 colour gets alpha 1).
+    pub fn unit_vec4(
+        &self,
+        a: &gltf::Accessor,
+        at: &str,
+        dims: &[Dimensions],
+        pad: [f32; 4],
+    ) -> Result<Vec<[f32; 4]>, ReadError> {
+        let n = match a.dimensions() {
+            Dimensions::Vec2 if dims.contains(&Dimensions::Vec2) => 2,
+            Dimensions::Vec3 if dims.contains(&Dimensions::Vec3) => 3,
+            Dimensions::Vec4 if dims.contains(&Dimensions::Vec4) => 4,
+            d => {
+                let expected: Vec<String> = dims.iter().map(|d| format!("{d:?}").to_uppercase()).collect();
+                let found = format!("{d:?}").to_uppercase();
+                let message = format!("expected a {} accessor, found {found}", expected.join(" or "));
+                return Err(self.bad(at, a, message).into());
+            }
+        };
+        let (component, scale) = match (a.data_type(), a.normalized()) {
+            (DataType::F32, _) => (4, 0.0),
+            (DataType::U8, true) => (1, 255.0),
+            (DataType::U16, true) => (2, 65535.0),
+            (t, normalized) => {
+                let message = format!(
+                    "expected FLOAT, or normalized UNSIGNED_BYTE or UNSIGNED_SHORT components, found {}{}",
+                    if normalized { "normalized " } else { "" },
+                    type_name(t)
+                );
+                return Err(self.bad(at, a, message).into());
+            }
+        };
+        let decode = move |e: &[u8]| {
+            let mut out = pad;
+            for (k, c) in out.iter_mut().take(n).enumerate() {
+                let b = &e[k * component..];
+                *c = match component {
+                    4 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                    // Exact division in f64, rounded once to f32.
+                    _ => (unsigned(b, component) as f64 / scale) as f32,
+                };
+            }
+            out
+        };
+        let mut zero = pad;
+        zero[..n].fill(0.0);
+        self.read(a, at, n * component, decode, zero)
+    }
+
     /// Triangle indices: SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT.
     pub fn indices(&self, a: &gltf::Accessor, at: &str) -> Result<Vec<u32>, ReadError> {
         if a.dimensions() != Dimensions::Scalar {

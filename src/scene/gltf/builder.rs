@@ -71,6 +71,14 @@ impl<'a> Builder<'a> {
             }
             let Some((mesh_index, shape)) = self.built[&key] else { continue };
             let material = self.material(&p.material(), shape, key)?;
+            let colours =
+                self.meshes[mesh_index].mesh.attributes.as_ref().is_some_and(|a| !a.colors.is_empty());
+            if colours
+                && matches!(self.materials[material].kind, crate::scene::MaterialKind::Translucent { .. })
+            {
+                let kind = "vertex colours on translucent materials (the light through them has the material's colour)";
+                self.ignored.add(kind, format!("/meshes/{}/primitives/{}/attributes/COLOR_0", key.0, key.1));
+            }
             let name = node.name().map_or_else(|| format!("node {n}"), |s| format!("node {n} \"{s}\""));
             self.instances.push(Instance {
                 name: Some(format!("{}{name}", self.options.label)),

@@ -11,8 +11,12 @@ use super::error::{pointer_from_crate_path, GltfError};
 /// The extensions hadou honours: a file may require them. Each is read as docs/scene-format.md's
 /// mapping table says (what it cannot draw of them, such as point lights or thin-walled
 /// transmission, is listed in the one warning).
-pub(super) const HONOURED: &[&str] =
-    &["KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_volume"];
+pub(super) const HONOURED: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_emissive_strength",
+];
 
 /// Extensions that change how geometry is stored: a file that requires one cannot be drawn
 /// at all without it (its message says so).

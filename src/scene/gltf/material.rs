@@ -1,6 +1,8 @@
 //! glTF materials → hadou materials: `baseColorFactor` is the albedo; `KHR_materials_transmission`
 //! with `KHR_materials_volume` makes a translucent material (seed 003) with σ = −ln(c)/d per
-//! channel from `attenuationColor` c and `attenuationDistance` d.
+//! channel from `attenuationColor` c and `attenuationDistance` d. `emissiveFactor` ×
+//! `KHR_materials_emissive_strength` is added to the shaded colour, `alphaMode: MASK` discards
+//! fragments whose alpha is below `alphaCutoff` (`model::Surface`); `BLEND` is drawn opaque.
 
 use std::path::Path;
 
@@ -9,7 +11,7 @@ use gltf::material::AlphaMode;
 
 use super::error::GltfError;
 use super::ignored::Ignored;
-use crate::scene::model::{Material, MaterialKind, ThicknessMode};
+use crate::scene::model::{Material, MaterialKind, Surface, ThicknessMode};
 
 /// σ of a channel that glTF does not attenuate (c = 1 or no distance): hadou's translucent
 /// materials need σ > 0, and over the largest mesh (1e6 units) this keeps e^(−σd) ≥ 0.999999.
@@ -34,6 +36,8 @@ pub(super) struct Look {
     pub albedo: DVec3,
     /// σ per channel and `thicknessFactor`, for transmission + volume materials.
     pub volume: Option<(DVec3, f64)>,
+    /// Emission, alpha and mask.
+    pub surface: Surface,
     pub at: String,
 }
 
@@ -46,7 +50,8 @@ pub(super) fn look(
 ) -> Result<Look, GltfError> {
     let Some(i) = m.index() else {
         let name = format!("{label}default material");
-        return Ok(Look { name, albedo: DVec3::ONE, volume: None, at: String::new() });
+        let surface = Surface::default();
+        return Ok(Look { name, albedo: DVec3::ONE, volume: None, surface, at: String::new() });
     };
     let at = format!("/materials/{i}");
     let pbr = m.pbr_metallic_roughness();
@@ -69,7 +74,46 @@ pub(super) fn look(
         Some(n) => format!("{label}material {i} \"{n}\""),
         None => format!("{label}material {i}"),
     };
-    Ok(Look { name, albedo: DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64), volume, at })
+    let surface = surface(path, m, &at, base[3] as f64, ignored)?;
+    Ok(Look { name, albedo: DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64), volume, surface, at })
+}
+
+/// Emission (`emissiveFactor` in [0, 1] × `KHR_materials_emissive_strength` ≥ 0) and the alpha
+/// mode: MASK keeps `alphaCutoff` (≥ 0), BLEND is drawn opaque and noted.
+fn surface(
+    path: &Path,
+    m: &gltf::Material,
+    at: &str,
+    alpha: f64,
+    ignored: &mut Ignored,
+) -> Result<Surface, GltfError> {
+    let e = m.emissive_factor();
+    if !e.iter().all(|c| (0.0..=1.0).contains(c)) {
+        let message = format!("{e:?} (expected 3 numbers in [0, 1])");
+        return Err(GltfError::at(path, format!("{at}/emissiveFactor"), message));
+    }
+    let strength = m.emissive_strength().unwrap_or(1.0) as f64;
+    if !(strength.is_finite() && strength >= 0.0) {
+        let field = format!("{at}/extensions/KHR_materials_emissive_strength/emissiveStrength");
+        return Err(GltfError::at(path, field, format!("{strength} (expected a finite number >= 0)")));
+    }
+    let emission = DVec3::new(e[0] as f64, e[1] as f64, e[2] as f64) * strength;
+    let alpha_cutoff = match m.alpha_mode() {
+        AlphaMode::Opaque => 0.0,
+        AlphaMode::Mask => {
+            let c = m.alpha_cutoff().unwrap_or(0.5) as f64;
+            if !(c.is_finite() && c >= 0.0) {
+                let message = format!("{c} (expected a finite number >= 0)");
+                return Err(GltfError::at(path, format!("{at}/alphaCutoff"), message));
+            }
+            c
+        }
+        AlphaMode::Blend => {
+            ignored.add("alpha blending (alphaMode BLEND, drawn opaque)", format!("{at}/alphaMode"));
+            0.0
+        }
+    };
+    Ok(Surface { emission, alpha, alpha_cutoff })
 }
 
 /// σ and `thicknessFactor` from a volume, range-checked where glTF sets the ranges.
@@ -122,6 +166,7 @@ impl Look {
                 kind: MaterialKind::Translucent { sigma, voxel_res, thickness: ThicknessMode::Lut },
                 albedo: self.albedo,
                 voxel_res_at,
+                surface: self.surface.clone(),
             },
             Some((sigma, t)) => Material {
                 name: match shape {
@@ -131,18 +176,20 @@ impl Look {
                 kind: MaterialKind::Lambert,
                 albedo: self.albedo * DVec3::from_array(sigma.to_array().map(|s| (-s * t).exp())),
                 voxel_res_at: String::new(),
+                surface: self.surface.clone(),
             },
             None => Material {
                 name: self.name.clone(),
                 kind: MaterialKind::Lambert,
                 albedo: self.albedo,
                 voxel_res_at: String::new(),
+                surface: self.surface.clone(),
             },
         }
     }
 }
 
-/// Textures, emission and alpha are not drawn by hadou: noted, with where they are.
+/// Textures and metallic/specular shading are not drawn by hadou: noted, with where they are.
 fn note_ignored(m: &gltf::Material, at: &str, ignored: &mut Ignored) {
     let pbr = m.pbr_metallic_roughness();
     let textures = [
@@ -177,12 +224,6 @@ fn note_ignored(m: &gltf::Material, at: &str, ignored: &mut Ignored) {
             "metallic and specular shading (hadou shades Lambert)",
             format!("{at}/pbrMetallicRoughness/roughnessFactor"),
         );
-    }
-    if m.emissive_factor() != [0.0; 3] {
-        ignored.add("emission", format!("{at}/emissiveFactor"));
-    }
-    if m.alpha_mode() != AlphaMode::Opaque {
-        ignored.add("alpha blending and masking (drawn opaque)", format!("{at}/alphaMode"));
     }
 }
 

@@ -9,7 +9,7 @@ use gltf::mesh::{Mode, Semantic};
 
 use super::accessor::{self, ReadError, Source};
 use super::error::GltfError;
-use crate::scene::mesh::Mesh;
+use crate::scene::mesh::{Mesh, VertexAttributes};
 
 /// The environment variable that overrides `Budget`'s defaults: `vertices=N,indices=N,nodes=N,
 /// instances=N,steps=N`, any subset. An environment variable rather than a CLI flag or an
@@ -216,6 +216,10 @@ pub(super) fn build(src: &Source, m: usize, p: &gltf::Primitive) -> Result<Built
         None => (0..n as u32).collect(),
     };
     let indices = triangle_list(mode, &order).map_err(|why| GltfError::at(src.path, at.clone(), why))?;
+    let attributes = match attributes(src, &at, p, n)? {
+        Ok(a) => a,
+        Err(why) => return Ok(Built::Skipped(why)),
+    };
     let mesh = match normal_accessor {
         Some(a) => {
             let nrm_at = format!("{at}/attributes/NORMAL");
@@ -230,13 +234,77 @@ pub(super) fn build(src: &Source, m: usize, p: &gltf::Primitive) -> Result<Built
                 return Err(GltfError::at(src.path, nrm_at, message));
             }
             let normals = unit_normals(&normals).map_err(|why| GltfError::at(src.path, nrm_at, why))?;
-            Mesh { positions, normals, indices }
+            Mesh { positions, normals, indices, attributes }
         }
-        None => flat(&positions, &indices),
+        None => {
+            // Flat shading gives each triangle fresh vertices: the attributes follow its indices.
+            let mut mesh = flat(&positions, &indices);
+            mesh.attributes = attributes.map(|a| {
+                Box::new(VertexAttributes {
+                    colors: spread(&a.colors, &indices),
+                    texcoords: [spread(&a.texcoords[0], &indices), spread(&a.texcoords[1], &indices)],
+                })
+            });
+            mesh
+        }
     };
     // The checks above cover these; this keeps any gap from reaching the GPU.
     mesh.validate_basic().map_err(|why| GltfError::at(src.path, at, why))?;
     Ok(Built::Mesh(mesh))
+}
+
+/// `COLOR_0`, `TEXCOORD_0` and `TEXCOORD_1` of a primitive of `n` vertices (None when it has
+/// none of them); the inner Err is why the primitive is skipped.
+fn attributes(
+    src: &Source,
+    at: &str,
+    p: &gltf::Primitive,
+    n: usize,
+) -> Result<Result<Option<Box<VertexAttributes>>, String>, GltfError> {
+    use gltf::accessor::Dimensions::{Vec2, Vec3, Vec4};
+    let mut out = VertexAttributes::default();
+    let wanted = [
+        (Semantic::Colors(0), "COLOR_0"),
+        (Semantic::TexCoords(0), "TEXCOORD_0"),
+        (Semantic::TexCoords(1), "TEXCOORD_1"),
+    ];
+    for (k, (semantic, name)) in wanted.into_iter().enumerate() {
+        let Some(a) = p.get(&semantic) else { continue };
+        let a_at = format!("{at}/attributes/{name}");
+        // Compared before decoding: the count is not bounded by the positions'.
+        if a.count() != n {
+            let message = format!("{} elements for {n} positions (expected one per position)", a.count());
+            return Err(GltfError::at(src.path, a_at, message));
+        }
+        let read = match k {
+            0 => src.unit_vec4(&a, &a_at, &[Vec3, Vec4], [1.0; 4]),
+            _ => src.unit_vec4(&a, &a_at, &[Vec2], [0.0; 4]),
+        };
+        let values = match read {
+            Ok(v) => v,
+            Err(ReadError::Bad(e)) => return Err(e),
+            Err(ReadError::Unsupported(why)) => return Ok(Err(why)),
+        };
+        if let Some((i, v)) = values.iter().enumerate().find(|(_, v)| !v.iter().all(|c| c.is_finite())) {
+            let message =
+                format!("element {i} is {:?} (expected finite numbers)", &v[..if k == 0 { 4 } else { 2 }]);
+            return Err(GltfError::at(src.path, a_at, message));
+        }
+        match k {
+            0 => out.colors = values.into_iter().map(|c| c.map(|x| x.clamp(0.0, 1.0))).collect(),
+            _ => out.texcoords[k - 1] = values.into_iter().map(|v| [v[0], v[1]]).collect(),
+        }
+    }
+    let none = out.colors.is_empty() && out.texcoords.iter().all(Vec::is_empty);
+    Ok(Ok((!none).then(|| Box::new(out))))
+}
+
+/// A per-vertex list indexed by a triangle list (empty stays empty).
+fn spread<T: Copy>(values: &[T], indices: &[u32]) -> Vec<T> {
+    match values.is_empty() {
+        true => Vec::new(),
+        false => indices.iter().map(|&i| values[i as usize]).collect(),
+    }
 }
 
 /// The message for a budget passed: what, how many, the most, and how to raise it. `use_of`
