@@ -99,7 +99,7 @@ pub enum Error {
         target: &'static str,
         /// The scene's passes, comma-separated.
         passes: String,
-        /// What the scene lacks for that image, e.g. "a [[wave]]".
+        /// What the scene lacks for that image, e.g. "a \[\[wave\]\]".
         needs: &'static str,
     },
     /// The game's depth convention cannot be inverted.

@@ -20,7 +20,7 @@ pub struct ImageDesc {
     pub texel_bytes: u64,
     /// Usage besides STORAGE | TRANSFER_SRC (e.g. SAMPLED), else empty.
     pub usage: vk::ImageUsageFlags,
-    /// What a scene needs for a pass to write it (error messages), e.g. "a [fog] table".
+    /// What a scene needs for a pass to write it (error messages), e.g. "a \[fog\] table".
     pub needs: &'static str,
 }
 

@@ -68,7 +68,7 @@ impl<'a> SceneFile<'a> {
         SceneError::at_span(self.path, self.text, span, message)
     }
 
-    /// A field value that breaks a rule: "[`table`] `field`: expected `expected`, found `found`".
+    /// A field value that breaks a rule: "\[table\] `field`: expected …, found …".
     pub fn invalid<V: fmt::Display>(
         &self,
         table: &str,

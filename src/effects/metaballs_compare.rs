@@ -2,7 +2,7 @@
 //! tests (tests/gpu_metaballs.rs), the benchmark and `hadou report` use.
 //!
 //! Per pixel the reference is the nearest exact hit over the scene's groups
-//! ([`metaballs::cast`], Bézier clipping in f64, whatever method the group renders with) on the
+//! ([`crate::effects::metaballs::cast`], Bézier clipping in f64, whatever method the group renders with) on the
 //! pixel's ray from the near plane to the raster's own distance (t_max of the pass). Pixels where
 //! some group's ray is in the tangency band ([`tangency`], see metaballs_f32.rs) are counted and
 //! left out: there f32 may legitimately differ. Elsewhere a pixel is a GPU metaball hit when its

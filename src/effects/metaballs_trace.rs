@@ -3,7 +3,7 @@
 //!
 //! Along the object-space ray, F(t′) = Σ qᵢ f(r′ᵢ(t′)) over the support chords the ray crosses.
 //! Between chord entries only the balls whose chord contains t′ contribute, and each changes by
-//! at most |qᵢ|γ/Rᵢ per unit t′ (γ = [`Kernel::max_slope`]), so L = Σ over those of |qᵢ|γ/Rᵢ is a
+//! at most |qᵢ|γ/Rᵢ per unit t′ (γ = [`crate::effects::metaballs::Kernel::max_slope`]), so L = Σ over those of |qᵢ|γ/Rᵢ is a
 //! Lipschitz bound of F until the next entry. A step of |F − T|/L (capped at the next entry)
 //! therefore never jumps over a root. Near a root the steps shrink geometrically, so a step is
 //! at least [`TRACE_MIN_STEP`]·T/L: that one may cross the surface, which brackets the root

@@ -6,7 +6,7 @@
 //! each side, at least), centred on the bounding box and nudged by a thousandth of a voxel
 //! (`GRID_NUDGE`): `origin = centre − dims·h/2 + GRID_NUDGE·h`; voxel (x, y, z) covers
 //! `origin + [x, x+1)·h` (likewise y, z). Its corners are `origin + (x, y, z)·h` for x in
-//! 0..=dims[0] (likewise y, z): `dims + 1` per axis, linear index `x + (dims[0]+1)·(y + …)`.
+//! 0..=dims\[0\] (likewise y, z): `dims + 1` per axis, linear index `x + (dims[0]+1)·(y + …)`.
 //! The nudge keeps corners off the planes (faces of the box, x + y = c) simple meshes have.
 //!
 //! **Solid.** A point is inside the solid when its winding number is > 0. For each (y, z) row of

@@ -1,5 +1,5 @@
 //! Procedural meshes. Every generator validates its parameters (`MeshError::Invalid` with
-//! "<kind> <field> must be …, got …"), builds in f64 and stores f32. All shapes except the plane
+//! "`<kind> <field> must be …, got …`"), builds in f64 and stores f32. All shapes except the plane
 //! are closed: every edge is shared by exactly two triangles walking it in opposite directions
 //! (`Mesh::check_closed_oriented`), faces are counter-clockwise seen from outside, normals are
 //! unit length and point out of the solid.

@@ -534,7 +534,7 @@ pub fn cast(
 // form, no clipping), and real-root isolation by the derivative cascade (the polynomial is
 // monotone between consecutive roots of its derivative; bisection there to adjacent floats).
 
-/// The field minus T on one piece of the ray: g(t′) = Σ_j poly[j]·uʲ with t′ = t0 + u(t1 − t0).
+/// The field minus T on one piece of the ray: g(t′) = Σ_j poly\[j\]·uʲ with t′ = t0 + u(t1 − t0).
 #[derive(Clone, Debug)]
 pub struct FieldPiece {
     /// Object-space interval.
