@@ -145,7 +145,7 @@ pub enum MeshError {
         /// What was expected and what was found.
         message: String,
     },
-    /// Parameters a generator refuses ("<kind> <field> must be …, got …"), or a mesh a consumer
+    /// Parameters a generator refuses ("`<kind> <field> must be …, got …`"), or a mesh a consumer
     /// cannot use (e.g. ray casting); the message says which and why.
     #[error("{0}")]
     Invalid(String),
