@@ -465,9 +465,10 @@ fn check_scene_limits(s: &hadou::scene::Scene) -> Result<(), String> {
     if !vp.iter().all(|&v| finite(v)) {
         return Err(format!("view-projection {vp:?}"));
     }
-    let lit = s.lights.iter().fold(s.render.ambient, |sum, l| sum + l.color * l.intensity);
-    if lit.max_element() > MAX_HDR || !lit.is_finite() {
-        return Err(format!("ambient + lights {lit}"));
+    // Lights are not limited (issue 26): the frame is pre-exposed so a lit surface fits RGBA16F.
+    let (lit, p) = (hadou::effects::tonemap::lit_max(s), hadou::effects::tonemap::pre_exposure(s));
+    if !(lit.is_finite() && lit * p <= MAX_HDR) {
+        return Err(format!("ambient + lights {lit} × pre-exposure {p}"));
     }
     for m in &s.meshes {
         if !m.mesh.positions.iter().flatten().all(|v| v.is_finite()) {

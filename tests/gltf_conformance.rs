@@ -110,7 +110,8 @@ fn required_extensions_hadou_honours_load() {
     w.extra.insert("extensionsRequired".into(), json!(all));
     let s = load(&w.write_glb(&dir, "honoured"));
     assert_eq!(s.lights.len(), 1);
-    assert_eq!(s.lights[0].intensity, 2.0);
+    // 2 lux: a white surface facing the light has luminance 2/π cd/m² (issue 26).
+    assert_eq!(s.lights[0].intensity, 2.0 / std::f64::consts::PI);
     assert!(matches!(
         s.materials[s.instances[0].material].kind,
         hadou::scene::MaterialKind::Translucent { .. }

@@ -1,4 +1,9 @@
-//! CPU twin of shaders/tonemap.comp in f64: exposure, ACES filmic (Narkowicz 2015), sRGB encoding.
+//! CPU twin of shaders/tonemap.comp in f64: exposure, ACES filmic (Narkowicz 2015), sRGB encoding;
+//! and the exposure itself: EV100, pre-exposure, and the automatic exposure measured from a frame
+//! (shaders/exposure.comp). Definitions: Lagarde & de Rousiers, "Moving Frostbite to PBR" (2014),
+//! §4.2 and §5.1; docs/scene-format.md, "Exposure and light units".
+
+use crate::scene::model::{ExposureMode, Scene};
 
 /// Exposed HDR values are clamped to this before the curve. `aces(x)` reaches 1 (and is clamped
 /// there) from x ≈ 7.24 on (0.08x² − 0.56x − 0.14 ≥ 0), so clamping at 64 changes no output, while
@@ -35,6 +40,174 @@ pub fn exposed(linear: f64, exposure: f64) -> f64 {
 /// for any input: +inf and any huge finite value give 255, NaN gives 0.
 pub fn tonemap_channel(linear: f64, exposure: f64) -> f64 {
     srgb_encode(aces(exposed(linear, exposure))) * 255.0
+}
+
+/// The exposure of a camera at `ev100` (EV at ISO 100): the luminance that saturates it is
+/// L_max = 78/(S·q) · N²/t = 1.2 · 2^EV100 cd/m² (S = 100, q = 0.65), and exposure = 1 / L_max.
+pub fn ev100_exposure(ev100: f64) -> f64 {
+    1.0 / (1.2 * ev100.exp2())
+}
+
+/// The EV100 a reflected-light meter (K = 12.5) gives for an average luminance `avg` (cd/m²):
+/// log2(avg · S / K), S = 100.
+pub fn ev100_from_luminance(avg: f64) -> f64 {
+    (avg * 100.0 / 12.5).log2()
+}
+
+/// The automatic exposure for a frame whose measured average luminance is 2^`log2_avg`:
+/// `ev100_exposure(ev100_from_luminance(avg))` = 1 / (9.6 · avg).
+pub fn auto_exposure(log2_avg: f64) -> f64 {
+    ev100_exposure(log2_avg + 3.0)
+}
+
+/// Rec. 709 luminance weights (linear RGB → Y).
+pub const LUMINANCE: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
+/// The measurement's histogram (shaders/exposure.comp): `HISTOGRAM_BINS` bins of log2 of the
+/// pre-exposed luminance, 1/8 stop each, from `HISTOGRAM_LOG2_MIN` (lower values, zero and NaN
+/// in the first bin, higher ones and +inf in the last).
+pub const HISTOGRAM_BINS: usize = 256;
+/// Lower end of the histogram, in log2 of the pre-exposed luminance (2⁻²⁰, below f16's normals).
+pub const HISTOGRAM_LOG2_MIN: f64 = -20.0;
+/// Bins per stop.
+pub const HISTOGRAM_BINS_PER_STOP: f64 = 8.0;
+/// The average is taken over the pixels between these fractions of the sorted luminances: the
+/// darkest 80% (shadowed faces, a dark ground, a black sky) and the brightest 1.7% (highlights)
+/// do not move the exposure, so a sunlit surface covering a fifth of what is measured is exposed
+/// for (the percentiles of Unreal's histogram exposure).
+pub const PERCENTILES: (f64, f64) = (0.8, 0.983);
+/// Time constant of the adaptation between frames that follow each other (view, embedded), in
+/// seconds: a frame moves 1 − e^(−Δt/τ) of the way from the adapted luminance to its own.
+pub const ADAPTATION_SECONDS: f64 = 0.5;
+
+/// The histogram bin of a pre-exposed luminance `y`, as shaders/exposure.comp computes it.
+pub fn histogram_bin(y: f64) -> usize {
+    if y.is_nan() || y <= 0.0 {
+        return 0;
+    }
+    let b = ((y.log2() - HISTOGRAM_LOG2_MIN) * HISTOGRAM_BINS_PER_STOP).floor();
+    b.clamp(0.0, (HISTOGRAM_BINS - 1) as f64) as usize
+}
+
+/// The measured log2 of the scene's average luminance from a histogram (counts per bin) of the
+/// pre-exposed luminances: the mean of the bin centres between the `PERCENTILES`, each bin
+/// weighted by how many of its pixels lie between them, minus log2 of the pre-exposure.
+pub fn histogram_log2_average(bins: &[u32], pre_exposure_log2: f64) -> f64 {
+    let total: f64 = bins.iter().map(|&c| c as f64).sum();
+    let (lo, hi) = (PERCENTILES.0 * total, PERCENTILES.1 * total);
+    let (mut sum, mut weight, mut below) = (0.0, 0.0, 0.0);
+    for (i, &c) in bins.iter().enumerate() {
+        let above = below + c as f64;
+        let w = (above.min(hi) - below.max(lo)).max(0.0);
+        sum += w * bin_centre(i);
+        weight += w;
+        below = above;
+    }
+    let avg = if weight > 0.0 { sum / weight } else { HISTOGRAM_LOG2_MIN };
+    avg - pre_exposure_log2
+}
+
+/// log2 of the pre-exposed luminance at the centre of bin `i`.
+pub fn bin_centre(i: usize) -> f64 {
+    (i as f64 + 0.5) / HISTOGRAM_BINS_PER_STOP + HISTOGRAM_LOG2_MIN
+}
+
+/// The measured log2 average of a frame from its pre-exposed HDR colours (`hdr`, linear RGB) and
+/// whether each pixel shows a surface: the surfaces' pixels when there are any, else all.
+pub fn measure(hdr: &[[f64; 3]], surface: &[bool], pre_exposure_log2: f64) -> f64 {
+    let mut bins = [vec![0u32; HISTOGRAM_BINS], vec![0u32; HISTOGRAM_BINS]];
+    for (c, &s) in hdr.iter().zip(surface) {
+        let y = c[0] * LUMINANCE[0] + c[1] * LUMINANCE[1] + c[2] * LUMINANCE[2];
+        let b = histogram_bin(y);
+        bins[0][b] += 1;
+        if s {
+            bins[1][b] += 1;
+        }
+    }
+    let any_surface = bins[1].iter().any(|&c| c > 0);
+    histogram_log2_average(if any_surface { &bins[1] } else { &bins[0] }, pre_exposure_log2)
+}
+
+/// The brightest a lit surface of `scene` can be, per channel, before exposure: ambient plus
+/// every light's colour × intensity (albedo ≤ 1, n·l ≤ 1).
+pub fn lit_max(scene: &Scene) -> f64 {
+    let lit = scene.lights.iter().fold(scene.render.ambient, |sum, l| sum + l.color * l.intensity);
+    lit.max_element()
+}
+
+/// The largest value a lit surface may reach in the HDR target after pre-exposure: 16× below
+/// RGBA16F's largest (65504) leaves room for the specular highlights and the waves' glow.
+pub const PRE_EXPOSED_MAX: f64 = 4096.0;
+
+/// The pre-exposure p of a frame of `scene`: every radiance written into the HDR target (lights,
+/// ambient, background, the waves' glow) is multiplied by p on the host, and the tonemap by
+/// exposure / p, so what reaches the curve is the scene-linear colour × exposure whatever p is,
+/// while the HDR target holds values near 1 instead of lux.
+///
+/// - A linear `exposure` whose lit surfaces fit the HDR target (every scene written before
+///   physical units): p = 1, the frame as it always was, bit for bit.
+/// - Otherwise a power of two, so scaling is exact: the one nearest the exposure (`exposure_ev100`,
+///   a linear exposure), or 1 / `lit_max` (`"auto"`, whose exposure is not known before the
+///   frame), and never so large that a lit surface passes `PRE_EXPOSED_MAX`.
+pub fn pre_exposure(scene: &Scene) -> f64 {
+    let lit = lit_max(scene);
+    let r = &scene.render;
+    if r.exposure_mode == ExposureMode::Linear && lit <= crate::scene::file::MAX_HDR {
+        return 1.0;
+    }
+    let nominal = match r.exposure_mode {
+        ExposureMode::Linear | ExposureMode::Ev100(_) => r.exposure,
+        ExposureMode::Auto if lit > 0.0 => 1.0 / lit,
+        ExposureMode::Auto => 1.0,
+    };
+    let mut log2 = nominal.log2().round();
+    if lit > 0.0 {
+        log2 = log2.min((PRE_EXPOSED_MAX / lit).log2().floor());
+    }
+    // f64 holds 2^±1000; what is multiplied by p is cast to f32 only after.
+    log2.clamp(-1000.0, 1000.0).exp2()
+}
+
+/// The factor the tonemap multiplies the pre-exposed HDR value by for a fixed exposure:
+/// exposure / p, kept within f32 (the push constant). For `"auto"` where no measurement is made
+/// (`estimated_log2_luminance`), the exposure estimated from the lights.
+pub fn tonemap_factor(scene: &Scene) -> f64 {
+    let exposure = match scene.render.exposure_mode {
+        ExposureMode::Auto => auto_exposure(estimated_log2_luminance(scene)),
+        _ => scene.render.exposure,
+    };
+    (exposure / pre_exposure(scene)).min(f32::MAX as f64)
+}
+
+/// The average luminance an automatic exposure assumes before (or without) measuring a frame:
+/// a surface of albedo 0.5 lit by every light at 60° (a quarter of `lit_max`), log2.
+pub fn estimated_log2_luminance(scene: &Scene) -> f64 {
+    let lit = lit_max(scene);
+    if lit > 0.0 {
+        (0.25 * lit).log2()
+    } else {
+        0.0
+    }
+}
+
+/// The adapted log2 luminance after a frame measured `measured` Δt = `dt` seconds after the
+/// adapted value `adapted` (None: the first frame, which takes its own measurement). The form
+/// a + (m − a)·w keeps a when m = a exactly, so a still scene's frames stay bit-identical.
+pub fn adapt(adapted: Option<f64>, measured: f64, dt: f64) -> f64 {
+    match adapted {
+        None => measured,
+        Some(a) => a + (measured - a) * adaptation_weight(dt),
+    }
+}
+
+/// How far a frame Δt seconds after the last adapted one moves toward its own measurement:
+/// 1 − e^(−Δt/τ), 1 for Δt = ∞; Δt ≤ 0 (or NaN) keeps the adapted value.
+pub fn adaptation_weight(dt: f64) -> f64 {
+    if dt.is_nan() || dt <= 0.0 {
+        0.0
+    } else {
+        1.0 - (-dt / ADAPTATION_SECONDS).exp()
+    }
 }
 
 #[cfg(test)]

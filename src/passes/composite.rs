@@ -96,7 +96,9 @@ impl Pass for CompositePass {
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
-        self.params = Params { exposure: frame.scene.render.exposure as f32, mode: mode_for(self.format) };
+        // exposure / pre-exposure: the HDR target is pre-exposed (`effects::tonemap::pre_exposure`).
+        let exposure = crate::effects::tonemap::tonemap_factor(frame.scene) as f32;
+        self.params = Params { exposure, mode: mode_for(self.format) };
         Ok(vec![Binding::Image(Target::Hdr)])
     }
 

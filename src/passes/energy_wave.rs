@@ -105,7 +105,10 @@ impl Pass for EnergyWavePass {
             .filter(|(s, _)| s.a != 0.0 || s.b != 0.0)
             .collect();
         let waves: Vec<GpuWave> = live.iter().map(|(s, _)| gpu_wave(&wave_params(s), camera)).collect();
-        let styles: Vec<WaveStyle> = live.iter().map(|(s, m)| wave_style(s, *m)).collect();
+        // The glow is pre-exposed as the frame's other radiances (`effects::tonemap::pre_exposure`).
+        let p = crate::effects::tonemap::pre_exposure(scene);
+        let styles: Vec<WaveStyle> =
+            live.iter().map(|(s, m)| wave_style(&WaveState { emission: s.emission * p, ..*s }, *m)).collect();
         self.params = EnergyWaveParams { counts: [waves.len() as u32, 0, 0, 0] };
         self.extent = frame.extent;
         // The shader reads wave 0 before its loop (count 0 still binds one, zeroed, unused).

@@ -104,19 +104,22 @@ fn mat3_as_mat4(m: DMat3) -> [[f32; 4]; 4] {
 }
 
 impl FrameUniforms {
+    /// The radiances (lights, ambient, background) are pre-exposed: multiplied by
+    /// `effects::tonemap::pre_exposure` (1 for every scene with a linear exposure that fits).
     pub fn new(scene: &Scene, width: u32, height: u32) -> Self {
+        let p = crate::effects::tonemap::pre_exposure(scene);
         let mut lights = [GpuLight::default(); MAX_LIGHTS];
         for (slot, light) in lights.iter_mut().zip(&scene.lights) {
             slot.direction = vec4_f32(light.direction, 0.0);
-            slot.radiance = vec4_f32(light.color * light.intensity, 0.0);
+            slot.radiance = vec4_f32(light.color * light.intensity * p, 0.0);
         }
         let [ray_right, ray_up, mut ray_forward] = scene.camera.ray_frame(width, height).to_f32();
         ray_forward[3] = scene.camera.far as f32;
         FrameUniforms {
             view_proj: mat4_f32(scene.camera.view_projection(width, height)),
             camera_pos: vec4_f32(scene.camera.position, 1.0),
-            ambient: vec4_f32(scene.render.ambient, 0.0),
-            background: vec4_f32(scene.render.background, 1.0),
+            ambient: vec4_f32(scene.render.ambient * p, 0.0),
+            background: vec4_f32(scene.render.background * p, 1.0),
             counts: [scene.lights.len().min(MAX_LIGHTS) as u32, width, height, scene.instances.len() as u32],
             lights,
             ray_right,
@@ -155,9 +158,11 @@ pub fn instance_records(scene: &Scene) -> (Vec<InstanceData>, Vec<(u32, u32)>) {
 
 pub fn material_records(scene: &Scene) -> Vec<MaterialData> {
     use crate::scene::{MaterialKind, ThicknessMode};
+    // Emission is a radiance written into the HDR target: pre-exposed as the lights are.
+    let p = crate::effects::tonemap::pre_exposure(scene);
     let record = |m: &crate::scene::Material| {
         let albedo = vec4_f32(m.albedo, m.surface.alpha as f32);
-        let emission = vec4_f32(m.surface.emission, m.surface.alpha_cutoff as f32);
+        let emission = vec4_f32(m.surface.emission * p, m.surface.alpha_cutoff as f32);
         match m.kind {
             MaterialKind::Lambert => {
                 MaterialData { albedo, kind: [MATERIAL_LAMBERT, 0, 0, 0], sigma: [0.0; 4], emission }

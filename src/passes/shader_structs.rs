@@ -32,6 +32,12 @@ fn table() -> Vec<Row> {
         ),
         ("energy_probe.comp", vec![], vec![GpuWave::layout(), super::energy_probe::ProbeParams::layout()]),
         ("tonemap.comp", vec![], vec![super::tonemap::Params::layout()]),
+        (
+            "tonemap.comp",
+            vec![("AUTO_EXPOSURE", "1")],
+            vec![super::tonemap::Params::layout(), super::tonemap::Measured::layout()],
+        ),
+        ("exposure.comp", vec![], vec![super::tonemap::Params::layout(), super::tonemap::Measured::layout()]),
         ("composite.frag", vec![], vec![super::composite::Params::layout()]),
         ("depth_out.frag", vec![], [frame(), vec![super::depth_out::Params::layout()]].concat()),
         ("depth_import.comp", vec![], [frame(), vec![super::depth_import::Params::layout()]].concat()),
@@ -142,5 +148,11 @@ fn rust_structs_have_their_shader_twins_sizes() {
     assert_eq!(element(&tr, 0), size(size_of::<TranslucencyParams>()));
     assert_eq!(element(&tr, 10), size(size_of::<MaterialData>()));
     assert_eq!(element(&tr, 12), size(size_of::<FrameUniforms>()));
-    assert_eq!(interface("tonemap.comp", &[]).push_bytes, 12);
+    assert_eq!(interface("tonemap.comp", &[]).push_bytes, 24);
+    let auto = interface("tonemap.comp", &[("AUTO_EXPOSURE", "1")]);
+    assert_eq!(auto.push_bytes, size(size_of::<super::tonemap::Params>()));
+    assert_eq!(element(&auto, 3), size(size_of::<super::tonemap::Measured>()));
+    let measure = interface("exposure.comp", &[]);
+    assert_eq!(measure.push_bytes, size(size_of::<super::tonemap::Params>()));
+    assert_eq!(element(&measure, 3), size(size_of::<super::tonemap::Measured>()));
 }

@@ -1,38 +1,114 @@
 //! tonemap: HDR → sRGB with exposure and the ACES filmic curve (Narkowicz 2015 fit), into hadou's
 //! own `ldr` image. Runs when hadou's result is its own image (headless); a game's colour target
 //! gets `composite` instead. CPU twin: `effects::tonemap::tonemap_pixel`.
+//!
+//! The HDR target is pre-exposed (`effects::tonemap::pre_exposure`): a fixed exposure multiplies
+//! it by exposure / pre-exposure. `exposure = "auto"` runs shaders/exposure.comp first, one
+//! workgroup measuring this frame's luminance into a small host-visible buffer of the slot, which
+//! tonemap.comp reads in the same frame: nothing waits for the GPU. Frames that follow each other
+//! are smoothed: when the slot comes round again (its frame finished) its measurement is read back
+//! and folded into the adapted luminance (`effects::tonemap::adapt`, by wall-clock time), which
+//! later frames start from; a first frame (a headless render) uses its own measurement alone.
 
-use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
+use std::time::Instant;
+
+use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
+use crate::effects::tonemap::{adapt, adaptation_weight, pre_exposure, tonemap_factor};
 use crate::gpu::barriers::ImageAccess;
-use crate::gpu::pipeline::{create_compute_pipeline, Pipeline};
+use crate::gpu::memory::{Buffer, MemoryLocation};
+use crate::gpu::pipeline::{create_compute_pipeline, BufferRange, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
-use crate::gpu::{GpuContext, GpuResult};
+use crate::gpu::{vk, GpuContext, GpuResult};
+use crate::scene::ExposureMode;
 use crate::targets::Target;
 
 pub struct TonemapPass {
+    /// Fixed exposure (tonemap.comp as it is).
     pipeline: Pipeline,
+    /// `exposure = "auto"`: the measurement, then tonemap.comp with AUTO_EXPOSURE.
+    measure: Pipeline,
+    auto: Pipeline,
     params: Params,
+    /// This frame measures its exposure.
+    auto_frame: bool,
+    /// Per frame slot: the measurement buffer, and when the frame that last wrote it was
+    /// prepared (None once read back, or when that frame had a fixed exposure).
+    slots: Vec<(Buffer, Option<Instant>)>,
+    /// The adapted log2 luminance and when the frame it last took in was prepared.
+    adapted: Option<(f64, Instant)>,
+    slot: usize,
 }
 
-/// Push constants of shaders/tonemap.comp (size checked against the shader).
+/// Push constants of shaders/tonemap.comp and shaders/exposure.comp (common/exposure.glsl; size
+/// checked against the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct Params {
     exposure: f32,
     width: u32,
     height: u32,
+    pre_log2: f32,
+    history: f32,
+    weight: f32,
 }
 
-crate::gpu::layout::gpu_layout!(Params as "Params" { exposure, width, height });
+crate::gpu::layout::gpu_layout!(Params as "Params" { exposure, width, height, pre_log2, history, weight });
+
+/// What shaders/exposure.comp writes (`Measured`).
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct Measured {
+    /// log2 of the scene's measured average luminance (cd/m² in physical units).
+    pub log2_average: f32,
+    pub pixels: u32,
+    pub surfaces: u32,
+    pub unused: u32,
+}
+
+crate::gpu::layout::gpu_layout!(Measured as "Measured" { log2_average, pixels, surfaces, unused });
 
 impl TonemapPass {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
-        let spirv = compiler.compile("tonemap.comp", &[])?;
         let push = std::mem::size_of::<Params>() as u32;
+        let spirv = compiler.compile("tonemap.comp", &[])?;
+        let pipeline = create_compute_pipeline(ctx, "tonemap", &spirv, push)?;
+        let spirv = compiler.compile("exposure.comp", &[])?;
+        let measure = create_compute_pipeline(ctx, "exposure", &spirv, push)?;
+        let spirv = compiler.compile("tonemap.comp", &[("AUTO_EXPOSURE", "1")])?;
+        let auto = create_compute_pipeline(ctx, "tonemap_auto", &spirv, push)?;
         Ok(TonemapPass {
-            pipeline: create_compute_pipeline(ctx, "tonemap", &spirv, push)?,
+            pipeline,
+            measure,
+            auto,
             params: Params::default(),
+            auto_frame: false,
+            slots: Vec::new(),
+            adapted: None,
+            slot: 0,
         })
+    }
+
+    /// The adapted log2 luminance of the automatic exposure (None before a measurement has been
+    /// read back, or with a fixed exposure).
+    pub fn adapted_log2_luminance(&self) -> Option<f64> {
+        self.adapted.map(|(l, _)| l)
+    }
+
+    /// Folds the measurement of the slot's finished frame into the adapted luminance.
+    fn read_back(&mut self, slot: usize) {
+        let Some((buffer, pending)) = self.slots.get_mut(slot) else { return };
+        let Some(at) = pending.take() else { return };
+        let Some(bytes) = buffer.mapped() else { return };
+        let Some(m) = bytes.get(..std::mem::size_of::<Measured>()) else { return };
+        let measured = bytemuck::pod_read_unaligned::<Measured>(m).log2_average as f64;
+        if !measured.is_finite() {
+            return;
+        }
+        let adapted = match self.adapted {
+            None => measured,
+            Some((a, since)) => adapt(Some(a), measured, at.saturating_duration_since(since).as_secs_f64()),
+        };
+        self.adapted = Some((adapted, at));
     }
 }
 
@@ -42,26 +118,78 @@ impl Pass for TonemapPass {
     }
 
     fn images(&self) -> Vec<ImageUse> {
-        vec![
+        let mut images = vec![
             ImageUse::new(Target::Hdr, ImageAccess::COMPUTE_READ),
             ImageUse::new(Target::Ldr, ImageAccess::COMPUTE_WRITE),
-        ]
+        ];
+        if self.auto_frame {
+            images.push(ImageUse::new(Target::Ids, ImageAccess::COMPUTE_READ));
+        }
+        images
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let e = frame.extent;
-        self.params =
-            Params { exposure: frame.scene.render.exposure as f32, width: e.width, height: e.height };
-        Ok(vec![Binding::Image(Target::Hdr), Binding::Image(Target::Ldr)])
+        let scene = frame.scene;
+        self.auto_frame = scene.render.exposure_mode == ExposureMode::Auto;
+        self.slot = frame.slot;
+        let mut params = Params { width: e.width, height: e.height, ..Params::default() };
+        if !self.auto_frame {
+            // Back to a fixed exposure: the next automatic one starts afresh.
+            self.adapted = None;
+            self.slots.iter_mut().for_each(|(_, pending)| *pending = None);
+            params.exposure = tonemap_factor(scene) as f32;
+            self.params = params;
+            return Ok(vec![Binding::Image(Target::Hdr), Binding::Image(Target::Ldr)]);
+        }
+        while self.slots.len() <= frame.slot {
+            let size = std::mem::size_of::<Measured>() as u64;
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            let buffer =
+                frame.memory.create_buffer(frame.ctx, "exposure", size, usage, MemoryLocation::GpuToCpu)?;
+            self.slots.push((buffer, None));
+        }
+        self.read_back(frame.slot);
+        let now = Instant::now();
+        params.pre_log2 = pre_exposure(scene).log2() as f32;
+        (params.history, params.weight) = match self.adapted {
+            None => (0.0, 1.0),
+            Some((a, since)) => {
+                (a as f32, adaptation_weight(now.saturating_duration_since(since).as_secs_f64()) as f32)
+            }
+        };
+        self.slots[frame.slot].1 = Some(now);
+        self.params = params;
+        let buffer = BufferRange::whole(self.slots[frame.slot].0.raw);
+        Ok(vec![
+            Binding::Image(Target::Hdr),
+            Binding::Image(Target::Ldr),
+            Binding::Image(Target::Ids),
+            Binding::Written(buffer, Reader::Host),
+        ])
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
-        vec![&self.pipeline]
+        if self.auto_frame {
+            vec![&self.measure, &self.auto]
+        } else {
+            vec![&self.pipeline]
+        }
     }
 
     fn record(&self, pass: &PassRecording) {
-        pass.rec.bind_pipeline(&self.pipeline, pass.set(0));
-        pass.rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
-        pass.rec.dispatch_2d(self.params.width, self.params.height, (8, 8));
+        let (w, h) = (self.params.width, self.params.height);
+        if self.auto_frame {
+            pass.rec.bind_pipeline(&self.measure, pass.set(0));
+            pass.rec.push_constants(&self.measure, bytemuck::bytes_of(&self.params));
+            pass.rec.dispatch_groups(1, 1);
+            pass.rec.compute_to_compute_barrier();
+            pass.rec.bind_pipeline(&self.auto, pass.set(1));
+            pass.rec.push_constants(&self.auto, bytemuck::bytes_of(&self.params));
+        } else {
+            pass.rec.bind_pipeline(&self.pipeline, pass.set(0));
+            pass.rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
+        }
+        pass.rec.dispatch_2d(w, h, (8, 8));
     }
 }

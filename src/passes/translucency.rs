@@ -216,7 +216,10 @@ impl TranslucentFrame {
         TranslucentFrame {
             view,
             view_data,
-            radiance: scene.lights.first().map_or(glam::DVec3::ZERO, |l| l.color * l.intensity),
+            // Pre-exposed as the frame's other radiances (`effects::tonemap::pre_exposure`).
+            radiance: scene.lights.first().map_or(glam::DVec3::ZERO, |l| {
+                l.color * l.intensity * crate::effects::tonemap::pre_exposure(scene)
+            }),
             draws: draw_runs(scene),
             instances: instance_table(scene, &data.keys),
             map_size: light_map_size(scene),

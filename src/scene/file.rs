@@ -15,13 +15,16 @@ use super::file_check::{
 };
 use super::file_gltf::gltf_files;
 use super::file_mesh::meshes;
-use super::file_schema::{CameraDef, InstanceDef, LightDef, MaterialDef, OpDef, RenderDef, SceneDef, Tables};
+use super::file_schema::{
+    CameraDef, InstanceDef, LightDef, MaterialDef, NumOrWord, OpDef, RenderDef, SceneDef, Tables,
+};
 use super::model::{
-    DirectionalLight, Instance, Material, MaterialKind, MetaballGroup, RenderSettings, Scene, SceneMesh,
-    ThicknessMode,
+    DirectionalLight, ExposureMode, Instance, Material, MaterialKind, MetaballGroup, RenderSettings, Scene,
+    SceneMesh, ThicknessMode,
 };
 use super::transform::{Transform, TransformOp};
 use crate::effect::{EffectStates, Effects, SceneFile};
+use crate::effects::tonemap::ev100_exposure;
 
 /// The most directional lights a scene may have (the raster pass's uniform array).
 pub const MAX_LIGHTS: usize = 8;
@@ -30,8 +33,8 @@ pub const MAX_IMAGE_SIZE: u32 = 16384;
 /// Name and albedo of the material instances get when they name none.
 pub const DEFAULT_MATERIAL: &str = "default";
 /// The largest colour the HDR target (RGBA16F) holds; more would be stored as +inf. The
-/// background, and a lit surface's ambient + Σ colour × intensity of the lights (albedo ≤ 1), are
-/// kept at or below it.
+/// background and the ambient are kept at or below it; the lights are not limited: the frame is
+/// pre-exposed so that a lit surface stays well below it (`effects::tonemap::pre_exposure`).
 pub const MAX_HDR: f64 = 65504.0;
 /// The largest far / near ratio. A surface at view depth z gets the reverse-Z depth
 /// near·(far − z)/(z·(far − near)), about near/far for z = far/2: it must stay a normal f32
@@ -92,7 +95,7 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
         (None, false) => None,
         (c, _) => Some(camera(ctx, c.as_ref())?),
     };
-    let mut lights = lights(ctx, &def.light, render.ambient)?;
+    let mut lights = lights(ctx, &def.light)?;
     let mut meshes = meshes(ctx, &def.mesh)?;
     let mut materials = Materials::new(materials(ctx, &def.material)?);
     let mut instances = instances(ctx, &def.instance, &meshes, &mut materials)?;
@@ -101,7 +104,7 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
     let cell = std::cell::RefCell::new(materials);
     let effects = effect_states(SceneFile::with_materials(text, path, &cell), &tables, effects)?;
     let mut materials = cell.into_inner();
-    let placed = gltf_files(ctx, &def.gltf, render.ambient, &mut meshes, &mut materials, &mut instances)?;
+    let placed = gltf_files(ctx, &def.gltf, &mut meshes, &mut materials, &mut instances)?;
     let camera = match (toml_camera, placed.camera) {
         (Some(c), _) => c,
         (None, Some(g)) => g.camera,
@@ -176,11 +179,41 @@ fn render(ctx: Ctx, def: Option<&Spanned<RenderDef>>) -> Result<RenderSettings, 
             };
         }
     }
-    r.exposure = o.num("exposure", d.exposure.as_ref(), r.exposure, F32_NORMAL)?;
+    (r.exposure, r.exposure_mode) = exposure(&o, d)?;
     r.background = o.vec3("background", d.background.as_ref(), r.background, HDR)?;
     r.ambient = o.vec3("ambient", d.ambient.as_ref(), r.ambient, HDR)?;
     Ok(r)
 }
+
+/// `exposure` (a number or `"auto"`) or `exposure_ev100`, at most one of them.
+fn exposure(o: &Owner, d: &RenderDef) -> Result<(f64, ExposureMode), SceneError> {
+    let linear = RenderSettings::default().exposure;
+    match (&d.exposure, &d.exposure_ev100) {
+        (Some(_), Some(ev)) => Err(o.fail(
+            ev.span(),
+            "exposure_ev100",
+            "either `exposure` or `exposure_ev100`, not both",
+            "both",
+        )),
+        (None, None) => Ok((linear, ExposureMode::Linear)),
+        (None, Some(ev)) => {
+            let ev100 = o.check_num("exposure_ev100", ev, EV100)?;
+            Ok((ev100_exposure(ev100), ExposureMode::Ev100(ev100)))
+        }
+        (Some(e), None) => match e.get_ref() {
+            NumOrWord::Word(w) if w == "auto" => Ok((linear, ExposureMode::Auto)),
+            NumOrWord::Word(w) => Err(o.fail(e.span(), "exposure", "a number or \"auto\"", format!("{w:?}"))),
+            NumOrWord::Num(n) => {
+                let v = Spanned::new(e.span(), *n);
+                Ok((o.check_num("exposure", &v, F32_NORMAL)?, ExposureMode::Linear))
+            }
+        },
+    }
+}
+
+/// `exposure_ev100`: 1 / (1.2 · 2^EV100) must be a normal f32 and so must its inverse (the
+/// pre-exposure, effects::tonemap::pre_exposure): |EV100| ≤ 120 keeps both within 2^±121.
+const EV100: Rule = Rule { ok: |v| (-120.0..=120.0).contains(&v), bound: "in [-120, 120]" };
 
 fn camera(ctx: Ctx, def: Option<&Spanned<CameraDef>>) -> Result<Camera, SceneError> {
     let def = def.ok_or_else(|| {
@@ -256,7 +289,7 @@ fn check_up(o: &Owner, c: &CameraDef, up: DVec3, forward: DVec3) -> Result<(), S
     Err(o.fail(span, "up", &expected, format!("{}{default}", show_vec(up))))
 }
 
-fn lights(ctx: Ctx, defs: &Tables<LightDef>, ambient: DVec3) -> Result<Vec<DirectionalLight>, SceneError> {
+fn lights(ctx: Ctx, defs: &Tables<LightDef>) -> Result<Vec<DirectionalLight>, SceneError> {
     if let Some(extra) = defs.0.get(MAX_LIGHTS) {
         let message =
             format!("too many [[light]] tables (expected at most {MAX_LIGHTS}, found {})", defs.0.len());
@@ -265,39 +298,7 @@ fn lights(ctx: Ctx, defs: &Tables<LightDef>, ambient: DVec3) -> Result<Vec<Direc
     let light_at = |(i, def): (usize, &Spanned<LightDef>)| {
         light(Owner::new(ctx, format!("light {}", i + 1), def.span()), def.get_ref())
     };
-    let lights: Vec<DirectionalLight> = defs.0.iter().enumerate().map(light_at).collect::<Result<_, _>>()?;
-    check_light_sum(ctx, defs, ambient, &lights)?;
-    Ok(lights)
-}
-
-/// A lit surface's colour is at most ambient + Σ colour × intensity (albedo ≤ 1, n·l ≤ 1): kept
-/// within `MAX_HDR` so the HDR target holds it. Refused at the light that passes it.
-fn check_light_sum(
-    ctx: Ctx,
-    defs: &Tables<LightDef>,
-    ambient: DVec3,
-    lights: &[DirectionalLight],
-) -> Result<(), SceneError> {
-    let mut sum = ambient;
-    for (i, (light, def)) in lights.iter().zip(&defs.0).enumerate() {
-        let radiance = light.color * light.intensity;
-        sum += radiance;
-        if sum.max_element() <= MAX_HDR {
-            continue;
-        }
-        let d = def.get_ref();
-        let (field, span) = match (&d.intensity, &d.color) {
-            (Some(v), _) => ("intensity", v.span()),
-            (None, Some(v)) => ("color", v.span()),
-            (None, None) => ("intensity", def.span()),
-        };
-        let o = Owner::new(ctx, format!("light {}", i + 1), def.span());
-        let expected = "colour × intensity with ambient + the sum over lights <= 65504 per channel (the HDR \
-                        target is 16-bit float)";
-        let found = format!("{} × {} (sum {})", show_vec(light.color), show(light.intensity), show_vec(sum));
-        return Err(o.fail(span, field, expected, found));
-    }
-    Ok(())
+    defs.0.iter().enumerate().map(light_at).collect()
 }
 
 fn light(o: Owner, def: &LightDef) -> Result<DirectionalLight, SceneError> {

@@ -2,11 +2,8 @@
 //! The file's meshes, materials and instances are appended to the scene's; its camera and lights
 //! are used only where the TOML gives none (parse_scene decides).
 
-use glam::DVec3;
-use toml::Spanned;
-
 use super::error::SceneError;
-use super::file::{transform, Materials, MAX_HDR, MAX_LIGHTS};
+use super::file::{transform, Materials, MAX_LIGHTS};
 use super::file_check::{Ctx, Owner};
 use super::file_schema::{GltfDef, Tables};
 use super::gltf::{import, placed_by_transform, GltfCamera, ImportOptions, Spent};
@@ -24,13 +21,11 @@ pub(super) struct Placed {
 pub(super) fn gltf_files(
     ctx: Ctx,
     defs: &Tables<GltfDef>,
-    ambient: DVec3,
     meshes: &mut Vec<SceneMesh>,
     materials: &mut Materials,
     instances: &mut Vec<Instance>,
 ) -> Result<Placed, SceneError> {
     let mut placed = Placed { camera: None, lights: Vec::new() };
-    let mut light_sum = ambient;
     // The scene's files share one decoding budget (docs/scene-format.md, "glTF budgets").
     let mut spent = Spent::default();
     for (i, def) in defs.0.iter().enumerate() {
@@ -49,7 +44,7 @@ pub(super) fn gltf_files(
         let (base, _) = transform(&o, d.transform.as_ref())?;
         let voxel_res =
             o.count("voxel_res", d.voxel_res.as_ref(), DEFAULT_VOXEL_RES, MIN_VOXEL_RES, MAX_VOXEL_RES)?;
-        let options = ImportOptions { base, label: format!("{label}: "), voxel_res, ambient, spent };
+        let options = ImportOptions { base, label: format!("{label}: "), voxel_res, spent };
         // An instance the `transform` takes out of the numeric limits is placed at the `transform`.
         let imp = import(&file, &options).map_err(|e| match d.transform.as_ref() {
             Some(t) if placed_by_transform(&e) => {
@@ -75,19 +70,8 @@ pub(super) fn gltf_files(
                 log::warn!("{}: {label}: lights past the {MAX_LIGHTS}th are not used", ctx.path.display());
                 break;
             }
-            light_sum += light.color * light.intensity;
-            if light_sum.max_element() > MAX_HDR {
-                return Err(too_bright(ctx, path, &label, light_sum));
-            }
             placed.lights.push(light);
         }
     }
     Ok(placed)
-}
-
-fn too_bright(ctx: Ctx, path: &Spanned<String>, label: &str, sum: DVec3) -> SceneError {
-    let message = format!(
-        "{label} `path`: the file's lights with the scene's ambient and earlier files' lights reach {sum} (expected <= 65504 per channel: the HDR target is 16-bit float)"
-    );
-    ctx.err(path.span(), message)
 }

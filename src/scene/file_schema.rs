@@ -35,7 +35,8 @@ pub(crate) struct SceneDef {
 #[serde(deny_unknown_fields, expecting = "a [render] table")]
 pub(crate) struct RenderDef {
     pub size: Option<Array<Spanned<Int>, 2>>,
-    pub exposure: Option<Spanned<Num>>,
+    pub exposure: Option<Spanned<NumOrWord>>,
+    pub exposure_ev100: Option<Spanned<Num>>,
     pub background: Option<Spanned<Array<Num, 3>>>,
     pub ambient: Option<Spanned<Array<Num, 3>>>,
 }
@@ -179,6 +180,14 @@ pub(crate) struct RotateDef {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Num(pub f64);
 
+/// A finite number (as `Num`) or a string (`exposure = "auto"`); which strings are allowed is
+/// checked where the value is read.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum NumOrWord {
+    Num(Num),
+    Word(String),
+}
+
 /// A TOML integer (a float such as `32.0` is refused: counts and sizes are whole).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Int(pub i64);
@@ -308,6 +317,34 @@ impl Visitor<'_> for NumVisitor {
 impl<'de> Deserialize<'de> for Num {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Num, D::Error> {
         d.deserialize_any(NumVisitor)
+    }
+}
+
+struct NumOrWordVisitor;
+
+impl Visitor<'_> for NumOrWordVisitor {
+    type Value = NumOrWord;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a finite number or a string")
+    }
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<NumOrWord, E> {
+        NumVisitor.visit_i64(v).map(NumOrWord::Num)
+    }
+    fn visit_u64<E: de::Error>(self, v: u64) -> Result<NumOrWord, E> {
+        NumVisitor.visit_u64(v).map(NumOrWord::Num)
+    }
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<NumOrWord, E> {
+        NumVisitor.visit_f64(v).map(NumOrWord::Num)
+    }
+    fn visit_str<E: de::Error>(self, v: &str) -> Result<NumOrWord, E> {
+        Ok(NumOrWord::Word(v.to_owned()))
+    }
+}
+
+impl<'de> Deserialize<'de> for NumOrWord {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<NumOrWord, D::Error> {
+        d.deserialize_any(NumOrWordVisitor)
     }
 }
 

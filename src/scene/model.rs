@@ -38,12 +38,29 @@ pub struct RenderSettings {
     pub width: u32,
     /// Default image height in pixels (1..=16384); the CLI's --size overrides it.
     pub height: u32,
-    /// Linear multiplier applied before tonemapping.
+    /// The linear factor the scene-linear HDR colour is multiplied by before the tonemap curve:
+    /// `exposure` as written, or 1 / (1.2 · 2^EV100) for `exposure_ev100`. Unused (1) when
+    /// `exposure_mode` is `Auto`, whose factor is measured from each frame.
     pub exposure: f64,
+    /// How the file gave the exposure: what `exposure` means.
+    pub exposure_mode: ExposureMode,
     /// Linear HDR colour where no surface is hit.
     pub background: DVec3,
     /// Linear ambient light added to every lit surface (times its albedo).
     pub ambient: DVec3,
+}
+
+/// How `[render]` gives the exposure (docs/scene-format.md, "Exposure and light units").
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum ExposureMode {
+    /// `exposure = <number>` or none: `RenderSettings::exposure` as written (default 1).
+    #[default]
+    Linear,
+    /// `exposure_ev100 = <number>`: `RenderSettings::exposure` = 1 / (1.2 · 2^EV100).
+    Ev100(f64),
+    /// `exposure = "auto"`: from each frame's luminance (`effects::tonemap::auto_exposure`),
+    /// smoothed over time when frames follow each other.
+    Auto,
 }
 
 /// A `[[light]]`: a directional light, at infinite distance.
@@ -169,6 +186,7 @@ impl Default for RenderSettings {
             width: 512,
             height: 512,
             exposure: 1.0,
+            exposure_mode: ExposureMode::Linear,
             background: DVec3::new(0.02, 0.02, 0.03),
             ambient: DVec3::splat(0.08),
         }

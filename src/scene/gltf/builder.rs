@@ -1,16 +1,14 @@
 //! The scene parts of one file as they are built: one hadou mesh per drawable primitive (shared
 //! by every node that uses it), one hadou material per glTF material and mesh closedness, one
-//! instance per (node, primitive), and the lights with their sum kept within the HDR target.
+//! instance per (node, primitive), and the lights.
 
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::DVec3;
-
 use super::ignored::Ignored;
 use super::material::Shape;
 use super::{accessor, material, primitive, GltfError, ImportOptions};
-use crate::scene::file::{MAX_HDR, MAX_LIGHTS};
+use crate::scene::file::MAX_LIGHTS;
 use crate::scene::mesh::{Mesh, MeshSpec};
 use crate::scene::model::{DirectionalLight, Instance, Material, SceneMesh};
 use crate::scene::transform::{Transform, TransformOp};
@@ -30,7 +28,6 @@ pub(super) struct Builder<'a> {
     looks: HashMap<Option<usize>, material::Look>,
     /// (glTF material, mesh shape) → hadou material.
     used: HashMap<(Option<usize>, Shape), usize>,
-    light_sum: DVec3,
 }
 
 impl<'a> Builder<'a> {
@@ -46,7 +43,6 @@ impl<'a> Builder<'a> {
             built: HashMap::new(),
             looks: HashMap::new(),
             used: HashMap::new(),
-            light_sum: DVec3::ZERO,
         }
     }
 
@@ -163,21 +159,13 @@ impl<'a> Builder<'a> {
         Ok(i)
     }
 
-    /// Keeps at most `MAX_LIGHTS`, and the lit colour (ambient + Σ colour × intensity) within the
-    /// HDR target, as for TOML lights.
+    /// Keeps at most `MAX_LIGHTS`. Their intensity is not limited: the frame is pre-exposed
+    /// (`effects::tonemap::pre_exposure`), so no light overflows the HDR target.
     pub fn push_light(&mut self, l: DirectionalLight, index: usize) -> Result<(), GltfError> {
         let at = format!("/extensions/KHR_lights_punctual/lights/{index}");
         if self.lights.len() == MAX_LIGHTS {
             self.ignored.add("directional lights past the 8th", at);
             return Ok(());
-        }
-        self.light_sum += l.color * l.intensity;
-        let sum = self.options.ambient + self.light_sum;
-        if sum.max_element() > MAX_HDR {
-            let message = format!(
-                "ambient + the sum of the lights' colour × intensity reaches {sum} (expected <= 65504 per channel: the HDR target is 16-bit float)"
-            );
-            return Err(GltfError::at(self.path, format!("{at}/intensity"), message));
         }
         self.lights.push(l);
         Ok(())

@@ -1,6 +1,11 @@
 //! `KHR_lights_punctual` directional lights → hadou's directional lights. A directional light
-//! shines down its node's −z; `color` and `intensity` are taken as they are (glTF gives lux,
-//! hadou a dimensionless factor: an intensity of 1 lights a white surface facing it to 1).
+//! shines down its node's −z with `color` as it is and its `intensity` in lux (the spec's unit):
+//! a white Lambertian surface facing it has luminance E/π cd/m², so hadou's intensity (the
+//! luminance it gives such a surface, `DirectionalLight::intensity`) is lux / π. Point (candela)
+//! and spot lights are not drawn (named in the file's warning). The brightness of the result is
+//! the exposure's business (`[render]`, `effects::tonemap`): a glTF file with lights is shown at
+//! the automatic exposure, and no intensity is refused, whatever its size (the frame is
+//! pre-exposed, `effects::tonemap::pre_exposure`).
 
 use std::path::Path;
 
@@ -48,5 +53,11 @@ pub(super) fn light(
         ignored.add("lights on nodes with a singular transform", format!("/nodes/{node}"));
         return Ok(None);
     };
-    Ok(Some(DirectionalLight { direction, color, intensity }))
+    Ok(Some(DirectionalLight { direction, color, intensity: lux_to_intensity(intensity) }))
+}
+
+/// hadou's intensity of a directional light of `lux` (illuminance on a surface facing it): the
+/// luminance of a white Lambertian surface facing it, E/π cd/m².
+pub fn lux_to_intensity(lux: f64) -> f64 {
+    lux / std::f64::consts::PI
 }

@@ -26,6 +26,7 @@ use glam::DVec3;
 pub use builder::MIN_TABLE_VOXELS;
 pub use error::GltfError;
 pub use ignored::Ignored;
+pub use lights::lux_to_intensity;
 pub(crate) use limits::placed_by_transform;
 pub use limits::MAX_WORLD;
 pub use material::{sigma, MIN_ATTENUATION_COLOR, MIN_SIGMA};
@@ -47,8 +48,6 @@ pub struct ImportOptions {
     pub label: String,
     /// Voxel resolution of the thickness tables of translucent meshes.
     pub voxel_res: u32,
-    /// The scene's ambient: the lights' sum is kept within the HDR target with it.
-    pub ambient: DVec3,
     /// What earlier glTF files of the same scene drew: they share one budget.
     pub spent: Spent,
 }
@@ -59,7 +58,6 @@ impl Default for ImportOptions {
             base: Vec::new(),
             label: String::new(),
             voxel_res: DEFAULT_VOXEL_RES,
-            ambient: super::model::RenderSettings::default().ambient,
             spent: Spent::default(),
         }
     }

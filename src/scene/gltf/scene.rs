@@ -1,6 +1,7 @@
 //! A whole scene from a glTF file (`hadou render level.glb`): the file's parts, its first
 //! perspective camera or a framing one, its directional lights or one default light, and the
-//! TOML defaults for everything glTF does not say (`[render]`).
+//! TOML defaults for everything glTF does not say (`[render]`), but for the exposure: automatic
+//! when the file has lights (their lux need one), the TOML default 1 when it has none.
 
 use std::path::Path;
 
@@ -10,7 +11,7 @@ use super::{framing, import, GltfError, ImportOptions};
 use crate::scene::error::SceneError;
 use crate::scene::file::MAX_IMAGE_SIZE;
 use crate::scene::mesh::{Mesh, MeshError};
-use crate::scene::model::{DirectionalLight, RenderSettings, Scene};
+use crate::scene::model::{DirectionalLight, ExposureMode, RenderSettings, Scene};
 
 /// The light a glTF file without `KHR_lights_punctual` directional lights gets (travelling down
 /// and away from the framing camera's side, intensity 1, white), so its surfaces are not lit by
@@ -38,6 +39,11 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
     }
     let camera = imp.camera.map_or_else(|| framing(imp.bounds), |c| c.camera);
     let mut lights = imp.lights;
+    // The file's lights are in lux: shown at the automatic exposure, as a camera would. Without
+    // them the default light (intensity 1) keeps the TOML default exposure 1.
+    if !lights.is_empty() {
+        render.exposure_mode = ExposureMode::Auto;
+    }
     if lights.is_empty() {
         let direction = DEFAULT_LIGHT_DIRECTION.normalize();
         lights.push(DirectionalLight { direction, color: DVec3::ONE, intensity: 1.0 });

@@ -1,0 +1,43 @@
+// The automatic exposure's constants and push constants, shared by exposure.comp (the
+// measurement) and tonemap.comp (AUTO_EXPOSURE). CPU twin: src/effects/tonemap.rs.
+#ifndef HADOU_EXPOSURE_GLSL
+#define HADOU_EXPOSURE_GLSL
+
+layout(push_constant) uniform Params {
+    // Fixed exposure: exposure / pre-exposure, what the HDR value is multiplied by.
+    float exposure;
+    uint width;
+    uint height;
+    // AUTO_EXPOSURE: log2 of the frame's pre-exposure (HDR = scene-linear × 2^pre_log2), the
+    // adapted log2 luminance of earlier frames, and how far this frame moves from it to its own
+    // measurement (1: its own, as a headless frame).
+    float pre_log2;
+    float history;
+    float weight;
+} params;
+
+const uint EXPOSURE_BINS = 256u;
+const float EXPOSURE_LOG2_MIN = -20.0;
+const float EXPOSURE_BINS_PER_STOP = 8.0;
+const float PERCENTILE_LO = 0.8;
+const float PERCENTILE_HI = 0.983;
+const vec3 LUMINANCE = vec3(0.2126, 0.7152, 0.0722);
+
+uint exposure_bin(float y) {
+    // NaN, 0 and negatives in the first bin (!(y > 0) is true for NaN); +inf in the last.
+    if (!(y > 0.0)) return 0u;
+    float b = floor((log2(y) - EXPOSURE_LOG2_MIN) * EXPOSURE_BINS_PER_STOP);
+    return uint(clamp(b, 0.0, float(EXPOSURE_BINS - 1u)));
+}
+
+float exposure_bin_centre(uint b) {
+    return (float(b) + 0.5) / EXPOSURE_BINS_PER_STOP + EXPOSURE_LOG2_MIN;
+}
+
+// The tonemap's factor for the adapted log2 luminance l: exposure 1 / (9.6 · 2^l) (EV100 =
+// l + 3, exposure = 1 / (1.2 · 2^EV100)) over the pre-exposure, its exponent kept within f32.
+float auto_factor(float l) {
+    return exp2(clamp(-(l + params.pre_log2), -126.0, 126.0)) / 9.6;
+}
+
+#endif
