@@ -17,6 +17,20 @@ layout(set = 0, binding = 3) buffer Measured {
     uint unused;
 } measured;
 
+// Push constants as tonemap.comp's (src/passes/tonemap.rs `Params`).
+layout(push_constant) uniform Params {
+    // Fixed exposure: exposure / pre-exposure, what the HDR value is multiplied by.
+    float exposure;
+    uint width;
+    uint height;
+    // AUTO_EXPOSURE: log2 of the frame's pre-exposure (HDR = scene-linear × 2^pre_log2), the
+    // adapted log2 luminance of earlier frames, and how far this frame moves from it to its own
+    // measurement (1: its own, as a headless frame).
+    float pre_log2;
+    float history;
+    float weight;
+} params;
+
 #include "common/exposure.glsl"
 
 shared uint all_bins[EXPOSURE_BINS];

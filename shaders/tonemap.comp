@@ -7,6 +7,20 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba16f) uniform readonly image2D hdr;
 layout(set = 0, binding = 1, rgba8) uniform writeonly image2D ldr;
 
+// Shared with exposure.comp (src/passes/tonemap.rs `Params`).
+layout(push_constant) uniform Params {
+    // Fixed exposure: exposure / pre-exposure, what the HDR value is multiplied by.
+    float exposure;
+    uint width;
+    uint height;
+    // AUTO_EXPOSURE: log2 of the frame's pre-exposure (HDR = scene-linear × 2^pre_log2), the
+    // adapted log2 luminance of earlier frames, and how far this frame moves from it to its own
+    // measurement (1: its own, as a headless frame).
+    float pre_log2;
+    float history;
+    float weight;
+} params;
+
 #include "common/exposure.glsl"
 #include "common/tonemap.glsl"
 
@@ -23,9 +37,8 @@ void main() {
     uvec2 p = gl_GlobalInvocationID.xy;
     if (p.x >= params.width || p.y >= params.height) return;
 #ifdef AUTO_EXPOSURE
-    // h + (m − h)·w: exactly m for w = 1, exactly h when m = h (a still scene stays still).
-    float l = params.history + (measured.log2_average - params.history) * params.weight;
-    float exposure = auto_factor(l);
+    float l = adapted_log2(params.history, measured.log2_average, params.weight);
+    float exposure = auto_factor(l, params.pre_log2);
 #else
     float exposure = params.exposure;
 #endif

@@ -832,3 +832,55 @@ fn depth_out_writes_hadous_surfaces_in_the_games_convention() {
         game.finish(hadou);
     }
 }
+
+/// `exposure = "auto"` in a game's frame (issue 26): the composite measures hadou's frame on the
+/// GPU (exposure.comp before it draws) and adapts across frames without waiting for any of them.
+/// A still scene gives the same bits frame after frame (the adaptation a + (m − a)·w keeps a when
+/// m = a); after the light gets 16× brighter the next frames are brighter than the same scene
+/// exposed from its own frame (the exposure lags), and darken toward it frame by frame.
+#[test]
+fn auto_exposure_adapts_across_a_games_frames_without_waiting() {
+    let e = extent(64, 48);
+    let game = Game::new(e, false);
+    let mut s = scene(false);
+    s.render.exposure_mode = hadou::scene::ExposureMode::Auto;
+    let mut hadou = embed(&game, s.clone());
+    let device = game.vk.device.handle();
+    let aovs = [Aov::Normal];
+    let first = game.frame(Some(&mut hadou), &aovs, 0.0);
+    let loaded = calls::counts(device);
+    let cube = cube_mask(first.aov(Aov::Normal), None);
+    assert!(cube.iter().filter(|&&c| c).count() > 100, "the cube is in view");
+    let mean = |f: &Frame| {
+        let codes: Vec<f64> =
+            (0..cube.len()).filter(|&i| cube[i]).map(|i| f.color[i * 4 + 1] as f64).collect();
+        codes.iter().sum::<f64>() / codes.len() as f64
+    };
+    for _ in 0..4 {
+        let f = game.frame(Some(&mut hadou), &aovs, 0.0);
+        assert!(f.color == first.color, "a still scene changed under the automatic exposure");
+    }
+    let still = mean(&first);
+    println!("auto exposure, still: the cube's mean green code {still:.1}");
+    assert!((40.0..=220.0).contains(&still), "{still}");
+
+    let light = hadou.scene().unwrap().lights[0];
+    let id = hadou.light_ids()[0];
+    hadou.set_light(id, light.direction, light.color, light.intensity * 16.0).unwrap();
+    let after: Vec<f64> = (0..6).map(|_| mean(&game.frame(Some(&mut hadou), &aovs, 0.0))).collect();
+    let after_calls = calls::counts(device);
+    assert_eq!(
+        (after_calls.fence_waits, after_calls.device_idle, after_calls.query_waits),
+        (loaded.fence_waits, loaded.device_idle, loaded.query_waits),
+        "hadou waited during the frames"
+    );
+    let mut bright = s.clone();
+    bright.lights[0].intensity *= 16.0;
+    let mut fresh = embed(&game, bright);
+    let own = mean(&game.frame(Some(&mut fresh), &aovs, 0.0));
+    println!("after the light got 16x brighter: {after:.1?}; exposed from its own frame: {own:.1}");
+    assert!(after[0] > own + 2.0, "the exposure lags: {} vs {own}", after[0]);
+    assert!(after.windows(2).all(|w| w[1] <= w[0] + 0.5), "darkening toward it: {after:?}");
+    drop(fresh);
+    game.finish(hadou);
+}

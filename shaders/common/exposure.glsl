@@ -1,20 +1,7 @@
-// The automatic exposure's constants and push constants, shared by exposure.comp (the
-// measurement) and tonemap.comp (AUTO_EXPOSURE). CPU twin: src/effects/tonemap.rs.
+// The automatic exposure's constants, shared by exposure.comp (the measurement), tonemap.comp
+// and composite.frag (AUTO_EXPOSURE). CPU twin: src/effects/tonemap.rs.
 #ifndef HADOU_EXPOSURE_GLSL
 #define HADOU_EXPOSURE_GLSL
-
-layout(push_constant) uniform Params {
-    // Fixed exposure: exposure / pre-exposure, what the HDR value is multiplied by.
-    float exposure;
-    uint width;
-    uint height;
-    // AUTO_EXPOSURE: log2 of the frame's pre-exposure (HDR = scene-linear × 2^pre_log2), the
-    // adapted log2 luminance of earlier frames, and how far this frame moves from it to its own
-    // measurement (1: its own, as a headless frame).
-    float pre_log2;
-    float history;
-    float weight;
-} params;
 
 const uint EXPOSURE_BINS = 256u;
 const float EXPOSURE_LOG2_MIN = -20.0;
@@ -35,9 +22,16 @@ float exposure_bin_centre(uint b) {
 }
 
 // The tonemap's factor for the adapted log2 luminance l: exposure 1 / (9.6 · 2^l) (EV100 =
-// l + 3, exposure = 1 / (1.2 · 2^EV100)) over the pre-exposure, its exponent kept within f32.
-float auto_factor(float l) {
-    return exp2(clamp(-(l + params.pre_log2), -126.0, 126.0)) / 9.6;
+// l + 3, exposure = 1 / (1.2 · 2^EV100)) over the pre-exposure 2^pre_log2, its exponent kept
+// within f32.
+float auto_factor(float l, float pre_log2) {
+    return exp2(clamp(-(l + pre_log2), -126.0, 126.0)) / 9.6;
+}
+
+// The adapted log2 luminance this frame uses: h + (m − h)·w, exactly m for w = 1 and exactly h
+// when m = h (a still scene stays still).
+float adapted_log2(float history, float measured, float weight) {
+    return history + (measured - history) * weight;
 }
 
 #endif

@@ -1,13 +1,18 @@
 //! composite: hadou's HDR result drawn over the game's colour target (shaders/composite.frag):
 //! over where hadou drew a surface, added where only the wave glows. One pipeline per colour
-//! format the game has used.
+//! format the game has used (and its AUTO_EXPOSURE twin). With `exposure = "auto"` the pass first
+//! dispatches shaders/exposure.comp (one workgroup, outside the rendering) to measure the frame,
+//! which the fragment shader reads after a barrier: the same measurement and adaptation across
+//! frames as `tonemap` (`tonemap::AutoExposure`), nothing waited for.
 
-use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
-use crate::gpu::barriers::ImageAccess;
+use super::tonemap::AutoExposure;
+use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
+use crate::gpu::barriers::{cmd_barriers, memory_barrier, ImageAccess};
 use crate::gpu::fullscreen::create_fullscreen_pipeline;
-use crate::gpu::pipeline::Pipeline;
+use crate::gpu::pipeline::{create_compute_pipeline, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
+use crate::scene::ExposureMode;
 use crate::targets::Target;
 
 /// Push constants of shaders/composite.frag (size checked against the shader).
@@ -16,9 +21,12 @@ use crate::targets::Target;
 pub(crate) struct Params {
     exposure: f32,
     mode: u32,
+    pre_log2: f32,
+    history: f32,
+    weight: f32,
 }
 
-crate::gpu::layout::gpu_layout!(Params as "Params" { exposure, mode });
+crate::gpu::layout::gpu_layout!(Params as "Params" { exposure, mode, pre_log2, history, weight });
 
 /// What the shader writes for a colour format (see `ExternalColor`).
 pub fn mode_for(format: vk::Format) -> u32 {
@@ -35,15 +43,31 @@ pub fn mode_for(format: vk::Format) -> u32 {
 /// Runs last in an embedded frame whose game hands its colour target (`FrameInputs::color`),
 /// imported for the frame as `GameColor`. One pipeline per colour format the game has used.
 pub struct CompositePass {
-    pipelines: Vec<(vk::Format, Pipeline)>,
+    /// Per colour format: the fixed-exposure pipeline and its AUTO_EXPOSURE twin.
+    pipelines: Vec<(vk::Format, Pipeline, Pipeline)>,
+    /// exposure.comp, made with the first pipelines.
+    measure: Option<Pipeline>,
     /// This frame's target format (its pipeline exists: `use_format`).
     format: vk::Format,
     params: Params,
+    /// This frame's exposure.comp push constants (`exposure = "auto"`).
+    measure_params: super::tonemap::Params,
+    /// This frame measures its exposure.
+    auto_frame: bool,
+    state: AutoExposure,
 }
 
 impl CompositePass {
     pub fn new() -> Self {
-        CompositePass { pipelines: Vec::new(), format: vk::Format::UNDEFINED, params: Params::default() }
+        CompositePass {
+            pipelines: Vec::new(),
+            measure: None,
+            format: vk::Format::UNDEFINED,
+            params: Params::default(),
+            measure_params: Default::default(),
+            auto_frame: false,
+            state: AutoExposure::default(),
+        }
     }
 
     /// Makes the pipeline for `format` the first time a game hands a target of that format.
@@ -54,19 +78,29 @@ impl CompositePass {
         format: vk::Format,
     ) -> GpuResult<()> {
         self.format = format;
-        if self.pipelines.iter().any(|(f, _)| *f == format) {
+        if self.pipelines.iter().any(|(f, ..)| *f == format) {
             return Ok(());
         }
         let vertex = compiler.compile("fullscreen.vert", &[])?;
         let fragment = compiler.compile("composite.frag", &[])?;
         let push = std::mem::size_of::<Params>() as u32;
         let p = create_fullscreen_pipeline(ctx, "composite", &vertex, &fragment, push, format)?;
-        self.pipelines.push((format, p));
+        let fragment = compiler.compile("composite.frag", &[("AUTO_EXPOSURE", "1")])?;
+        let auto =
+            create_fullscreen_pipeline(ctx, "composite (auto exposure)", &vertex, &fragment, push, format)?;
+        self.pipelines.push((format, p, auto));
+        if self.measure.is_none() {
+            let spirv = compiler.compile("exposure.comp", &[])?;
+            let push = std::mem::size_of::<super::tonemap::Params>() as u32;
+            self.measure = Some(create_compute_pipeline(ctx, "exposure", &spirv, push)?);
+        }
         Ok(())
     }
 
+    /// This frame's drawing pipeline: for the target's format, with the frame's exposure kind.
     fn current(&self) -> Option<&Pipeline> {
-        self.pipelines.iter().find(|(f, _)| *f == self.format).map(|(_, p)| p)
+        let (_, fixed, auto) = self.pipelines.iter().find(|(f, ..)| *f == self.format)?;
+        Some(if self.auto_frame { auto } else { fixed })
     }
 }
 
@@ -83,12 +117,28 @@ const FRAGMENT_STORAGE_READ: ImageAccess = ImageAccess {
     layout: vk::ImageLayout::GENERAL,
 };
 
+/// The same, read by exposure.comp before (`exposure = "auto"`).
+const MEASURED_FRAGMENT_STORAGE_READ: ImageAccess = ImageAccess {
+    stage: vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::FRAGMENT_SHADER.as_raw() | vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw(),
+    ),
+    access: vk::AccessFlags2::SHADER_STORAGE_READ,
+    layout: vk::ImageLayout::GENERAL,
+};
+
 impl Pass for CompositePass {
     fn name(&self) -> &'static str {
         "composite"
     }
 
     fn images(&self) -> Vec<ImageUse> {
+        if self.auto_frame {
+            return vec![
+                ImageUse::new(Target::Hdr, MEASURED_FRAGMENT_STORAGE_READ),
+                ImageUse::new(Target::Ids, ImageAccess::COMPUTE_READ),
+                ImageUse::new(Target::GameColor, ImageAccess::COLOR_ATTACHMENT),
+            ];
+        }
         vec![
             ImageUse::new(Target::Hdr, FRAGMENT_STORAGE_READ),
             ImageUse::new(Target::GameColor, ImageAccess::COLOR_ATTACHMENT),
@@ -96,22 +146,59 @@ impl Pass for CompositePass {
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
-        // exposure / pre-exposure: the HDR target is pre-exposed (`effects::tonemap::pre_exposure`).
-        let exposure = crate::effects::tonemap::tonemap_factor(frame.scene) as f32;
-        self.params = Params { exposure, mode: mode_for(self.format) };
-        Ok(vec![Binding::Image(Target::Hdr)])
+        let mode = mode_for(self.format);
+        self.auto_frame = frame.scene.render.exposure_mode == ExposureMode::Auto && self.measure.is_some();
+        if !self.auto_frame {
+            self.state.reset();
+            // exposure / pre-exposure: the HDR target is pre-exposed (`effects::tonemap::pre_exposure`).
+            let exposure = crate::effects::tonemap::tonemap_factor(frame.scene) as f32;
+            self.params = Params { exposure, mode, ..Params::default() };
+            return Ok(vec![Binding::Image(Target::Hdr)]);
+        }
+        let (auto, buffer) = self.state.prepare(frame)?;
+        let (pre_log2, history, weight) = auto;
+        self.params = Params { exposure: 0.0, mode, pre_log2, history, weight };
+        self.measure_params =
+            super::tonemap::Params::measurement(frame.extent.width, frame.extent.height, auto);
+        // Binding 1 is exposure.comp's and tonemap.comp's `ldr`, unused here: the HDR again.
+        Ok(vec![
+            Binding::Image(Target::Hdr),
+            Binding::Image(Target::Hdr),
+            Binding::Image(Target::Ids),
+            Binding::Written(buffer, Reader::Host),
+        ])
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
-        self.current().into_iter().collect()
+        match (self.auto_frame, &self.measure) {
+            (true, Some(measure)) => [Some(measure), self.current()].into_iter().flatten().collect(),
+            _ => self.current().into_iter().collect(),
+        }
     }
 
     fn record(&self, pass: &PassRecording) {
         let Some(pipeline) = self.current() else { return };
         let rec = pass.rec;
+        let mut set = pass.set(0);
+        if let (true, Some(measure)) = (self.auto_frame, &self.measure) {
+            rec.bind_pipeline(measure, pass.set(0));
+            rec.push_constants(measure, bytemuck::bytes_of(&self.measure_params));
+            rec.dispatch_groups(1, 1);
+            // The measurement, written by the compute shader, read by the fragment shader.
+            let (write, read) =
+                (vk::AccessFlags2::SHADER_STORAGE_WRITE, vk::AccessFlags2::SHADER_STORAGE_READ);
+            let b = memory_barrier(
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                write,
+                vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                read,
+            );
+            cmd_barriers(&rec.ctx.device, rec.cmd, &[], &[b]);
+            set = pass.set(1);
+        }
         let color = pass.targets.image(Target::GameColor);
         rec.begin_rendering_views(pass.targets.extent, &[(color.view, None)], None);
-        rec.bind_pipeline(pipeline, pass.set(0));
+        rec.bind_pipeline(pipeline, set);
         rec.push_constants(pipeline, bytemuck::bytes_of(&self.params));
         rec.draw_fullscreen();
         rec.end_rendering();

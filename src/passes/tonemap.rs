@@ -31,12 +31,73 @@ pub struct TonemapPass {
     params: Params,
     /// This frame measures its exposure.
     auto_frame: bool,
+    state: AutoExposure,
+}
+
+/// The automatic exposure's state across frames, shared by `tonemap` and `composite`: per frame
+/// slot a host-visible buffer exposure.comp writes its measurement into, and the adapted
+/// luminance the measurements of finished frames have been folded into.
+#[derive(Default)]
+pub(crate) struct AutoExposure {
     /// Per frame slot: the measurement buffer, and when the frame that last wrote it was
     /// prepared (None once read back, or when that frame had a fixed exposure).
     slots: Vec<(Buffer, Option<Instant>)>,
     /// The adapted log2 luminance and when the frame it last took in was prepared.
     adapted: Option<(f64, Instant)>,
-    slot: usize,
+}
+
+impl AutoExposure {
+    /// A frame with a fixed exposure: the next automatic one starts afresh.
+    pub fn reset(&mut self) {
+        self.adapted = None;
+        self.slots.iter_mut().for_each(|(_, pending)| *pending = None);
+    }
+
+    /// This frame's automatic exposure: folds the slot's finished measurement into the adapted
+    /// luminance, and returns (log2 pre-exposure, history, weight) for the push constants with
+    /// the buffer exposure.comp writes this frame's measurement into.
+    pub fn prepare(&mut self, frame: &FrameContext) -> GpuResult<((f32, f32, f32), BufferRange)> {
+        while self.slots.len() <= frame.slot {
+            let size = std::mem::size_of::<Measured>() as u64;
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            let buffer =
+                frame.memory.create_buffer(frame.ctx, "exposure", size, usage, MemoryLocation::GpuToCpu)?;
+            self.slots.push((buffer, None));
+        }
+        self.read_back(frame.slot);
+        let now = Instant::now();
+        let pre_log2 = pre_exposure(frame.scene).log2() as f32;
+        let (history, weight) = match self.adapted {
+            None => (0.0, 1.0),
+            Some((a, since)) => {
+                (a as f32, adaptation_weight(now.saturating_duration_since(since).as_secs_f64()) as f32)
+            }
+        };
+        self.slots[frame.slot].1 = Some(now);
+        Ok(((pre_log2, history, weight), BufferRange::whole(self.slots[frame.slot].0.raw)))
+    }
+
+    /// The adapted log2 luminance (None before a measurement has been read back).
+    pub fn adapted_log2_luminance(&self) -> Option<f64> {
+        self.adapted.map(|(l, _)| l)
+    }
+
+    /// Folds the measurement of the slot's finished frame into the adapted luminance.
+    fn read_back(&mut self, slot: usize) {
+        let Some((buffer, pending)) = self.slots.get_mut(slot) else { return };
+        let Some(at) = pending.take() else { return };
+        let Some(bytes) = buffer.mapped() else { return };
+        let Some(m) = bytes.get(..std::mem::size_of::<Measured>()) else { return };
+        let measured = bytemuck::pod_read_unaligned::<Measured>(m).log2_average as f64;
+        if !measured.is_finite() {
+            return;
+        }
+        let adapted = match self.adapted {
+            None => measured,
+            Some((a, since)) => adapt(Some(a), measured, at.saturating_duration_since(since).as_secs_f64()),
+        };
+        self.adapted = Some((adapted, at));
+    }
 }
 
 /// Push constants of shaders/tonemap.comp and shaders/exposure.comp (common/exposure.glsl; size
@@ -53,6 +114,13 @@ pub(crate) struct Params {
 }
 
 crate::gpu::layout::gpu_layout!(Params as "Params" { exposure, width, height, pre_log2, history, weight });
+
+impl Params {
+    /// exposure.comp's push constants for a `width` × `height` frame (`AutoExposure::prepare`).
+    pub(crate) fn measurement(width: u32, height: u32, (pre_log2, history, weight): (f32, f32, f32)) -> Self {
+        Params { exposure: 0.0, width, height, pre_log2, history, weight }
+    }
+}
 
 /// What shaders/exposure.comp writes (`Measured`).
 #[repr(C)]
@@ -82,33 +150,14 @@ impl TonemapPass {
             auto,
             params: Params::default(),
             auto_frame: false,
-            slots: Vec::new(),
-            adapted: None,
-            slot: 0,
+            state: Default::default(),
         })
     }
 
     /// The adapted log2 luminance of the automatic exposure (None before a measurement has been
     /// read back, or with a fixed exposure).
     pub fn adapted_log2_luminance(&self) -> Option<f64> {
-        self.adapted.map(|(l, _)| l)
-    }
-
-    /// Folds the measurement of the slot's finished frame into the adapted luminance.
-    fn read_back(&mut self, slot: usize) {
-        let Some((buffer, pending)) = self.slots.get_mut(slot) else { return };
-        let Some(at) = pending.take() else { return };
-        let Some(bytes) = buffer.mapped() else { return };
-        let Some(m) = bytes.get(..std::mem::size_of::<Measured>()) else { return };
-        let measured = bytemuck::pod_read_unaligned::<Measured>(m).log2_average as f64;
-        if !measured.is_finite() {
-            return;
-        }
-        let adapted = match self.adapted {
-            None => measured,
-            Some((a, since)) => adapt(Some(a), measured, at.saturating_duration_since(since).as_secs_f64()),
-        };
-        self.adapted = Some((adapted, at));
+        self.state.adapted_log2_luminance()
     }
 }
 
@@ -130,37 +179,15 @@ impl Pass for TonemapPass {
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let e = frame.extent;
-        let scene = frame.scene;
-        self.auto_frame = scene.render.exposure_mode == ExposureMode::Auto;
-        self.slot = frame.slot;
-        let mut params = Params { width: e.width, height: e.height, ..Params::default() };
+        self.auto_frame = frame.scene.render.exposure_mode == ExposureMode::Auto;
         if !self.auto_frame {
-            // Back to a fixed exposure: the next automatic one starts afresh.
-            self.adapted = None;
-            self.slots.iter_mut().for_each(|(_, pending)| *pending = None);
-            params.exposure = tonemap_factor(scene) as f32;
-            self.params = params;
+            self.state.reset();
+            let exposure = tonemap_factor(frame.scene) as f32;
+            self.params = Params { exposure, width: e.width, height: e.height, ..Params::default() };
             return Ok(vec![Binding::Image(Target::Hdr), Binding::Image(Target::Ldr)]);
         }
-        while self.slots.len() <= frame.slot {
-            let size = std::mem::size_of::<Measured>() as u64;
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
-            let buffer =
-                frame.memory.create_buffer(frame.ctx, "exposure", size, usage, MemoryLocation::GpuToCpu)?;
-            self.slots.push((buffer, None));
-        }
-        self.read_back(frame.slot);
-        let now = Instant::now();
-        params.pre_log2 = pre_exposure(scene).log2() as f32;
-        (params.history, params.weight) = match self.adapted {
-            None => (0.0, 1.0),
-            Some((a, since)) => {
-                (a as f32, adaptation_weight(now.saturating_duration_since(since).as_secs_f64()) as f32)
-            }
-        };
-        self.slots[frame.slot].1 = Some(now);
-        self.params = params;
-        let buffer = BufferRange::whole(self.slots[frame.slot].0.raw);
+        let (auto, buffer) = self.state.prepare(frame)?;
+        self.params = Params::measurement(e.width, e.height, auto);
         Ok(vec![
             Binding::Image(Target::Hdr),
             Binding::Image(Target::Ldr),
