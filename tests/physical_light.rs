@@ -126,6 +126,10 @@ fn pre_exposure_rules() {
     assert_eq!(s.render.exposure_mode, ExposureMode::Auto);
     let p = pre_exposure(&s);
     assert!(p.log2().fract() == 0.0 && (0.5..=2.0).contains(&(lit_max(&s) * p)), "{p}");
+    // A bright background at a tiny EV100 (exposure 853): p stays low enough for it.
+    let s = scene(&format!("[render]\nexposure_ev100 = -10\nbackground = [60000, 0, 0]\n{VIEW}"));
+    let p = pre_exposure(&s);
+    assert!(60000.0 * p <= PRE_EXPOSED_MAX && p.log2().fract() == 0.0, "{p}");
     // Huge values everywhere f32 allows: still a finite p that fits.
     let s = scene(&format!(
         "{VIEW}[[light]]\ndirection = [0, -1, 0]\ncolor = [3e38, 3e38, 3e38]\nintensity = 3e38\n"

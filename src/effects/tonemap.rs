@@ -129,10 +129,17 @@ pub fn measure(hdr: &[[f64; 3]], surface: &[bool], pre_exposure_log2: f64) -> f6
 }
 
 /// The brightest a lit surface of `scene` can be, per channel, before exposure: ambient plus
-/// every light's colour × intensity (albedo ≤ 1, n·l ≤ 1).
+/// every light's colour × intensity (albedo ≤ 1, n·l ≤ 1), plus the brightest material emission.
 pub fn lit_max(scene: &Scene) -> f64 {
     let lit = scene.lights.iter().fold(scene.render.ambient, |sum, l| sum + l.color * l.intensity);
-    lit.max_element()
+    let emission = scene.materials.iter().map(|m| m.surface.emission.max_element()).fold(0.0, f64::max);
+    lit.max_element() + emission
+}
+
+/// The brightest value the HDR target is asked to hold before pre-exposure: a lit surface
+/// (`lit_max`) or the background.
+pub fn hdr_peak(scene: &Scene) -> f64 {
+    lit_max(scene).max(scene.render.background.max_element())
 }
 
 /// The largest value a lit surface may reach in the HDR target after pre-exposure: 16× below
@@ -148,11 +155,13 @@ pub const PRE_EXPOSED_MAX: f64 = 4096.0;
 ///   physical units): p = 1, the frame as it always was, bit for bit.
 /// - Otherwise a power of two, so scaling is exact: the one nearest the exposure (`exposure_ev100`,
 ///   a linear exposure), or 1 / `lit_max` (`"auto"`, whose exposure is not known before the
-///   frame), and never so large that a lit surface passes `PRE_EXPOSED_MAX`.
+///   frame), and never so large that a lit surface or the background (`hdr_peak`) passes
+///   `PRE_EXPOSED_MAX`.
 pub fn pre_exposure(scene: &Scene) -> f64 {
     let lit = lit_max(scene);
+    let peak = hdr_peak(scene);
     let r = &scene.render;
-    if r.exposure_mode == ExposureMode::Linear && lit <= crate::scene::file::MAX_HDR {
+    if r.exposure_mode == ExposureMode::Linear && peak <= crate::scene::file::MAX_HDR {
         return 1.0;
     }
     let nominal = match r.exposure_mode {
@@ -161,8 +170,8 @@ pub fn pre_exposure(scene: &Scene) -> f64 {
         ExposureMode::Auto => 1.0,
     };
     let mut log2 = nominal.log2().round();
-    if lit > 0.0 {
-        log2 = log2.min((PRE_EXPOSED_MAX / lit).log2().floor());
+    if peak > 0.0 {
+        log2 = log2.min((PRE_EXPOSED_MAX / peak).log2().floor());
     }
     // f64 holds 2^±1000; what is multiplied by p is cast to f32 only after.
     log2.clamp(-1000.0, 1000.0).exp2()
