@@ -316,3 +316,39 @@ fn lights_past_the_hdr_range_are_no_longer_refused() {
     assert!(shot.hdr.iter().flatten().all(|v| v.is_finite() && *v < 65504.0));
     assert!(shot.surface.iter().any(|&s| s));
 }
+
+/// The headless path's adaptation (`view`, a `Runtime` rendering frame after frame): a still
+/// scene keeps its bits under `exposure = "auto"`; after the light gets 16× brighter the next
+/// frame is brighter than the same scene exposed from its own frame (the exposure lags behind).
+#[test]
+fn auto_exposure_adapts_across_headless_frames() {
+    let text = format!(
+        "[render]\nexposure = \"auto\"\n{VIEW}[[light]]\ndirection = [-0.3, -1, -0.5]\nintensity = 2\n\
+         [[mesh]]\nname = \"box\"\nkind = \"cube\"\nsize = 3\n[[instance]]\nmesh = \"box\"\n"
+    );
+    let s = scene(&text);
+    let request = FrameRequest::new(64, 48);
+    let mut rt = common::runtime();
+    rt.load_scene(s.clone()).unwrap();
+    let first = rt.render(&request).unwrap().color.unwrap();
+    for _ in 0..3 {
+        assert!(rt.render(&request).unwrap().color.unwrap() == first, "a still scene changed");
+    }
+    let mean = |c: &[u8]| c.chunks(4).map(|p| p[1] as f64).sum::<f64>() / (c.len() / 4) as f64;
+    let id = rt.renderer().light_ids()[0];
+    let l = s.lights[0];
+    rt.renderer().set_light(id, l.direction, l.color, l.intensity * 16.0).unwrap();
+    let lagging = mean(&rt.render(&request).unwrap().color.unwrap());
+    rt.finish();
+    let mut bright = s.clone();
+    bright.lights[0].intensity *= 16.0;
+    let mut fresh = common::runtime();
+    fresh.load_scene(bright).unwrap();
+    let own = mean(&fresh.render(&request).unwrap().color.unwrap());
+    fresh.finish();
+    println!(
+        "still {:.1}, 16x brighter: next frame {lagging:.1}, exposed from its own frame {own:.1}",
+        mean(&first)
+    );
+    assert!(lagging > own + 2.0, "{lagging} vs {own}");
+}
