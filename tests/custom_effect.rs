@@ -114,7 +114,7 @@ struct Inputs {
 impl Inputs {
     fn new(scene: &Scene) -> Self {
         let fog = scene.effects.get::<Fog>().unwrap();
-        let p = FogParams::new(fog);
+        let p = FogParams::new(fog, hadou::effect::pre_exposure(scene));
         let c = p.color_log_density;
         let fog = Fog {
             density: f64::from(c[3]).exp(),

@@ -10,8 +10,8 @@
 
 use glam::DVec3;
 use hadou::effect::{
-    Binding, Bound, Effect, EffectPass, EffectState, FrameContext, GpuResult, ImageAccess, ImageDesc,
-    ImageUse, Pass, PassBuilder, PassRecording, Pipeline, SceneFile, Target,
+    pre_exposure, Binding, Bound, Effect, EffectPass, EffectState, FrameContext, GpuResult, ImageAccess,
+    ImageDesc, ImageUse, Pass, PassBuilder, PassRecording, Pipeline, SceneFile, Target,
 };
 use hadou::gpu::vk;
 use hadou::scene::{Scene, SceneError};
@@ -172,9 +172,10 @@ pub struct FogParams {
 }
 
 impl FogParams {
-    /// What the shader is given for `fog` (the twin test evaluates these f32 values in f64).
-    pub fn new(fog: &Fog) -> Self {
-        let c = fog.color;
+    /// What the shader is given for `fog` in a frame pre-exposed by `pre_exposure` (the colour is
+    /// radiance added to hadou's HDR image; the twin test evaluates these f32 values in f64).
+    pub fn new(fog: &Fog, pre_exposure: f64) -> Self {
+        let c = fog.color * pre_exposure;
         FogParams {
             color_log_density: [c.x as f32, c.y as f32, c.z as f32, fog.density.ln() as f32],
             shape: [fog.falloff as f32, fog.base_height as f32, 0.0, 0.0],
@@ -212,7 +213,7 @@ impl Pass for FogPass {
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         // `needed` ran this pass only with a fog of density > 0.
         if let Some(fog) = frame.scene.effects.get::<Fog>() {
-            self.params = FogParams::new(fog);
+            self.params = FogParams::new(fog, pre_exposure(frame.scene));
         }
         self.extent = frame.extent;
         Ok(vec![

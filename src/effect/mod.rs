@@ -10,6 +10,10 @@
 //!   variant it is built for, how it is built — implementing [`Pass`]: the images it touches
 //!   ([`ImageUse`], hadou's frame images or its own [`ImageDesc`]), its bindings, its commands.
 //!
+//! Radiance a pass adds to hadou's `hdr` image is **pre-exposed**: multiplied by
+//! [`pre_exposure`]`(scene)` (1 for every scene whose lighting fits RGBA16F as it is, a power of
+//! two otherwise), as hadou's own lights, background, emission and waves are.
+//!
 //! A game registers its effects with `Effects::builtin().with(MyEffect)?` in
 //! `RendererOptions::effects` / `RuntimeOptions::effects`, and reads scene files with
 //! [`crate::scene::load_scene_with`]. hadou's own energy wave, metaballs and translucency are
@@ -34,6 +38,7 @@ pub(crate) use scene_file::top_level_keys;
 pub use scene_file::SceneFile;
 pub use state::{EffectState, EffectStates};
 
+pub use crate::effects::tonemap::pre_exposure;
 pub use crate::gpu::barriers::ImageAccess;
 pub use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
 pub use crate::gpu::recorder::Recorder;

@@ -201,34 +201,25 @@ impl Renderer {
     ) -> Result<(), Error> {
         let loaded = self.loaded_mut()?;
         let light = &mut loaded.scene.lights[index];
+        // As in a file: finite numbers within f32's range. However bright, the lights fit the HDR
+        // image: the frame is pre-exposed (`effects::tonemap::pre_exposure`).
+        let f32_max = f64::from(f32::MAX);
         let ok = direction.is_finite()
             && direction.length() > 0.0
             && color.is_finite()
             && color.min_element() >= 0.0
+            && color.max_element() <= f32_max
             && intensity.is_finite()
-            && intensity >= 0.0;
+            && (0.0..=f32_max).contains(&intensity);
         if !ok {
             return Err(Error::InvalidUpdate {
                 what: format!("light {index}: direction {direction}, colour {color}, intensity {intensity}"),
-                expected: "a finite non-zero direction, a finite colour ≥ 0 and a finite intensity ≥ 0"
+                expected: "a finite non-zero direction, a colour and an intensity ≥ 0 within f32's range \
+                           (3.4e38)"
                     .into(),
             });
         }
-        let before = *light;
         (light.direction, light.color, light.intensity) = (direction.normalize(), color, intensity);
-        // As in a file: a lit surface's ambient + Σ colour × intensity must fit the HDR image.
-        let scene = &loaded.scene;
-        let lit = scene.lights.iter().fold(scene.render.ambient, |sum, l| sum + l.color * l.intensity);
-        if lit.max_element() > crate::scene::file::MAX_HDR {
-            loaded.scene.lights[index] = before;
-            return Err(Error::InvalidUpdate {
-                what: format!("light {index}: colour {color} × intensity {intensity}"),
-                expected: format!(
-                    "ambient + Σ colour × intensity of the lights ≤ {} per channel (the HDR image's largest value)",
-                    crate::scene::file::MAX_HDR
-                ),
-            });
-        }
         Ok(())
     }
 
