@@ -85,6 +85,27 @@ fn an_aov_file_that_is_not_exr_is_refused_and_nothing_is_written() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn a_colour_file_that_is_not_png_is_refused_and_nothing_is_written() {
+    let dir = scratch("cmd_color_ext");
+    for name in ["c.exr", "c", "c.png.exr", "c.jpg"] {
+        let path = dir.join(name);
+        let out = hadou(&["render", "assets/scenes/single_cube.toml", "-o", s(&path), "--size", "8x8"]);
+        assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+        let err = String::from_utf8_lossy(&out.stderr);
+        let says =
+            format!("error: -o {}: the colour image is written as an 8-bit sRGB PNG only", path.display());
+        assert!(err.contains(&says) && err.contains("expected a file name ending in `.png`"), "{err}");
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+        assert!(left.is_empty(), "{name}: something was written: {left:?}");
+    }
+    // Any case of the extension is a PNG name.
+    let upper = dir.join("c.PNG");
+    let out = hadou(&["render", "assets/scenes/single_cube.toml", "-o", s(&upper), "--size", "8x8"]);
+    assert!(out.status.success(), "{}", text(&out));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A folder of glTF scenes (.glb, .gltf with its .bin, and a TOML scene beside them): each is a
 /// scene, blessed under its stem, compared under its sidecar, failing by name when it changes.
 #[test]

@@ -43,6 +43,20 @@ fn check_exr_name(aov: Aov, path: &Path) -> anyhow::Result<()> {
     )
 }
 
+/// The colour image is an 8-bit sRGB PNG, and its file must say so: `-o out.exr` is refused
+/// rather than a PNG written under an OpenEXR name (linear HDR colour is the `hdr` AOV).
+fn check_png_name(path: &Path) -> anyhow::Result<()> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        return Ok(());
+    }
+    bail!(
+        "-o {}: the colour image is written as an 8-bit sRGB PNG only (expected a file name ending in \
+         `.png`, e.g. {}; linear HDR colour is the hdr AOV: --aov hdr=FILE.exr)",
+        path.display(),
+        path.with_extension("png").display()
+    )
+}
+
 fn parse_aov(text: &str) -> anyhow::Result<(Aov, PathBuf)> {
     let (name, file) = text.split_once('=').context("expected NAME=FILE.exr")?;
     let Some(aov) = Aov::from_name(name) else {
@@ -69,6 +83,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let outputs: Vec<&Path> =
         std::iter::once(args.output.as_path()).chain(aovs.iter().map(|(_, p)| p.as_path())).collect();
     super::check_outputs(&outputs, &super::scene_inputs(&args.scene, &scene))?;
+    check_png_name(&args.output)?;
     for (aov, path) in &aovs {
         check_exr_name(*aov, path)?;
     }

@@ -34,10 +34,6 @@ impl Effect for EnergyWave {
         Ok(Some(Box::new(Waves(file::waves(file.ctx(), defs.get_ref())?))))
     }
 
-    fn switch_off(&self, scene: &mut Scene) {
-        scene.effects.remove(NAME);
-    }
-
     fn passes(&self) -> Vec<EffectPass> {
         vec![EffectPass::new(
             "energy_wave",

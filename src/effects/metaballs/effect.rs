@@ -39,10 +39,6 @@ impl Effect for Metaballs {
         Ok(Some(Box::new(MetaballGroups(groups))))
     }
 
-    fn switch_off(&self, scene: &mut Scene) {
-        scene.effects.remove(NAME);
-    }
-
     fn passes(&self) -> Vec<EffectPass> {
         vec![EffectPass {
             name: "metaballs",
