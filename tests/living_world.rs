@@ -660,3 +660,48 @@ fn assert_same(got: &hadou::FrameOutput, want: &hadou::FrameOutput, aovs: &[Aov]
         assert!(common::same_bits(got.aov(*aov).unwrap(), want.aov(*aov).unwrap()), "{} differs", aov.name());
     }
 }
+
+/// Exposure, ambient and background set at run time (issue 23 item 4) render what the file with
+/// those `[render]` values renders, bit for bit; a refused value changes nothing.
+#[test]
+fn exposure_ambient_and_background_change_as_the_file_would() {
+    let head = "[camera]\nposition = [0, 1, 6]\nlook_at = [0, 0, 0]\n[[mesh]]\nname = \"box\"\nkind = \"cube\"\n\
+                [[instance]]\nmesh = \"box\"\ntransform = [{ rotate = { angle_deg = 30, axis = [1, 1, 0] } }]\n\
+                [[light]]\ndirection = [-0.3, -1, -0.5]\n";
+    let mut request = FrameRequest::new(48, 40);
+    request.aovs = vec![Aov::Hdr];
+    let render_file = |render: &str| {
+        let mut rt = common::runtime();
+        rt.load_scene(common::parse(&format!("[render]\n{render}\n{head}"))).unwrap();
+        let frame = rt.render(&request).unwrap();
+        rt.finish();
+        frame
+    };
+    let mut live = common::runtime();
+    live.load_scene(common::parse(head)).unwrap();
+    let before = live.render(&request).unwrap();
+    let r = live.renderer();
+    let (ambient, background) = (DVec3::new(0.2, 0.1, 0.05), DVec3::new(0.3, 0.4, 0.9));
+    r.set_ambient(ambient).unwrap();
+    r.set_background(background).unwrap();
+    r.set_exposure(hadou::Exposure::Ev100(-1.5)).unwrap();
+    for bad in [f64::NAN, -1.0, 7e4] {
+        assert!(matches!(r.set_ambient(DVec3::splat(bad)), Err(Error::InvalidUpdate { .. })), "{bad}");
+        assert!(matches!(r.set_background(DVec3::splat(bad)), Err(Error::InvalidUpdate { .. })), "{bad}");
+    }
+    for bad in
+        [hadou::Exposure::Ev100(121.0), hadou::Exposure::Linear(0.0), hadou::Exposure::Linear(f64::INFINITY)]
+    {
+        assert!(matches!(r.set_exposure(bad), Err(Error::InvalidUpdate { .. })), "{bad:?}");
+    }
+    let after = live.render(&request).unwrap();
+    let want = render_file("ambient = [0.2, 0.1, 0.05]\nbackground = [0.3, 0.4, 0.9]\nexposure_ev100 = -1.5");
+    assert_same(&after, &want, &[Aov::Hdr]);
+    assert_eq!(after.color, want.color, "the tonemapped colour too");
+    assert_ne!(before.color, after.color, "the change shows");
+    live.renderer().set_exposure(hadou::Exposure::Linear(0.5)).unwrap();
+    let linear = live.render(&request).unwrap();
+    let want = render_file("ambient = [0.2, 0.1, 0.05]\nbackground = [0.3, 0.4, 0.9]\nexposure = 0.5");
+    assert_eq!(linear.color, want.color);
+    live.finish();
+}

@@ -25,6 +25,7 @@ mod effects;
 pub mod ids;
 mod inputs;
 pub mod instances;
+mod look;
 pub(crate) mod readback;
 mod record;
 mod slots;
@@ -34,6 +35,7 @@ pub mod view_projection;
 pub mod world;
 
 pub use deform::vertex_normals;
+pub use look::Exposure;
 pub use inputs::{DepthConvention, ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
 pub use readback::AovReadback;
 pub use timings::FrameTimings;
