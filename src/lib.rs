@@ -44,8 +44,8 @@ pub use renderer::ids::MaterialId;
 pub use renderer::instances::{InstanceId, LightId};
 pub use renderer::world::{GroupId, MetaballsDesc, WaveDesc, WaveId};
 pub use renderer::{
-    AovReadback, Exposure, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, FrameTimings, RecordedFrame,
-    Renderer, RendererOptions, WaveUpdate,
+    AovReadback, DepthConvention, Exposure, ExternalColor, ExternalDepth, FrameInputs, FrameTimings,
+    RecordedFrame, Renderer, RendererOptions, WaveUpdate,
 };
 pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};
 

@@ -35,8 +35,8 @@ pub mod view_projection;
 pub mod world;
 
 pub use deform::vertex_normals;
-pub use look::Exposure;
 pub use inputs::{DepthConvention, ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
+pub use look::Exposure;
 pub use readback::AovReadback;
 pub use timings::FrameTimings;
 pub use update::WaveUpdate;
