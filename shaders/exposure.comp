@@ -1,5 +1,5 @@
 #version 460
-// exposure: the automatic exposure's measurement (issue 26). One workgroup reads the whole
+// exposure: the automatic exposure's measurement (issue 26). One workgroup reads the (sampled)
 // pre-exposed HDR frame into a histogram of log2 luminance (256 bins of 1/8 stop from 2^-20), one
 // for every pixel and one for the pixels that show a surface (ids.x != 0), and writes the log2
 // of the scene's average luminance: the mean bin centre between the 80th and 98.3rd percentiles
@@ -41,10 +41,14 @@ void main() {
     all_bins[i] = 0u;
     surface_bins[i] = 0u;
     barrier();
-    uint w = params.width;
-    uint n = params.width * params.height;
+    // The pixels measured: every s-th of each row and column (common/exposure.glsl).
+    uint s = exposure_step(params.width, params.height);
+    uint first = s / 2u;
+    uint cols = (params.width - first + s - 1u) / s;
+    uint rows = (params.height - first + s - 1u) / s;
+    uint n = cols * rows;
     for (uint p = i; p < n; p += EXPOSURE_BINS) {
-        ivec2 q = ivec2(p % w, p / w);
+        ivec2 q = ivec2(first + (p % cols) * s, first + (p / cols) * s);
         uint b = exposure_bin(dot(imageLoad(hdr, q).rgb, LUMINANCE));
         atomicAdd(all_bins[b], 1u);
         if (imageLoad(ids, q).x != 0u) atomicAdd(surface_bins[b], 1u);

@@ -112,11 +112,24 @@ pub fn bin_centre(i: usize) -> f64 {
     (i as f64 + 0.5) / HISTOGRAM_BINS_PER_STOP + HISTOGRAM_LOG2_MIN
 }
 
-/// The measured log2 average of a frame from its pre-exposed HDR colours (`hdr`, linear RGB) and
-/// whether each pixel shows a surface: the surfaces' pixels when there are any, else all.
-pub fn measure(hdr: &[[f64; 3]], surface: &[bool], pre_exposure_log2: f64) -> f64 {
+/// The measurement reads at most `SAMPLES_SIDE`² pixels (shaders/common/exposure.glsl).
+pub const SAMPLES_SIDE: usize = 256;
+
+/// The pixels the measurement reads of a width × height frame, row-major indices: every s-th of
+/// each row and column from s / 2, s = ⌈max(width, height) / SAMPLES_SIDE⌉.
+pub fn measured_pixels(width: usize, height: usize) -> impl Iterator<Item = usize> {
+    let s = width.max(height).div_ceil(SAMPLES_SIDE).max(1);
+    let first = s / 2;
+    (first..height).step_by(s).flat_map(move |y| (first..width).step_by(s).map(move |x| y * width + x))
+}
+
+/// The measured log2 average of a frame `width` pixels wide from its pre-exposed HDR colours
+/// (`hdr`, linear RGB, row-major) and whether each pixel shows a surface: the surfaces' pixels when
+/// there are any, else all (of those `measured_pixels` reads).
+pub fn measure(hdr: &[[f64; 3]], surface: &[bool], width: usize, pre_exposure_log2: f64) -> f64 {
     let mut bins = [vec![0u32; HISTOGRAM_BINS], vec![0u32; HISTOGRAM_BINS]];
-    for (c, &s) in hdr.iter().zip(surface) {
+    let height = hdr.len().checked_div(width).unwrap_or(0);
+    for (c, &s) in measured_pixels(width, height).map(|i| (&hdr[i], &surface[i])) {
         let y = c[0] * LUMINANCE[0] + c[1] * LUMINANCE[1] + c[2] * LUMINANCE[2];
         let b = histogram_bin(y);
         bins[0][b] += 1;
