@@ -10,8 +10,6 @@
 //! and folded into the adapted luminance (`effects::tonemap::adapt`, by wall-clock time), which
 //! later frames start from; a first frame (a headless render) uses its own measurement alone.
 
-use std::time::Instant;
-
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
 use crate::effects::tonemap::{adapt, adaptation_weight, pre_exposure, tonemap_factor};
 use crate::gpu::barriers::ImageAccess;
@@ -39,11 +37,13 @@ pub struct TonemapPass {
 /// luminance the measurements of finished frames have been folded into.
 #[derive(Default)]
 pub(crate) struct AutoExposure {
-    /// Per frame slot: the measurement buffer, and when the frame that last wrote it was
-    /// prepared (None once read back, or when that frame had a fixed exposure).
-    slots: Vec<(Buffer, Option<Instant>)>,
-    /// The adapted log2 luminance and when the frame it last took in was prepared.
-    adapted: Option<(f64, Instant)>,
+    /// Per frame slot: the measurement buffer, and the scene time of the frame that last wrote
+    /// it (None once read back, or when that frame had a fixed exposure).
+    slots: Vec<(Buffer, Option<f64>)>,
+    /// The adapted log2 luminance and the scene time of the frame it last took in. Adaptation
+    /// follows the frames' scene time (`FrameInputs::time`), not the wall clock: the same frames
+    /// give the same pictures on any machine, and a paused game's exposure holds still.
+    adapted: Option<(f64, f64)>,
 }
 
 impl AutoExposure {
@@ -65,13 +65,16 @@ impl AutoExposure {
             self.slots.push((buffer, None));
         }
         self.read_back(frame.slot);
-        let now = Instant::now();
+        let now = frame.time;
         let pre_log2 = pre_exposure(frame.scene).log2() as f32;
         let (history, weight) = match self.adapted {
-            None => (0.0, 1.0),
-            Some((a, since)) => {
-                (a as f32, adaptation_weight(now.saturating_duration_since(since).as_secs_f64()) as f32)
+            // Time that went back is a new timeline (a reloaded level): the frame's own measurement.
+            Some((_, since)) if now < since => {
+                self.adapted = None;
+                (0.0, 1.0)
             }
+            None => (0.0, 1.0),
+            Some((a, since)) => (a as f32, adaptation_weight(now - since) as f32),
         };
         self.slots[frame.slot].1 = Some(now);
         Ok(((pre_log2, history, weight), BufferRange::whole(self.slots[frame.slot].0.raw)))
@@ -94,7 +97,7 @@ impl AutoExposure {
         }
         let adapted = match self.adapted {
             None => measured,
-            Some((a, since)) => adapt(Some(a), measured, at.saturating_duration_since(since).as_secs_f64()),
+            Some((a, since)) => adapt(Some(a), measured, at - since),
         };
         self.adapted = Some((adapted, at));
     }
