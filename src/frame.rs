@@ -110,6 +110,8 @@ pub(crate) struct SlotFrame<'a> {
     pub instances: BufferRange,
     pub materials: BufferRange,
     pub time: f64,
+    /// `effects::tonemap::pre_exposure` of the scene, once per frame.
+    pub pre_exposure: f64,
     pub embedded: bool,
     pub depth_imported: bool,
 }
@@ -142,6 +144,7 @@ pub(crate) fn record_passes(
             instances: f.instances,
             materials: f.materials,
             time: f.time,
+            pre_exposure: f.pre_exposure,
             extent,
             slot: f.slot,
             embedded: f.embedded,
@@ -202,6 +205,7 @@ pub(crate) fn record_passes(
             scene_gpu: f.scene_gpu,
             scene: f.scene,
             sets: p.sets.clone(),
+            pre_exposure: f.pre_exposure,
             embedded: f.embedded,
             depth_imported: f.depth_imported,
         };

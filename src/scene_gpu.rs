@@ -67,8 +67,9 @@ pub struct Draw {
 pub struct SceneGpu {
     pub meshes: Vec<GpuMesh>,
     pub draws: Vec<Draw>,
-    /// The material table as the passes read it.
+    /// The material table as the passes read it, and the pre-exposure its emission was built for.
     materials: Vec<MaterialData>,
+    materials_pre_exposure: f64,
     /// The instance table as the raster reads it (grouped by mesh), rebuilt when transforms change.
     instances: Vec<InstanceData>,
 }
@@ -128,9 +129,10 @@ impl SceneGpu {
             let (deformed, stale, in_use) = (Vec::new(), 0, None);
             meshes.push(GpuMesh { vertices, indices, index_count, attributes, deformed, stale, in_use });
         }
-        let materials = material_records(scene);
+        let materials_pre_exposure = crate::effects::tonemap::pre_exposure(scene);
+        let materials = material_records(scene, materials_pre_exposure);
         let (instances, draws) = instance_layout(scene);
-        Ok(SceneGpu { meshes, draws, materials, instances })
+        Ok(SceneGpu { meshes, draws, materials, materials_pre_exposure, instances })
     }
 
     /// The material table to upload this frame (at least one record: an empty table still binds).
@@ -138,9 +140,14 @@ impl SceneGpu {
         &self.materials
     }
 
-    /// Rebuilds the material table after a material changed.
-    pub fn refresh_materials(&mut self, scene: &Scene) {
-        self.materials = material_records(scene);
+    /// Rebuilds the material table when a material `changed` or the frame's pre-exposure is not
+    /// the one its emission was built for (a light, the ambient, the background or the exposure
+    /// changed).
+    pub fn refresh_materials(&mut self, scene: &Scene, pre_exposure: f64, changed: bool) {
+        if changed || self.materials_pre_exposure != pre_exposure {
+            self.materials = material_records(scene, pre_exposure);
+            self.materials_pre_exposure = pre_exposure;
+        }
     }
 
     /// The instance table to upload this frame.

@@ -302,3 +302,34 @@ fn vertex_colours_emission_and_mask_match_the_f64_twin() {
     assert!(masked_out > 1000, "{masked_out}");
     assert_eq!(masked_wrong, 0);
 }
+
+/// Emission is pre-exposed as the lights are: a light changed at run time so that the frame's
+/// pre-exposure changes (here past RGBA16F: p = 1 → a power of two below 1) rescales the material
+/// table's emission too, and the frame is the file's with that light, bit for bit.
+#[test]
+fn emission_follows_the_pre_exposure_when_a_light_changes() {
+    let dir = temp_dir("materials-pre-exposure");
+    let mut scene = hadou::scene::load_scene(&scene_file(&dir)).unwrap();
+    scene.render.exposure_mode = hadou::scene::ExposureMode::Linear;
+    scene.render.exposure = 1.0;
+    assert!(!scene.lights.is_empty());
+    assert_eq!(hadou::effect::pre_exposure(&scene), 1.0);
+    let mut request = FrameRequest::new(W, H);
+    request.aovs = vec![Aov::Hdr];
+    let mut live = common::runtime();
+    live.load_scene(scene.clone()).unwrap();
+    live.render(&request).unwrap();
+    let light = scene.lights[0];
+    let id = live.renderer().light_ids()[0];
+    live.renderer().set_light(id, light.direction, light.color, 1e6).unwrap();
+    let got = live.render(&request).unwrap();
+    live.finish();
+    let mut bright = scene.clone();
+    bright.lights[0].intensity = 1e6;
+    assert!(hadou::effect::pre_exposure(&bright) < 1.0);
+    let mut file = common::runtime();
+    file.load_scene(bright).unwrap();
+    let want = file.render(&request).unwrap();
+    file.finish();
+    assert!(common::same_bits(got.aov(Aov::Hdr).unwrap(), want.aov(Aov::Hdr).unwrap()), "HDR differs");
+}

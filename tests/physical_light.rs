@@ -102,7 +102,7 @@ fn pre_exposure_rules() {
     // Every scene written before: linear exposure, lights that fit → p = 1 (bit for bit).
     let s = scene(&format!("{VIEW}[[light]]\ndirection = [0, -1, 0]\nintensity = 3\n"));
     assert_eq!((s.render.exposure_mode, pre_exposure(&s)), (ExposureMode::Linear, 1.0));
-    assert_eq!(tonemap_factor(&s), 1.0);
+    assert_eq!(tonemap_factor(&s, pre_exposure(&s)), 1.0);
     // A 100,000 lux sun (intensity lux/π) at EV100 15: p the power of two nearest the exposure.
     let sun = 100_000.0 / PI;
     let s = scene(&format!(
@@ -112,13 +112,13 @@ fn pre_exposure_rules() {
     assert_eq!(s.render.exposure, ev100_exposure(15.0));
     let p = pre_exposure(&s);
     assert_eq!(p, 2f64.powi(-15));
-    assert!((tonemap_factor(&s) - ev100_exposure(15.0) * 32768.0).abs() < 1e-15);
+    assert!((tonemap_factor(&s, pre_exposure(&s)) - ev100_exposure(15.0) * 32768.0).abs() < 1e-15);
     assert!(lit_max(&s) * p <= PRE_EXPOSED_MAX);
     // A linear exposure with a light that used to be refused (over 65504): p brings it down.
     let s = scene(&format!("{VIEW}[[light]]\ndirection = [0, -1, 0]\nintensity = 100000\n"));
     let p = pre_exposure(&s);
     assert!(p < 1.0 && p.log2().fract() == 0.0 && lit_max(&s) * p <= PRE_EXPOSED_MAX, "{p}");
-    assert_eq!(tonemap_factor(&s), 1.0 / p);
+    assert_eq!(tonemap_factor(&s, pre_exposure(&s)), 1.0 / p);
     // Auto: the brightest lit surface near 1 before the measurement, a power of two.
     let s = scene(&format!(
         "[render]\nexposure = \"auto\"\n{VIEW}[[light]]\ndirection = [0, -1, 0]\nintensity = {sun}\n"
@@ -262,7 +262,7 @@ fn a_100000_lux_sun_renders_finite_and_unclipped() {
         assert!(top <= PRE_EXPOSED_MAX, "{name}: {top}");
         if name == "EV100 15" {
             // The fixed exposure against the f64 twin, pixel by pixel (module docs: ≤ 1 code).
-            let factor = tonemap_factor(s);
+            let factor = tonemap_factor(s, pre_exposure(s));
             for (i, c) in shot.hdr.iter().enumerate() {
                 for (k, &v) in c.iter().enumerate() {
                     let want = tonemap_channel(v, factor);

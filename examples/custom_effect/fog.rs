@@ -10,8 +10,8 @@
 
 use glam::DVec3;
 use hadou::effect::{
-    pre_exposure, Binding, Bound, Effect, EffectPass, EffectState, FrameContext, GpuResult, ImageAccess,
-    ImageDesc, ImageUse, Pass, PassBuilder, PassRecording, Pipeline, SceneFile, Target,
+    Binding, Bound, Effect, EffectPass, EffectState, FrameContext, GpuResult, ImageAccess, ImageDesc,
+    ImageUse, Pass, PassBuilder, PassRecording, Pipeline, SceneFile, Target,
 };
 use hadou::gpu::vk;
 use hadou::scene::{Scene, SceneError};
@@ -213,7 +213,7 @@ impl Pass for FogPass {
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         // `needed` ran this pass only with a fog of density > 0.
         if let Some(fog) = frame.scene.effects.get::<Fog>() {
-            self.params = FogParams::new(fog, pre_exposure(frame.scene));
+            self.params = FogParams::new(fog, frame.pre_exposure);
         }
         self.extent = frame.extent;
         Ok(vec![

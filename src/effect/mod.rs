@@ -11,8 +11,9 @@
 //!   ([`ImageUse`], hadou's frame images or its own [`ImageDesc`]), its bindings, its commands.
 //!
 //! Radiance a pass adds to hadou's `hdr` image is **pre-exposed**: multiplied by
-//! [`pre_exposure`]`(scene)` (1 for every scene whose lighting fits RGBA16F as it is, a power of
-//! two otherwise), as hadou's own lights, background, emission and waves are.
+//! `FrameContext::pre_exposure` (1 for every scene whose lighting fits RGBA16F as it is, a power
+//! of two otherwise; [`pre_exposure`]`(scene)` for an f64 twin), as hadou's own lights,
+//! background, emission and waves are.
 //!
 //! A game registers its effects with `Effects::builtin().with(MyEffect)?` in
 //! `RendererOptions::effects` / `RuntimeOptions::effects`, and reads scene files with

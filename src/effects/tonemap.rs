@@ -149,12 +149,6 @@ pub fn lit_max(scene: &Scene) -> f64 {
     lit.max_element() + emission
 }
 
-/// The brightest value the HDR target is asked to hold before pre-exposure: a lit surface
-/// (`lit_max`) or the background.
-pub fn hdr_peak(scene: &Scene) -> f64 {
-    lit_max(scene).max(scene.render.background.max_element())
-}
-
 /// The largest value a lit surface may reach in the HDR target after pre-exposure: 16× below
 /// RGBA16F's largest (65504) leaves room for the specular highlights and the waves' glow.
 pub const PRE_EXPOSED_MAX: f64 = 4096.0;
@@ -168,11 +162,13 @@ pub const PRE_EXPOSED_MAX: f64 = 4096.0;
 ///   physical units): p = 1, the frame as it always was, bit for bit.
 /// - Otherwise a power of two, so scaling is exact: the one nearest the exposure (`exposure_ev100`,
 ///   a linear exposure), or 1 / `lit_max` (`"auto"`, whose exposure is not known before the
-///   frame), and never so large that a lit surface or the background (`hdr_peak`) passes
+///   frame), and never so large that a lit surface (`lit_max`) or the background passes
 ///   `PRE_EXPOSED_MAX`.
+///
+/// The renderer computes it once per frame (`FrameContext::pre_exposure`).
 pub fn pre_exposure(scene: &Scene) -> f64 {
     let lit = lit_max(scene);
-    let peak = hdr_peak(scene);
+    let peak = lit.max(scene.render.background.max_element());
     let r = &scene.render;
     if r.exposure_mode == ExposureMode::Linear && peak <= crate::scene::file::MAX_HDR {
         return 1.0;
@@ -191,14 +187,15 @@ pub fn pre_exposure(scene: &Scene) -> f64 {
 }
 
 /// The factor the tonemap multiplies the pre-exposed HDR value by for a fixed exposure:
-/// exposure / p, kept within f32 (the push constant). For `"auto"` where no measurement is made
-/// (`estimated_log2_luminance`), the exposure estimated from the lights.
-pub fn tonemap_factor(scene: &Scene) -> f64 {
+/// exposure / p (p = `pre_exposure(scene)`), kept within f32 (the push constant). For `"auto"`
+/// where no measurement is made (`estimated_log2_luminance`), the exposure estimated from the
+/// lights.
+pub fn tonemap_factor(scene: &Scene, pre_exposure: f64) -> f64 {
     let exposure = match scene.render.exposure_mode {
         ExposureMode::Auto => auto_exposure(estimated_log2_luminance(scene)),
         _ => scene.render.exposure,
     };
-    (exposure / pre_exposure(scene)).min(f32::MAX as f64)
+    (exposure / pre_exposure).min(f32::MAX as f64)
 }
 
 /// The average luminance an automatic exposure assumes before (or without) measuring a frame:

@@ -151,7 +151,7 @@ impl Pass for CompositePass {
         if !self.auto_frame {
             self.state.reset();
             // exposure / pre-exposure: the HDR target is pre-exposed (`effects::tonemap::pre_exposure`).
-            let exposure = crate::effects::tonemap::tonemap_factor(frame.scene) as f32;
+            let exposure = crate::effects::tonemap::tonemap_factor(frame.scene, frame.pre_exposure) as f32;
             self.params = Params { exposure, mode, ..Params::default() };
             return Ok(vec![Binding::Image(Target::Hdr)]);
         }

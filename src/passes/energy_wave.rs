@@ -106,7 +106,7 @@ impl Pass for EnergyWavePass {
             .collect();
         let waves: Vec<GpuWave> = live.iter().map(|(s, _)| gpu_wave(&wave_params(s), camera)).collect();
         // The glow is pre-exposed as the frame's other radiances (`effects::tonemap::pre_exposure`).
-        let p = crate::effects::tonemap::pre_exposure(scene);
+        let p = frame.pre_exposure;
         let styles: Vec<WaveStyle> =
             live.iter().map(|(s, m)| wave_style(&WaveState { emission: s.emission * p, ..*s }, *m)).collect();
         self.params = EnergyWaveParams { counts: [waves.len() as u32, 0, 0, 0] };

@@ -104,10 +104,9 @@ fn mat3_as_mat4(m: DMat3) -> [[f32; 4]; 4] {
 }
 
 impl FrameUniforms {
-    /// The radiances (lights, ambient, background) are pre-exposed: multiplied by
+    /// The radiances (lights, ambient, background) are pre-exposed: multiplied by `p`, the frame's
     /// `effects::tonemap::pre_exposure` (1 for every scene with a linear exposure that fits).
-    pub fn new(scene: &Scene, width: u32, height: u32) -> Self {
-        let p = crate::effects::tonemap::pre_exposure(scene);
+    pub fn new(scene: &Scene, width: u32, height: u32, p: f64) -> Self {
         let mut lights = [GpuLight::default(); MAX_LIGHTS];
         for (slot, light) in lights.iter_mut().zip(&scene.lights) {
             slot.direction = vec4_f32(light.direction, 0.0);
@@ -156,10 +155,10 @@ pub fn instance_records(scene: &Scene) -> (Vec<InstanceData>, Vec<(u32, u32)>) {
     (records, ranges)
 }
 
-pub fn material_records(scene: &Scene) -> Vec<MaterialData> {
+/// The material table; emission is a radiance written into the HDR target, pre-exposed by `p` as
+/// the lights are.
+pub fn material_records(scene: &Scene, p: f64) -> Vec<MaterialData> {
     use crate::scene::{MaterialKind, ThicknessMode};
-    // Emission is a radiance written into the HDR target: pre-exposed as the lights are.
-    let p = crate::effects::tonemap::pre_exposure(scene);
     let record = |m: &crate::scene::Material| {
         let albedo = vec4_f32(m.albedo, m.surface.alpha as f32);
         let emission = vec4_f32(m.surface.emission * p, m.surface.alpha_cutoff as f32);

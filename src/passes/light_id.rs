@@ -51,7 +51,8 @@ impl LightIdPass {
     ) -> GpuResult<Self> {
         let pipeline = Self::pipeline(ctx, compiler, false)?;
         let mirrored = Self::pipeline(ctx, compiler, true)?;
-        let now = TranslucentFrame::new(scene, &data);
+        // The light's radiance is not used here: any pre-exposure.
+        let now = TranslucentFrame::new(scene, &data, 1.0);
         let (view, lit, draws, size) = (now.view_data, now.view.is_some(), now.draws, now.map_size);
         Ok(LightIdPass { pipeline, mirrored, data, view, lit, draws, size })
     }
@@ -102,7 +103,7 @@ impl Pass for LightIdPass {
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         // Instances may have moved: this frame's light view, draws and map size.
-        let now = TranslucentFrame::new(frame.scene, &self.data);
+        let now = TranslucentFrame::new(frame.scene, &self.data, frame.pre_exposure);
         (self.view, self.lit, self.draws, self.size) =
             (now.view_data, now.view.is_some(), now.draws, now.map_size);
         Ok(vec![Binding::Bound(Bound::Storage(frame.instances))])

@@ -93,6 +93,9 @@ pub struct FrameContext<'a> {
     pub materials: BufferRange,
     /// Scene time in seconds.
     pub time: f64,
+    /// What every radiance written into `hdr` is multiplied by this frame
+    /// (`effects::tonemap::pre_exposure` of the scene, computed once per frame).
+    pub pre_exposure: f64,
     /// The frame's size in pixels.
     pub extent: vk::Extent2D,
     /// The frame slot being recorded (0..frames_in_flight).
@@ -135,6 +138,8 @@ pub struct PassRecording<'a> {
     pub scene: &'a Scene,
     /// The pass's descriptor sets of this frame, one per pipeline of `Pass::pipelines`, in order.
     pub sets: Vec<vk::DescriptorSet>,
+    /// See `FrameContext::pre_exposure`.
+    pub pre_exposure: f64,
     /// See `FrameContext::embedded`.
     pub embedded: bool,
     /// See `FrameContext::depth_imported`.

@@ -91,7 +91,7 @@ impl Pass for RasterPass {
     fn record(&self, pass: &PassRecording) {
         let rec = pass.rec;
         let t = pass.targets;
-        let bg = (pass.scene.render.background * crate::effects::tonemap::pre_exposure(pass.scene)).as_vec3();
+        let bg = (pass.scene.render.background * pass.pre_exposure).as_vec3();
         // Embedded: transparent background (composited over the game's colour); with the game's
         // depth imported, depth and distance are loaded, not cleared.
         let hdr_clear = if pass.embedded { [0.0; 4] } else { [bg.x, bg.y, bg.z, 1.0] };

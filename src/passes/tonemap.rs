@@ -7,11 +7,11 @@
 //! workgroup measuring this frame's luminance into a small host-visible buffer of the slot, which
 //! tonemap.comp reads in the same frame: nothing waits for the GPU. Frames that follow each other
 //! are smoothed: when the slot comes round again (its frame finished) its measurement is read back
-//! and folded into the adapted luminance (`effects::tonemap::adapt`, by wall-clock time), which
+//! and folded into the adapted luminance (`effects::tonemap::adapt`, over the frames' scene time), which
 //! later frames start from; a first frame (a headless render) uses its own measurement alone.
 
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
-use crate::effects::tonemap::{adapt, adaptation_weight, pre_exposure, tonemap_factor};
+use crate::effects::tonemap::{adapt, adaptation_weight, tonemap_factor};
 use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::{Buffer, MemoryLocation};
 use crate::gpu::pipeline::{create_compute_pipeline, BufferRange, Pipeline};
@@ -66,7 +66,7 @@ impl AutoExposure {
         }
         self.read_back(frame.slot);
         let now = frame.time;
-        let pre_log2 = pre_exposure(frame.scene).log2() as f32;
+        let pre_log2 = frame.pre_exposure.log2() as f32;
         let (history, weight) = match self.adapted {
             // Time that went back is a new timeline (a reloaded level): the frame's own measurement.
             Some((_, since)) if now < since => {
@@ -185,7 +185,7 @@ impl Pass for TonemapPass {
         self.auto_frame = frame.scene.render.exposure_mode == ExposureMode::Auto;
         if !self.auto_frame {
             self.state.reset();
-            let exposure = tonemap_factor(frame.scene) as f32;
+            let exposure = tonemap_factor(frame.scene, frame.pre_exposure) as f32;
             self.params = Params { exposure, width: e.width, height: e.height, ..Params::default() };
             return Ok(vec![Binding::Image(Target::Hdr), Binding::Image(Target::Ldr)]);
         }

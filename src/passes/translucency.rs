@@ -205,7 +205,9 @@ pub struct TranslucentFrame {
 }
 
 impl TranslucentFrame {
-    pub fn new(scene: &Scene, data: &TranslucentData) -> Self {
+    /// `pre_exposure`: the frame's (`FrameContext::pre_exposure`), what the light's radiance is
+    /// multiplied by.
+    pub fn new(scene: &Scene, data: &TranslucentData, pre_exposure: f64) -> Self {
         let view = LightView::fit(scene);
         let view_data = view.as_ref().map(LightViewData::new).unwrap_or(LightViewData {
             centre: [0.0, 0.0, 0.0, 1.0],
@@ -217,9 +219,10 @@ impl TranslucentFrame {
             view,
             view_data,
             // Pre-exposed as the frame's other radiances (`effects::tonemap::pre_exposure`).
-            radiance: scene.lights.first().map_or(glam::DVec3::ZERO, |l| {
-                l.color * l.intensity * crate::effects::tonemap::pre_exposure(scene)
-            }),
+            radiance: scene
+                .lights
+                .first()
+                .map_or(glam::DVec3::ZERO, |l| l.color * l.intensity * pre_exposure),
             draws: draw_runs(scene),
             instances: instance_table(scene, &data.keys),
             map_size: light_map_size(scene),
@@ -525,7 +528,7 @@ impl Pass for TranslucencyPass {
         let (scene, extent) = (frame.scene, frame.extent);
         let data = &self.data;
         // Instances may have moved: this frame's light view and matrices.
-        let now = TranslucentFrame::new(scene, data);
+        let now = TranslucentFrame::new(scene, data, frame.pre_exposure);
         self.rect = translucent_pixels(scene, extent);
         self.extent = extent;
         let params = TranslucencyParams {

@@ -157,6 +157,7 @@ impl Renderer {
             instances: none,
             materials: none,
             time: 0.0,
+            pre_exposure: crate::effects::tonemap::pre_exposure(scene),
             embedded: false,
             depth_imported: false,
         };
@@ -183,12 +184,16 @@ impl Renderer {
         let s = &mut self.slots[slot];
         // Deformed meshes: this slot's vertex buffers (its previous frame has finished).
         loaded.gpu.begin_slot(ctx, memory, &loaded.scene, slot)?;
-        if loaded.tables_dirty {
+        // Once per frame: what every radiance written into the HDR target is multiplied by. A
+        // light, the ambient, the background or the exposure changed since the material table
+        // was built changes it, and the table's emission with it.
+        let pre_exposure = crate::effects::tonemap::pre_exposure(&loaded.scene);
+        let changed = std::mem::take(&mut loaded.tables_dirty);
+        if changed {
             loaded.gpu.refresh_instances(&loaded.scene);
-            loaded.gpu.refresh_materials(&loaded.scene);
-            loaded.tables_dirty = false;
         }
-        let uniforms = FrameUniforms::new(&loaded.scene, extent.width, extent.height);
+        loaded.gpu.refresh_materials(&loaded.scene, pre_exposure, changed);
+        let uniforms = FrameUniforms::new(&loaded.scene, extent.width, extent.height, pre_exposure);
         let uniforms = s.ring.push(ctx, memory, bytemuck::bytes_of(&uniforms))?.range().of::<FrameUniforms>();
         let instances: BufferRange = s
             .ring
@@ -250,6 +255,7 @@ impl Renderer {
             instances,
             materials,
             time: inputs.time,
+            pre_exposure,
             embedded: inputs.depth.is_some() || inputs.color.is_some(),
             depth_imported: inputs.depth.is_some(),
         };
