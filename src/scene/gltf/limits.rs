@@ -131,7 +131,7 @@ fn problem(matrix: &DMat4, bounds: (DVec3, DVec3)) -> Option<Problem> {
 }
 
 /// The world box of the object box `bounds` placed by `matrix` (its 8 corners).
-fn world_box(matrix: &DMat4, (a, b): (DVec3, DVec3)) -> (DVec3, DVec3) {
+pub(super) fn world_box(matrix: &DMat4, (a, b): (DVec3, DVec3)) -> (DVec3, DVec3) {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     for k in 0..8 {

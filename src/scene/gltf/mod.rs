@@ -199,22 +199,7 @@ fn note_file_level(doc: &gltf::Document, ignored: &mut Ignored) {
 pub fn scene_bounds(meshes: &[SceneMesh], instances: &[Instance]) -> Option<SceneBounds> {
     let boxes: Vec<(DVec3, DVec3)> = instances
         .iter()
-        .map(|inst| {
-            let (a, b) = meshes[inst.mesh].mesh.bounds();
-            let mut lo = DVec3::splat(f64::INFINITY);
-            let mut hi = DVec3::splat(f64::NEG_INFINITY);
-            for k in 0..8 {
-                let corner = DVec3::new(
-                    if k & 1 == 0 { a.x } else { b.x },
-                    if k & 2 == 0 { a.y } else { b.y },
-                    if k & 4 == 0 { a.z } else { b.z },
-                );
-                let p = inst.transform.transform_point(corner);
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-            (lo, hi)
-        })
+        .map(|inst| limits::world_box(&inst.transform.matrix, meshes[inst.mesh].mesh.bounds()))
         .collect();
     SceneBounds::of_boxes(&boxes)
 }
