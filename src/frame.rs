@@ -14,7 +14,7 @@ use crate::gpu::{vk, GpuContext};
 use crate::passes::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
-use crate::targets::Targets;
+use crate::targets::{Target, Targets};
 
 /// GPU time of one pass in one frame.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -181,6 +181,9 @@ pub(crate) fn record_passes(
     }
     // The sets are written: the views may go (they are retired with the frame).
     drop(views);
+    // Images no pass of this frame uses any more go (retired with the frame).
+    let used: Vec<Target> = prepared.iter().flat_map(|p| p.uses.iter().map(|u| u.target)).collect();
+    f.targets.retain_only(&used);
     // Before any command: a pass reading what no earlier pass writes refuses the frame.
     let names: Vec<&'static str> = passes.iter().map(|p| p.name()).collect();
     crate::effect::check_reads(names.iter().copied().zip(prepared.iter().map(|p| p.uses.as_slice())))?;

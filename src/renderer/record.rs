@@ -239,8 +239,6 @@ impl Renderer {
         if let (Some(_), Some(out)) = (inputs.depth.filter(|d| d.write), &mut self.edges.depth_out) {
             passes.push(out);
         }
-        let used: Vec<Target> = passes.iter().flat_map(|p| p.images()).map(|u| u.target).collect();
-        targets.retain_only(&used);
         let mut f = SlotFrame {
             ctx,
             memory,
