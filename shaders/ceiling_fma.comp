@@ -8,6 +8,12 @@
 // rate). On a GPU the many invocations hide latency instead. The chains' sum is stored so the
 // compiler cannot drop the work. Keep the count in sync with FLOP_PER_ROUND in
 // src/report/ceilings.rs.
+//
+// ADD_CHAIN: each step also adds a vec4 chain a = a + c1 (c1 changes every step, so nothing
+// folds): 256 × 4 more FLOP per round. Devices whose adds have pipes of their own beside the FMA
+// pipes (AMD Zen's FADD pipes, which lavapipe runs on) retire more FLOP per cycle with the mix
+// than with FMAs alone, so a pass of adds and FMAs could read above an FMA-only "ceiling"; the
+// report takes the better of the two kernels.
 
 layout(local_size_x = 64) in;
 
@@ -18,7 +24,11 @@ layout(push_constant) uniform Params {
     float seed;   // 0 at run time; unknown to the compiler, so nothing is folded
 } params;
 
+#ifdef ADD_CHAIN
+#define STEP c0 = fma(c0, m, k); c1 = fma(c1, m, k); a0 = a0 + c1;
+#else
 #define STEP c0 = fma(c0, m, k); c1 = fma(c1, m, k);
+#endif
 #define STEP16 STEP STEP STEP STEP STEP STEP STEP STEP STEP STEP STEP STEP STEP STEP STEP STEP
 #define STEP256 \
     STEP16 STEP16 STEP16 STEP16 STEP16 STEP16 STEP16 STEP16 \
@@ -27,7 +37,7 @@ layout(push_constant) uniform Params {
 void main() {
     uint id = gl_GlobalInvocationID.x;
     vec4 base = vec4(float(id & 1023u) * 1.0e-6 + params.seed);
-    vec4 c0 = base, c1 = base + 0.5;
+    vec4 c0 = base, c1 = base + 0.5, a0 = base;
     // |m| < 1 keeps both chains bounded (they converge to k / (1 − m)): no Inf, no denormals.
     // Scalars splatted: one register each on lavapipe.
     vec4 m = vec4(0.999 + params.seed);
@@ -37,5 +47,9 @@ void main() {
         STEP256
         ++i;
     } while (i < params.iterations);
+#ifdef ADD_CHAIN
+    sink[id] = c0 + c1 + a0;
+#else
     sink[id] = c0 + c1;
+#endif
 }

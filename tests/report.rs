@@ -156,9 +156,14 @@ fn quick_report_has_every_row() {
     }
 
     let ceilings = Csv::read(&out.join("ceilings.csv"));
-    for kernel in ["fma", "copy"] {
+    for kernel in ["fma", "fma+add", "copy"] {
         let row = ceilings.row("kernel", kernel);
         assert!(finite(row, "best") > 0.0 && finite(row, "p50") > 0.0, "{kernel}: {row:?}");
+    }
+    // The arithmetic kernels' loop rounds were calibrated (a whole number, at least one).
+    for kernel in ["fma", "fma+add"] {
+        let rounds = finite(ceilings.row("kernel", kernel), "loop rounds");
+        assert!(rounds >= 1.0 && rounds.fract() == 0.0, "{kernel}: {rounds} loop rounds");
     }
 
     for plot in ["energy_wave", "translucency", "metaballs", "metaballs_mismatch"] {
