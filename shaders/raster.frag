@@ -4,6 +4,10 @@
 // VERTEX_ATTRIBUTES; a fragment whose alpha is below the material's cutoff (alphaMode MASK) is
 // not drawn. Without them (TOML materials, meshes without attributes) the colour is the albedo
 // itself, nothing is discarded (alpha ≥ 0 = cutoff) and the emission added is exactly 0.
+// MATERIAL_TEXTURES (with VERTEX_ATTRIBUTES; src/scene_textures.rs): the base colour is also
+// multiplied by the base-colour texture and the emission by the emissive texture, each sampled
+// at its coordinate set mapped by KHR_texture_transform; both are sampled before the mask's
+// discard (implicit derivatives need every fragment of the quad).
 #include "common/frame.glsl"
 
 layout(set = 0, binding = 0, std140) uniform FrameBlock { FrameUniforms frame; };
@@ -23,10 +27,34 @@ layout(location = 1) out vec4 out_normal;
 layout(location = 2) out uvec2 out_ids;
 layout(location = 3) out float out_distance;
 
+#ifdef MATERIAL_TEXTURES
+layout(set = 1, binding = 0) uniform sampler2D base_texture;
+layout(set = 1, binding = 1) uniform sampler2D emissive_texture;
+// TexturePush: each texture's 2x3 coordinate map as two rows; flags x, y: base, emissive
+// present; z, w: their coordinate sets.
+layout(push_constant) uniform TexturePush {
+    vec4 base[2];
+    vec4 emissive[2];
+    uvec4 flags;
+} textures;
+
+vec2 mapped(vec4 rows[2], uint set) {
+    vec3 uv = vec3(set == 0u ? v_texcoords.xy : v_texcoords.zw, 1.0);
+    return vec2(dot(rows[0].xyz, uv), dot(rows[1].xyz, uv));
+}
+#endif
+
 void main() {
     vec4 base = v_albedo;
 #ifdef VERTEX_ATTRIBUTES
     base *= v_color;
+#endif
+    vec3 emission = v_emission.rgb;
+#ifdef MATERIAL_TEXTURES
+    vec4 base_texel = texture(base_texture, mapped(textures.base, textures.flags.z));
+    vec4 emissive_texel = texture(emissive_texture, mapped(textures.emissive, textures.flags.w));
+    if (textures.flags.x != 0u) base *= base_texel;
+    if (textures.flags.y != 0u) emission *= emissive_texel.rgb;
 #endif
     if (base.a < v_emission.a) discard;
     vec3 to_camera = frame.camera_pos.xyz - v_world;
@@ -41,7 +69,7 @@ void main() {
         light += i < frame.counts.x ? add : vec3(0.0);
         ++i;
     } while (i < frame.counts.x);
-    out_hdr = vec4(base.rgb * light + v_emission.rgb, 1.0);
+    out_hdr = vec4(base.rgb * light + emission, 1.0);
     out_normal = vec4(n, 1.0);
     out_ids = v_ids;
     out_distance = length(to_camera);

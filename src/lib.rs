@@ -31,6 +31,8 @@ pub mod scene;
 #[doc(hidden)]
 pub mod scene_gpu;
 #[doc(hidden)]
+pub mod scene_textures;
+#[doc(hidden)]
 pub mod targets;
 #[doc(hidden)]
 pub mod testing;

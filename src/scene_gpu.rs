@@ -72,6 +72,8 @@ pub struct SceneGpu {
     materials_pre_exposure: f64,
     /// The instance table as the raster reads it (grouped by mesh), rebuilt when transforms change.
     instances: Vec<InstanceData>,
+    /// The materials' textures (`scene_textures`), uploaded by the first frame.
+    pub textures: crate::scene_textures::SceneTextures,
 }
 
 /// Host-visible buffer holding `bytes` (at least one word: an empty table still binds). Scene data
@@ -132,7 +134,8 @@ impl SceneGpu {
         let materials_pre_exposure = crate::effects::tonemap::pre_exposure(scene);
         let materials = material_records(scene, materials_pre_exposure);
         let (instances, draws) = instance_layout(scene);
-        Ok(SceneGpu { meshes, draws, materials, materials_pre_exposure, instances })
+        let textures = crate::scene_textures::SceneTextures::new(ctx, memory, scene)?;
+        Ok(SceneGpu { meshes, draws, materials, materials_pre_exposure, instances, textures })
     }
 
     /// The material table to upload this frame (at least one record: an empty table still binds).

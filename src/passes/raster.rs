@@ -3,19 +3,28 @@
 //! plus the material's emission; alpha-masked fragments discarded. Meshes with glTF vertex
 //! attributes (colours, texture coordinates) are drawn by a second pipeline, the same shaders
 //! compiled with VERTEX_ATTRIBUTES and a second vertex buffer; every other mesh by the first,
-//! which reads no attributes (its base colour is the albedo itself).
+//! which reads no attributes (its base colour is the albedo itself). Instances of a material with
+//! textures (`scene_textures`) are drawn by a third pipeline, compiled with MATERIAL_TEXTURES too:
+//! between its draws the material's texture set (set 1) and its coordinate maps (push constants)
+//! are bound, one run of consecutive instances of a mesh per material.
 
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
 use crate::gpu::barriers::ImageAccess;
-use crate::gpu::pipeline::{create_graphics_pipeline, Blend, Bound, GraphicsDesc, Pipeline};
+use crate::gpu::pipeline::{create_graphics_pipeline_with_sets, Blend, Bound, GraphicsDesc, Pipeline};
+use crate::gpu::set_layout::SetLayout;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
+use crate::scene_textures::{texture_set_layout, TexturePush};
 use crate::targets::Target;
 
 pub struct RasterPass {
     pipeline: Pipeline,
     /// For meshes with `GpuMesh::attributes`.
     attributed: Pipeline,
+    /// For meshes with attributes whose instances' material has textures.
+    textured: Pipeline,
+    /// Set 1 of `textured` (the sets themselves are the scene's: `SceneTextures`).
+    _texture_layout: SetLayout,
 }
 
 /// Colour attachments in shader location order.
@@ -29,7 +38,18 @@ impl RasterPass {
         let defines = [("VERTEX_ATTRIBUTES", "1")];
         let attributed =
             Self::pipeline(ctx, compiler, "raster (vertex attributes)", &defines, &bindings, &attributes)?;
-        Ok(RasterPass { pipeline, attributed })
+        let layout = texture_set_layout(ctx)?;
+        let defines = [("VERTEX_ATTRIBUTES", "1"), ("MATERIAL_TEXTURES", "1")];
+        let textured = Self::pipeline_with(
+            ctx,
+            compiler,
+            "raster (textures)",
+            &defines,
+            (&bindings, &attributes),
+            std::mem::size_of::<TexturePush>() as u32,
+            &[layout.raw],
+        )?;
+        Ok(RasterPass { pipeline, attributed, textured, _texture_layout: layout })
     }
 
     fn pipeline(
@@ -40,16 +60,31 @@ impl RasterPass {
         vertex_bindings: &[vk::VertexInputBindingDescription],
         vertex_attributes: &[vk::VertexInputAttributeDescription],
     ) -> GpuResult<Pipeline> {
+        Self::pipeline_with(ctx, compiler, name, defines, (vertex_bindings, vertex_attributes), 0, &[])
+    }
+
+    fn pipeline_with(
+        ctx: &GpuContext,
+        compiler: &mut ShaderCompiler,
+        name: &'static str,
+        defines: &[(&str, &str)],
+        (vertex_bindings, vertex_attributes): (
+            &[vk::VertexInputBindingDescription],
+            &[vk::VertexInputAttributeDescription],
+        ),
+        push_constant_bytes: u32,
+        extra_sets: &[vk::DescriptorSetLayout],
+    ) -> GpuResult<Pipeline> {
         let vertex = compiler.compile("raster.vert", defines)?;
         let fragment = compiler.compile("raster.frag", defines)?;
         let color_formats = COLOR_TARGETS.map(Target::format);
-        create_graphics_pipeline(
+        create_graphics_pipeline_with_sets(
             ctx,
             &GraphicsDesc {
                 name,
                 vertex: &vertex,
                 fragment: &fragment,
-                push_constant_bytes: 0,
+                push_constant_bytes,
                 vertex_bindings,
                 vertex_attributes,
                 color_formats: &color_formats,
@@ -60,6 +95,7 @@ impl RasterPass {
                 cull_mode: vk::CullModeFlags::NONE,
                 blend: Blend::Replace,
             },
+            extra_sets,
         )
     }
 }
@@ -85,7 +121,7 @@ impl Pass for RasterPass {
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
-        vec![&self.pipeline, &self.attributed]
+        vec![&self.pipeline, &self.attributed, &self.textured]
     }
 
     fn record(&self, pass: &PassRecording) {
@@ -114,32 +150,71 @@ impl Pass for RasterPass {
         let depth_clear =
             vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: 0.0, stencil: 0 } };
         rec.begin_rendering_views(t.extent, &colors, Some((t.image(Target::Depth).view, kept(depth_clear))));
-        // The plain pipeline's draws, then those of meshes with vertex attributes.
-        for (p, pipeline) in [&self.pipeline, &self.attributed].into_iter().enumerate() {
-            let mut draws = pass
-                .scene_gpu
+        // The plain pipeline's draws, then those of meshes with vertex attributes, then those of
+        // textured materials' instances (on meshes with attributes), one run per material.
+        let gpu = pass.scene_gpu;
+        let runs = |d: &crate::scene_gpu::Draw| texture_runs(gpu, d);
+        for (p, pipeline) in [&self.pipeline, &self.attributed, &self.textured].into_iter().enumerate() {
+            let mut draws = gpu
                 .draws
                 .iter()
-                .filter(|d| pass.scene_gpu.meshes[d.mesh].attributes.is_some() == (p == 1))
+                .flat_map(|d| {
+                    let attributed = gpu.meshes[d.mesh].attributes.is_some();
+                    let split =
+                        if attributed { runs(d) } else { vec![(None, d.first_instance, d.instance_count)] };
+                    split.into_iter().map(move |(set, first, count)| (d.mesh, set, first, count))
+                })
+                .filter(|&(mesh, set, ..)| {
+                    let attributed = gpu.meshes[mesh].attributes.is_some();
+                    p == if !attributed {
+                        0
+                    } else if set.is_none() {
+                        1
+                    } else {
+                        2
+                    }
+                })
                 .peekable();
             if draws.peek().is_none() {
                 continue;
             }
             rec.bind_pipeline(pipeline, pass.set(p));
-            for draw in draws {
-                let mesh = &pass.scene_gpu.meshes[draw.mesh];
+            let mut bound = None;
+            for (m, set, first, count) in draws {
+                if let Some(i) = set.filter(|&i| bound != Some(i)) {
+                    let (descriptors, push) = gpu.textures.set(i);
+                    rec.bind_set(pipeline, 1, descriptors);
+                    rec.push_constants(pipeline, bytemuck::bytes_of(push));
+                    bound = Some(i);
+                }
+                let mesh = &gpu.meshes[m];
                 if let Some(attributes) = &mesh.attributes {
                     rec.bind_vertex_buffer(1, attributes);
                 }
-                rec.draw_mesh(
-                    mesh.vertex_buffer(),
-                    &mesh.indices,
-                    mesh.index_count,
-                    draw.first_instance,
-                    draw.instance_count,
-                );
+                rec.draw_mesh(mesh.vertex_buffer(), &mesh.indices, mesh.index_count, first, count);
             }
         }
         rec.end_rendering();
     }
+}
+
+/// The instances of draw `d` as runs of consecutive instances with the same texture set (None:
+/// untextured): (set, first instance, count). A scene without textures gets the draw itself.
+fn texture_runs(
+    gpu: &crate::scene_gpu::SceneGpu,
+    d: &crate::scene_gpu::Draw,
+) -> Vec<(Option<usize>, u32, u32)> {
+    if gpu.textures.is_empty() {
+        return vec![(None, d.first_instance, d.instance_count)];
+    }
+    let table = gpu.instance_table();
+    let mut runs: Vec<(Option<usize>, u32, u32)> = Vec::new();
+    for i in d.first_instance..d.first_instance + d.instance_count {
+        let set = gpu.textures.set_of(table[i as usize].ids[1]);
+        match runs.last_mut() {
+            Some((s, _, count)) if *s == set => *count += 1,
+            _ => runs.push((set, i, 1)),
+        }
+    }
+    runs
 }

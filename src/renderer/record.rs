@@ -184,6 +184,8 @@ impl Renderer {
         let s = &mut self.slots[slot];
         // Deformed meshes: this slot's vertex buffers (its previous frame has finished).
         loaded.gpu.begin_slot(ctx, memory, &loaded.scene, slot)?;
+        // The materials' textures, copied by the first frame after the scene was loaded.
+        loaded.gpu.textures.record_uploads(&crate::gpu::recorder::Recorder { ctx, cmd });
         // Once per frame: what every radiance written into the HDR target is multiplied by. A
         // light, the ambient, the background or the exposure changed since the material table
         // was built changes it, and the table's emission with it.

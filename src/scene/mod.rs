@@ -15,6 +15,7 @@ pub mod metaball_track;
 pub mod model;
 pub mod obj;
 pub mod procedural;
+pub mod texture;
 pub mod transform;
 pub mod wave_track;
 pub mod wobble;

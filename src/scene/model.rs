@@ -118,11 +118,13 @@ pub struct Surface {
     /// `alphaMode: MASK`: a fragment whose alpha (base × vertex colour × texture alpha) is below
     /// this is not drawn; 0 (opaque) discards nothing.
     pub alpha_cutoff: f64,
+    /// The base-colour and emissive textures (none: drawn exactly as before textures existed).
+    pub textures: super::texture::MaterialTextures,
 }
 
 impl Default for Surface {
     fn default() -> Self {
-        Surface { emission: DVec3::ZERO, alpha: 1.0, alpha_cutoff: 0.0 }
+        Surface { emission: DVec3::ZERO, alpha: 1.0, alpha_cutoff: 0.0, textures: Default::default() }
     }
 }
 

@@ -35,6 +35,8 @@ pub mod ring;
 #[doc(hidden)]
 pub mod sampler;
 #[doc(hidden)]
+pub mod set_layout;
+#[doc(hidden)]
 pub mod shader;
 #[doc(hidden)]
 pub mod texel_buffer;

@@ -145,6 +145,20 @@ impl Memory {
         format: vk::Format,
         usage: vk::ImageUsageFlags,
     ) -> GpuResult<Image> {
+        self.create_image_levels(ctx, name, extent, format, usage, 1)
+    }
+
+    /// A 2D image with `levels` mip levels (at least 1), its view over all of them.
+    pub fn create_image_levels(
+        &self,
+        ctx: &GpuContext,
+        name: &str,
+        extent: vk::Extent2D,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        levels: u32,
+    ) -> GpuResult<Image> {
+        let levels = levels.max(1);
         let max = ctx.limits.max_image_dimension2_d;
         if extent.width == 0 || extent.height == 0 || extent.width > max || extent.height > max {
             return Err(GpuError::ImageSize {
@@ -158,7 +172,7 @@ impl Memory {
             .image_type(vk::ImageType::TYPE_2D)
             .format(format)
             .extent(vk::Extent3D { width: extent.width, height: extent.height, depth: 1 })
-            .mip_levels(1)
+            .mip_levels(levels)
             .array_layers(1)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
@@ -186,7 +200,7 @@ impl Memory {
             .image(raw)
             .view_type(vk::ImageViewType::TYPE_2D)
             .format(format)
-            .subresource_range(subresource_range(format));
+            .subresource_range(subresource_range(format).level_count(levels));
         // SAFETY: the image is live with its memory bound; the view is destroyed before the image
         // (its Drop retires both, view first).
         image.view = unsafe { ctx.device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;

@@ -76,10 +76,22 @@ fn layouts(
     p: &mut Pipeline,
     stages: &[(vk::ShaderStageFlags, &[u32])],
     push_bytes: u32,
+    extra_sets: &[vk::DescriptorSetLayout],
 ) -> GpuResult<()> {
     let mut interfaces = Vec::new();
     for (stage, words) in stages {
         interfaces.push((*stage, reflect(&p.name, words)?));
+    }
+    let sets = interfaces.iter().map(|(_, i)| i.sets).max().unwrap_or(0);
+    if sets > 1 + extra_sets.len() as u32 {
+        return Err(GpuError::Shader {
+            name: p.name.clone(),
+            message: format!(
+                "the shaders use descriptor set {}, the pipeline has layouts for sets 0..={}",
+                sets - 1,
+                extra_sets.len()
+            ),
+        });
     }
     let declared = interfaces.iter().map(|(_, i)| i.push_bytes).max().unwrap_or(0);
     if declared != push_bytes {
@@ -111,7 +123,8 @@ fn layouts(
     // SAFETY: valid device; freed by the pipeline's Drop.
     p.set_layout =
         unsafe { ctx.device.create_descriptor_set_layout(&info, None) }.vk("vkCreateDescriptorSetLayout")?;
-    let set_layouts = [p.set_layout];
+    let set_layouts: Vec<vk::DescriptorSetLayout> =
+        std::iter::once(p.set_layout).chain(extra_sets.iter().copied()).collect();
     let ranges = [vk::PushConstantRange::default().stage_flags(p.push_stages).size(push_bytes)];
     let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
     if push_bytes > 0 {
@@ -135,7 +148,7 @@ pub fn create_compute_pipeline(
     push_bytes: u32,
 ) -> GpuResult<Pipeline> {
     let mut p = empty(ctx, name, vk::PipelineBindPoint::COMPUTE);
-    layouts(ctx, &mut p, &[(vk::ShaderStageFlags::COMPUTE, spirv)], push_bytes)?;
+    layouts(ctx, &mut p, &[(vk::ShaderStageFlags::COMPUTE, spirv)], push_bytes, &[])?;
     let module = shader_module(ctx, name, spirv)?;
     let stage = vk::PipelineShaderStageCreateInfo::default()
         .stage(vk::ShaderStageFlags::COMPUTE)
@@ -194,10 +207,20 @@ impl Blend {
 }
 
 pub fn create_graphics_pipeline(ctx: &GpuContext, desc: &GraphicsDesc) -> GpuResult<Pipeline> {
+    create_graphics_pipeline_with_sets(ctx, desc, &[])
+}
+
+/// A graphics pipeline whose shaders also use sets 1.. with the layouts `extra_sets` (owned by the
+/// caller, who writes and binds those sets itself: `Recorder::bind_set`); set 0 is reflected.
+pub fn create_graphics_pipeline_with_sets(
+    ctx: &GpuContext,
+    desc: &GraphicsDesc,
+    extra_sets: &[vk::DescriptorSetLayout],
+) -> GpuResult<Pipeline> {
     let mut p = empty(ctx, desc.name, vk::PipelineBindPoint::GRAPHICS);
     let stages =
         [(vk::ShaderStageFlags::VERTEX, desc.vertex), (vk::ShaderStageFlags::FRAGMENT, desc.fragment)];
-    layouts(ctx, &mut p, &stages, desc.push_constant_bytes)?;
+    layouts(ctx, &mut p, &stages, desc.push_constant_bytes, extra_sets)?;
     let vs = shader_module(ctx, &format!("{}.vert", desc.name), desc.vertex)?;
     let fs = shader_module(ctx, &format!("{}.frag", desc.name), desc.fragment)?;
     let stages = [

@@ -38,6 +38,90 @@ impl Recorder<'_> {
         }
     }
 
+    /// Binds `set` as set `index` (> 0: a set the caller made for a layout it gave the pipeline,
+    /// `create_graphics_pipeline_with_sets`) for the draws that follow.
+    pub fn bind_set(&self, pipeline: &Pipeline, index: u32, set: vk::DescriptorSet) {
+        // SAFETY: recording; the pipeline's layout has set `index` (the caller's contract) and the
+        // set is live until the frame's fence.
+        unsafe {
+            self.device().cmd_bind_descriptor_sets(
+                self.cmd,
+                pipeline.bind_point,
+                pipeline.layout,
+                index,
+                &[set],
+                &[],
+            )
+        };
+    }
+
+    /// Copies a texture's mip levels from `staging` into `image` (a colour image of that many
+    /// levels, never used before: its contents are discarded) and leaves it ready to sample in
+    /// fragment shaders. `levels`: each level's byte offset in `staging` and its size, level 0
+    /// first, tightly packed texels.
+    pub fn upload_texture(&self, staging: &Buffer, image: vk::Image, levels: &[(u64, vk::Extent2D)]) {
+        use super::barriers::cmd_barriers;
+        let range = vk::ImageSubresourceRange::default()
+            .aspect_mask(vk::ImageAspectFlags::COLOR)
+            .level_count(levels.len() as u32)
+            .layer_count(1);
+        let barrier = |src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+                       dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
+                       layouts: (vk::ImageLayout, vk::ImageLayout)| {
+            vk::ImageMemoryBarrier2::default()
+                .src_stage_mask(src.0)
+                .src_access_mask(src.1)
+                .dst_stage_mask(dst.0)
+                .dst_access_mask(dst.1)
+                .old_layout(layouts.0)
+                .new_layout(layouts.1)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(image)
+                .subresource_range(range)
+        };
+        let copy = (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE);
+        let before = barrier(
+            (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
+            copy,
+            (vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL),
+        );
+        cmd_barriers(self.device(), self.cmd, &[before], &[]);
+        let regions: Vec<vk::BufferImageCopy> = levels
+            .iter()
+            .enumerate()
+            .map(|(level, &(offset, extent))| {
+                vk::BufferImageCopy::default()
+                    .buffer_offset(offset)
+                    .image_subresource(
+                        vk::ImageSubresourceLayers::default()
+                            .aspect_mask(vk::ImageAspectFlags::COLOR)
+                            .mip_level(level as u32)
+                            .layer_count(1),
+                    )
+                    .image_extent(vk::Extent3D { width: extent.width, height: extent.height, depth: 1 })
+            })
+            .collect();
+        // SAFETY: recording, outside rendering; staging and image are live until the frame's
+        // fence; the image is in TRANSFER_DST layout (the barrier above) and the buffer holds every
+        // level at its offset (the caller's contract).
+        unsafe {
+            self.device().cmd_copy_buffer_to_image(
+                self.cmd,
+                staging.raw,
+                image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &regions,
+            )
+        };
+        let after = barrier(
+            copy,
+            (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_SAMPLED_READ),
+            (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+        );
+        cmd_barriers(self.device(), self.cmd, &[after], &[]);
+    }
+
     /// The push constants of `pipeline`, for the stages its shaders read them in.
     pub fn push_constants(&self, pipeline: &Pipeline, bytes: &[u8]) {
         // SAFETY: recording; the layout is live until the frame's fence, and `bytes` is the Rust

@@ -26,6 +26,10 @@ pub struct Interface {
     pub bindings: Vec<Reflected>,
     /// Bytes of the push-constant block (0 when there is none).
     pub push_bytes: u32,
+    /// How many descriptor sets the module uses (highest set number + 1; 0 or 1 for set 0
+    /// alone). Sets past 0 have layouts of the pipeline's own (`create_graphics_pipeline_with_sets`);
+    /// their bindings are not listed in `bindings`.
+    pub sets: u32,
 }
 
 const OP_NAME: u32 = 5;
@@ -246,11 +250,9 @@ pub fn reflect(name: &str, words: &[u32]) -> GpuResult<Interface> {
         }
         let Some(&binding) = m.decorations.get(&(id, DECORATION_BINDING)) else { continue };
         let set = m.decorations.get(&(id, DECORATION_DESCRIPTOR_SET)).copied().unwrap_or(0);
+        interface.sets = interface.sets.max(set + 1);
         if set != 0 {
-            return Err(GpuError::Shader {
-                name: name.into(),
-                message: format!("binding {binding} is in set {set}: hadou's pipelines have one set (0)"),
-            });
+            continue;
         }
         let ty = m.descriptor_type(pointee, class).ok_or_else(|| GpuError::Shader {
             name: name.into(),

@@ -1,4 +1,5 @@
-//! A NEAREST sampler for `texelFetch` and depth reads (D32 on lavapipe has no linear filtering).
+//! Samplers: NEAREST for `texelFetch` and depth reads (D32 on lavapipe has no linear filtering),
+//! or any the caller describes (a glTF file's texture samplers).
 
 use ash::vk;
 
@@ -19,6 +20,14 @@ impl Drop for Sampler {
 }
 
 impl Sampler {
+    /// A sampler made from `info` (filters, address modes, lod range).
+    pub fn new(ctx: &GpuContext, name: &str, info: &vk::SamplerCreateInfo) -> GpuResult<Sampler> {
+        // SAFETY: valid device; retired by Drop.
+        let raw = unsafe { ctx.device.create_sampler(info, None) }.vk("vkCreateSampler")?;
+        ctx.name_object(raw, name);
+        Ok(Sampler { raw, releaser: ctx.releaser() })
+    }
+
     /// NEAREST filtering, clamped, no mipmaps: what `texelFetch` and depth (D32 on lavapipe) need.
     pub fn nearest(ctx: &GpuContext, name: &str) -> GpuResult<Sampler> {
         let info = vk::SamplerCreateInfo::default()

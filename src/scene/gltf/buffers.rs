@@ -24,8 +24,8 @@ pub(super) fn load(
 ) -> Result<Buffers, GltfError> {
     let mut data = Vec::new();
     let mut files = Vec::new();
-    // Images are never read (textures are ignored), but a URI leaving the folder is refused all
-    // the same: the file is not one to trust, and a later version reading images stays safe.
+    // Every image URI is checked here, also those no drawn texture reads (`texture` reads the
+    // others): a URI leaving the folder is refused all the same, the file is not one to trust.
     for image in doc.images() {
         if let gltf::image::Source::Uri { uri, .. } = image.source() {
             let at = format!("/images/{}/uri", image.index());
@@ -100,7 +100,7 @@ fn read_uri(path: &Path, i: usize, uri: &str, files: &mut Vec<PathBuf>) -> Resul
 /// must not leave the folder by its `..` parts either; for it the joined path is returned, so
 /// the caller's error names what was looked for. Messages name the URI and the folder, never
 /// anything read from a file.
-fn inside_folder(path: &Path, at: &str, uri: &str) -> Result<PathBuf, GltfError> {
+pub(super) fn inside_folder(path: &Path, at: &str, uri: &str) -> Result<PathBuf, GltfError> {
     let shown: String = uri.chars().take(200).collect();
     let refuse = |why: &str| {
         GltfError::at(
@@ -139,8 +139,8 @@ fn inside_folder(path: &Path, at: &str, uri: &str) -> Result<PathBuf, GltfError>
         // Symbolic links resolved: the real file must still be inside the real folder.
         Ok(real) if real.starts_with(&real_folder) => Ok(real),
         Ok(_) => Err(refuse("leads out of the glTF file's folder through a symbolic link")),
-        // Missing (or a link to nowhere): the caller says so for a buffer (naming the path looked
-        // for); an ignored image's URI has passed the lexical check.
+        // Missing (or a link to nowhere): the caller says so for a buffer or a drawn texture's
+        // image (naming the path looked for); an unread image's URI has passed the lexical check.
         Err(_) => Ok(file),
     }
 }

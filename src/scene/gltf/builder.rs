@@ -28,6 +28,8 @@ pub(super) struct Builder<'a> {
     looks: HashMap<Option<usize>, material::Look>,
     /// (glTF material, mesh shape) → hadou material.
     used: HashMap<(Option<usize>, Shape), usize>,
+    /// The images the textures read, each decoded once.
+    images: super::texture::Images,
 }
 
 impl<'a> Builder<'a> {
@@ -43,6 +45,7 @@ impl<'a> Builder<'a> {
             built: HashMap::new(),
             looks: HashMap::new(),
             used: HashMap::new(),
+            images: Default::default(),
         }
     }
 
@@ -66,7 +69,8 @@ impl<'a> Builder<'a> {
                 self.built.insert(key, entry);
             }
             let Some((mesh_index, shape)) = self.built[&key] else { continue };
-            let material = self.material(&p.material(), shape, key)?;
+            let material = self.material(src, &p.material(), shape, key)?;
+            self.note_texcoords(mesh_index, material, key);
             let colours =
                 self.meshes[mesh_index].mesh.attributes.as_ref().is_some_and(|a| !a.colors.is_empty());
             if colours
@@ -122,14 +126,36 @@ impl<'a> Builder<'a> {
         Ok(Some((self.meshes.len() - 1, shape)))
     }
 
+    /// Textures read through a texture coordinate set the mesh lacks are drawn at (0, 0) of that
+    /// set (a file glTF calls invalid): noted. A translucent material's light has its albedo
+    /// colour, not its base-colour texture's: noted.
+    fn note_texcoords(&mut self, mesh: usize, material: usize, key: (usize, usize)) {
+        let textures = &self.materials[material].surface.textures;
+        let attributes = self.meshes[mesh].mesh.attributes.as_deref();
+        let at = format!("/meshes/{}/primitives/{}/attributes", key.0, key.1);
+        for t in [&textures.base, &textures.emissive].into_iter().flatten() {
+            let k = t.texcoord as usize;
+            if attributes.is_none_or(|a| a.texcoords[k].is_empty()) {
+                self.ignored.add("textures on primitives without their TEXCOORD_n (sampled at (0, 0))", format!("{at}/TEXCOORD_{k}"));
+            }
+        }
+        if textures.base.is_some()
+            && matches!(self.materials[material].kind, crate::scene::MaterialKind::Translucent { .. })
+        {
+            let kind = "base-colour textures on translucent materials (the light through them has the baseColorFactor colour)";
+            self.ignored.add(kind, format!("/meshes/{}/primitives/{}/material", key.0, key.1));
+        }
+    }
+
     fn material(
         &mut self,
+        src: &accessor::Source,
         m: &gltf::Material,
         shape: Shape,
         mesh: (usize, usize),
     ) -> Result<usize, GltfError> {
         if !self.looks.contains_key(&m.index()) {
-            let look = material::look(self.path, m, &self.options.label, &mut self.ignored)?;
+            let look = material::look(src, m, &self.options.label, &mut self.ignored, &mut self.images)?;
             self.looks.insert(m.index(), look);
         }
         let look = &self.looks[&m.index()];

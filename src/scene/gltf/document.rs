@@ -16,6 +16,7 @@ pub(super) const HONOURED: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_volume",
     "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
 ];
 
 /// Extensions that change how geometry is stored: a file that requires one cannot be drawn

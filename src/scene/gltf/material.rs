@@ -3,15 +3,20 @@
 //! channel from `attenuationColor` c and `attenuationDistance` d. `emissiveFactor` ×
 //! `KHR_materials_emissive_strength` is added to the shaded colour, `alphaMode: MASK` discards
 //! fragments whose alpha is below `alphaCutoff` (`model::Surface`); `BLEND` is drawn opaque.
+//! `baseColorTexture` multiplies the base colour and `emissiveTexture` the emission
+//! (`gltf::texture`); the other textures are noted as not drawn.
 
 use std::path::Path;
 
 use glam::DVec3;
 use gltf::material::AlphaMode;
 
+use super::accessor::Source;
 use super::error::GltfError;
 use super::ignored::Ignored;
+use super::texture::{texture_ref, Images};
 use crate::scene::model::{Material, MaterialKind, Surface, ThicknessMode};
+use crate::scene::texture::MaterialTextures;
 
 /// σ of a channel that glTF does not attenuate (c = 1 or no distance): hadou's translucent
 /// materials need σ > 0, and over the largest mesh (1e6 units) this keeps e^(−σd) ≥ 0.999999.
@@ -43,11 +48,13 @@ pub(super) struct Look {
 
 /// Reads material `m` (None: glTF's default material, white).
 pub(super) fn look(
-    path: &Path,
+    src: &Source,
     m: &gltf::Material,
     label: &str,
     ignored: &mut Ignored,
+    images: &mut Images,
 ) -> Result<Look, GltfError> {
+    let path = src.path;
     let Some(i) = m.index() else {
         let name = format!("{label}default material");
         let surface = Surface::default();
@@ -74,7 +81,8 @@ pub(super) fn look(
         Some(n) => format!("{label}material {i} \"{n}\""),
         None => format!("{label}material {i}"),
     };
-    let surface = surface(path, m, &at, base[3] as f64, ignored)?;
+    let mut surface = surface(path, m, &at, base[3] as f64, ignored)?;
+    surface.textures = textures(src, m, &at, images)?;
     Ok(Look { name, albedo: DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64), volume, surface, at })
 }
 
@@ -113,7 +121,27 @@ fn surface(
             0.0
         }
     };
-    Ok(Surface { emission, alpha, alpha_cutoff })
+    Ok(Surface { emission, alpha, alpha_cutoff, textures: MaterialTextures::default() })
+}
+
+/// The base-colour and emissive textures, read (and their images decoded) here.
+fn textures(
+    src: &Source,
+    m: &gltf::Material,
+    at: &str,
+    images: &mut Images,
+) -> Result<MaterialTextures, GltfError> {
+    let base = match m.pbr_metallic_roughness().base_color_texture() {
+        Some(info) => {
+            Some(texture_ref(src, &info, &format!("{at}/pbrMetallicRoughness/baseColorTexture"), images)?)
+        }
+        None => None,
+    };
+    let emissive = match m.emissive_texture() {
+        Some(info) => Some(texture_ref(src, &info, &format!("{at}/emissiveTexture"), images)?),
+        None => None,
+    };
+    Ok(MaterialTextures { base, emissive })
 }
 
 /// σ and `thicknessFactor` from a volume, range-checked where glTF sets the ranges.
@@ -189,15 +217,14 @@ impl Look {
     }
 }
 
-/// Textures and metallic/specular shading are not drawn by hadou: noted, with where they are.
+/// Textures other than base colour and emissive, and metallic/specular shading, are not drawn by
+/// hadou: noted, with where they are.
 fn note_ignored(m: &gltf::Material, at: &str, ignored: &mut Ignored) {
     let pbr = m.pbr_metallic_roughness();
     let textures = [
-        ("pbrMetallicRoughness/baseColorTexture", pbr.base_color_texture().is_some()),
         ("pbrMetallicRoughness/metallicRoughnessTexture", pbr.metallic_roughness_texture().is_some()),
         ("normalTexture", m.normal_texture().is_some()),
         ("occlusionTexture", m.occlusion_texture().is_some()),
-        ("emissiveTexture", m.emissive_texture().is_some()),
         (
             "extensions/KHR_materials_transmission/transmissionTexture",
             m.transmission().is_some_and(|t| t.transmission_texture().is_some()),
@@ -209,7 +236,7 @@ fn note_ignored(m: &gltf::Material, at: &str, ignored: &mut Ignored) {
     ];
     for (field, present) in textures {
         if present {
-            ignored.add("textures", format!("{at}/{field}"));
+            ignored.add("textures hadou does not draw (normal, occlusion, metallic-roughness, transmission, thickness)", format!("{at}/{field}"));
         }
     }
     // Lambert shading is glTF's metallic 0, roughness 1; anything else shades differently.

@@ -2,7 +2,7 @@
 //! file becomes the same model types a TOML scene does — meshes, materials, instances, lights, a
 //! camera — so every pass draws it unchanged. One job per file: `document` (parse, validate),
 //! `buffers`, `accessor` (checked reads), `primitive` (a `Mesh`), `nodes` (hierarchy, transforms),
-//! `material`, `lights`, `view` (camera, framing), `builder` (the parts, shared), `ignored` (the one
+//! `material`, `texture`, `lights`, `view` (camera, framing), `builder` (the parts, shared), `ignored` (the one
 //! warning), `scene` (a whole scene from a glTF file).
 
 mod accessor;
@@ -17,6 +17,7 @@ mod material;
 mod nodes;
 mod primitive;
 mod scene;
+mod texture;
 mod view;
 
 use std::path::{Path, PathBuf};
@@ -31,6 +32,7 @@ pub(crate) use limits::placed_by_transform;
 pub use limits::MAX_WORLD;
 pub use material::{sigma, MIN_ATTENUATION_COLOR, MIN_SIGMA};
 pub use nodes::MAX_DEPTH;
+pub use texture::MAX_SIDE as MAX_TEXTURE_SIDE;
 pub use primitive::Spent;
 pub(crate) use scene::build_primitive;
 pub use scene::{is_gltf, load_gltf, DEFAULT_LIGHT_DIRECTION};
@@ -176,6 +178,7 @@ pub fn referenced_files(path: &Path) -> Vec<PathBuf> {
         if let Ok(b) = buffers::load(path, &parsed.doc, &mut parsed.blob) {
             files.extend(b.files);
         }
+        files.extend(texture::image_files(path, &parsed.doc));
     }
     files
 }

@@ -44,6 +44,10 @@ pub(super) struct Budget {
     /// copy of its node's and every ancestor's steps): 2²⁰ = 1,048,576, ≤ 136 MiB at 136 bytes a
     /// step. Without it 65,536 instances 1024 levels deep would hold 2·10⁸ steps (25 GiB).
     pub steps: u64,
+    /// Texels of the images the drawn textures read, each image counted once, from the sizes
+    /// their headers declare before any is decoded. 2²⁶ = 67,108,864 (sixteen 2048² textures
+    /// or four 4096²): 256 MiB of RGBA8, 341 MiB with the mip chains.
+    pub texels: u64,
 }
 
 /// What the glTF files loaded so far into one scene drew, in the budget's terms: a TOML scene's
@@ -63,7 +67,14 @@ pub struct Spent {
 
 impl Default for Budget {
     fn default() -> Self {
-        Budget { vertices: 1 << 23, indices: 3 << 24, nodes: 1 << 18, instances: 1 << 16, steps: 1 << 20 }
+        Budget {
+            vertices: 1 << 23,
+            indices: 3 << 24,
+            nodes: 1 << 18,
+            instances: 1 << 16,
+            steps: 1 << 20,
+            texels: 1 << 26,
+        }
     }
 }
 
@@ -85,7 +96,7 @@ impl Budget {
     pub fn parse(text: &str) -> Result<Budget, String> {
         let mut b = Budget::default();
         for item in text.split(',').map(str::trim).filter(|i| !i.is_empty()) {
-            let expected = "expected KEY=N pairs separated by commas, KEY one of vertices, indices, nodes, instances, steps and N a whole number of at least 1";
+            let expected = "expected KEY=N pairs separated by commas, KEY one of vertices, indices, nodes, instances, steps, texels and N a whole number of at least 1";
             let shown: String = item.chars().take(40).collect();
             let Some((key, value)) = item.split_once('=') else {
                 return Err(format!("`{shown}` ({expected})"));
@@ -96,6 +107,7 @@ impl Budget {
                 "nodes" => &mut b.nodes,
                 "instances" => &mut b.instances,
                 "steps" => &mut b.steps,
+                "texels" => &mut b.texels,
                 _ => return Err(format!("unknown key in `{shown}` ({expected})")),
             };
             *slot = match value.trim().parse::<u64>() {
