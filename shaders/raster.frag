@@ -28,19 +28,22 @@ layout(location = 2) out uvec2 out_ids;
 layout(location = 3) out float out_distance;
 
 #ifdef MATERIAL_TEXTURES
+struct TexturePush {
+    vec4 base_u;
+    vec4 base_v;
+    vec4 emissive_u;
+    vec4 emissive_v;
+    uvec4 flags;
+};
 layout(set = 1, binding = 0) uniform sampler2D base_texture;
 layout(set = 1, binding = 1) uniform sampler2D emissive_texture;
-// TexturePush: each texture's 2x3 coordinate map as two rows; flags x, y: base, emissive
-// present; z, w: their coordinate sets.
-layout(push_constant) uniform TexturePush {
-    vec4 base[2];
-    vec4 emissive[2];
-    uvec4 flags;
-} textures;
+// TexturePush (src/scene_textures.rs): each texture's 2x3 coordinate map as its two rows;
+// flags x, y: base, emissive present; z, w: their coordinate sets.
+layout(push_constant) uniform TexturePushBlock { TexturePush textures; };
 
-vec2 mapped(vec4 rows[2], uint set) {
+vec2 mapped(vec4 row_u, vec4 row_v, uint set) {
     vec3 uv = vec3(set == 0u ? v_texcoords.xy : v_texcoords.zw, 1.0);
-    return vec2(dot(rows[0].xyz, uv), dot(rows[1].xyz, uv));
+    return vec2(dot(row_u.xyz, uv), dot(row_v.xyz, uv));
 }
 #endif
 
@@ -51,8 +54,9 @@ void main() {
 #endif
     vec3 emission = v_emission.rgb;
 #ifdef MATERIAL_TEXTURES
-    vec4 base_texel = texture(base_texture, mapped(textures.base, textures.flags.z));
-    vec4 emissive_texel = texture(emissive_texture, mapped(textures.emissive, textures.flags.w));
+    vec4 base_texel = texture(base_texture, mapped(textures.base_u, textures.base_v, textures.flags.z));
+    vec4 emissive_texel =
+        texture(emissive_texture, mapped(textures.emissive_u, textures.emissive_v, textures.flags.w));
     if (textures.flags.x != 0u) base *= base_texel;
     if (textures.flags.y != 0u) emission *= emissive_texel.rgb;
 #endif

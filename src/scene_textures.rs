@@ -24,16 +24,20 @@ use crate::scene::texture::{Filter, SamplerDesc, TextureImage, TextureRef, Wrap}
 use crate::scene::Scene;
 
 /// The raster's push constants for a textured material (shaders/raster.frag, MATERIAL_TEXTURES):
-/// each texture's 2×3 coordinate map as two rows (xyz; w unused) and, in `flags`, whether the
-/// base-colour (x) and emissive (y) textures are present and which coordinate set each reads
-/// (z, w).
+/// each texture's 2×3 coordinate map as its two rows (u' and v': xyz; w unused) and, in `flags`,
+/// whether the base-colour (x) and emissive (y) textures are present and which coordinate set
+/// each reads (z, w).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct TexturePush {
-    pub base: [[f32; 4]; 2],
-    pub emissive: [[f32; 4]; 2],
+    pub base_u: [f32; 4],
+    pub base_v: [f32; 4],
+    pub emissive_u: [f32; 4],
+    pub emissive_v: [f32; 4],
     pub flags: [u32; 4],
 }
+
+crate::gpu::layout::gpu_layout!(TexturePush as "TexturePush" { base_u, base_v, emissive_u, emissive_v, flags });
 
 /// The layout of a material's texture set (set 1 of the raster's textured pipeline).
 pub fn texture_set_layout(ctx: &GpuContext) -> GpuResult<SetLayout> {
@@ -170,9 +174,13 @@ impl SceneTextures {
             let emissive = bound(t.emissive.as_ref().unwrap_or(first));
             let set = pool.allocate(ctx, layout.raw, &format!("textures of {}", material.name))?;
             write_set(ctx, set, &[(0, base), (1, emissive)]);
+            let [base_u, base_v] = t.base.as_ref().map_or([[0.0; 4]; 2], rows);
+            let [emissive_u, emissive_v] = t.emissive.as_ref().map_or([[0.0; 4]; 2], rows);
             let push = TexturePush {
-                base: t.base.as_ref().map_or([[0.0; 4]; 2], rows),
-                emissive: t.emissive.as_ref().map_or([[0.0; 4]; 2], rows),
+                base_u,
+                base_v,
+                emissive_u,
+                emissive_v,
                 flags: [
                     t.base.is_some() as u32,
                     t.emissive.is_some() as u32,

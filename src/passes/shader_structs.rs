@@ -48,6 +48,11 @@ fn table() -> Vec<Row> {
         ("depth_import.comp", vec![], [frame(), vec![super::depth_import::Params::layout()]].concat()),
         ("raster.vert", vec![], [frame(), vec![InstanceData::layout(), MaterialData::layout()]].concat()),
         ("raster.frag", vec![], frame()),
+        (
+            "raster.frag",
+            vec![("VERTEX_ATTRIBUTES", "1"), ("MATERIAL_TEXTURES", "1")],
+            [frame(), vec![crate::scene_textures::TexturePush::layout()]].concat(),
+        ),
         ("light_id.vert", vec![], vec![InstanceData::layout(), LightViewData::layout()]),
         ("peel.vert", vec![], vec![InstanceData::layout(), LightViewData::layout()]),
         ("translucency.comp", vec![], translucency()),
