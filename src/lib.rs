@@ -47,7 +47,7 @@ pub use renderer::instances::{InstanceId, LightId};
 pub use renderer::world::{GroupId, MetaballsDesc, WaveDesc, WaveId};
 pub use renderer::{
     AovReadback, DepthConvention, Exposure, ExternalColor, ExternalDepth, FrameInputs, FrameTimings,
-    RecordedFrame, Renderer, RendererOptions, WaveUpdate,
+    GameMatrix, GameVector, RecordedFrame, Renderer, RendererOptions, WaveUpdate,
 };
 pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};
 

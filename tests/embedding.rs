@@ -756,6 +756,70 @@ fn update_api_changes_the_picture_as_predicted() {
     game.finish(hadou);
 }
 
+/// The camera given once: the game hands its view and projection (`set_view_projection`) and its
+/// depth with `DepthConvention::Camera`, and hadou reads the depth in that projection's convention:
+/// the wall's imported distances and energy match the f64 twin as in the other embedding tests.
+/// The same matrices as glam f32 (game math) are taken too: they differ from the f64 ones by a
+/// rounding of each entry (2⁻²⁴ relative), which moves the import z = B/(d + A) by at most
+/// (|A|/|d + A| + 2)·2⁻²⁴ ≈ (z + 2)·6e-8 — under 2e-6 at the wall's z ≤ 25 — and the pixel rays
+/// by a few 2⁻²⁴, so the two frames' distances agree to 1e-5 (margin 5×). A convention named
+/// beside the projection that disagrees (another far plane) is refused with both named; one that
+/// agrees to f32 rounding is taken.
+#[test]
+fn camera_given_once() {
+    let e = extent(48, 36);
+    let mut game = Game::new(e, false);
+    let mut hadou = embed(&game, scene(false));
+    let cam = camera();
+    let view = DMat4::look_at_rh(cam.position, cam.look_at, DVec3::Y);
+    let proj = cam.projection(e.width as f64 / e.height as f64);
+    hadou.set_view_projection(view, proj).unwrap();
+    game.convention = DepthConvention::Camera;
+    let aovs = [Aov::Energy, Aov::Depth, Aov::Normal];
+    let f64_frame = game.frame(Some(&mut hadou), &aovs, 0.0);
+    let (checked, sky) = check_energy_on_wall(&f64_frame, &scene(false), e, 0);
+    assert!(checked > 0 && sky > 0, "{checked} wall pixels, {sky} sky");
+
+    hadou.set_view_projection(view.as_mat4(), proj.as_mat4()).unwrap();
+    let f32_frame = game.frame(Some(&mut hadou), &aovs, 0.0);
+    let mut compared = 0;
+    for (a, b) in f64_frame.aov(Aov::Depth).iter().zip(f32_frame.aov(Aov::Depth)) {
+        if a.is_finite() {
+            assert!(rel(*a as f64, *b as f64) <= 1e-5, "f64 matrices {a}, f32 matrices {b}");
+            compared += 1;
+        } else {
+            assert_eq!(a, b, "sky in one frame only");
+        }
+    }
+    assert!(compared > 0);
+
+    // A convention of the game's own beside the projection: checked against it, before any
+    // recording (`prepare` runs the frame's checks).
+    let inputs = |convention| FrameInputs {
+        extent: e,
+        time: 0.0,
+        depth: Some(ExternalDepth {
+            image: game.depth.image,
+            view: game.depth.view,
+            format: DEPTH,
+            layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+            final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            convention,
+            write: false,
+        }),
+        color: None,
+    };
+    let (near, far) = (cam.near, cam.far);
+    hadou.prepare(&inputs(DepthConvention::Standard { near, far })).unwrap();
+    let err = hadou.prepare(&inputs(DepthConvention::Standard { near, far: 2.0 * far })).unwrap_err();
+    assert!(matches!(err, hadou::Error::DepthConvention(_)), "{err:?}");
+    let text = err.to_string();
+    assert!(text.contains("set_view_projection") && text.contains("DepthConvention::Camera"), "{text}");
+    let err = hadou.prepare(&inputs(DepthConvention::ReverseZ { near, far })).unwrap_err();
+    assert!(matches!(err, hadou::Error::DepthConvention(_)), "{err:?}");
+    game.finish(hadou);
+}
+
 /// A device without a feature hadou needs is refused by name, before anything is created.
 #[test]
 fn from_raw_names_a_missing_feature() {

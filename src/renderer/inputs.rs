@@ -24,6 +24,10 @@ pub enum DepthConvention {
     /// The game's view → clip perspective matrix (column-major, clip.w = −z_view, depth in
     /// [0, 1]: `glam::DMat4::perspective_rh`, `perspective_infinite_reverse_rh`, ...).
     Projection(glam::DMat4),
+    /// The projection of the frame's camera: the one given to `Renderer::set_view_projection`
+    /// (the camera given once), or hadou's own camera's (`Camera::projection_matrix`, reverse-Z)
+    /// when the camera was set otherwise. Resolved by the renderer each frame.
+    Camera,
 }
 
 impl DepthConvention {
@@ -33,6 +37,8 @@ impl DepthConvention {
             DepthConvention::Standard { near, far } => (far / (near - far), near * far / (near - far)),
             DepthConvention::ReverseZ { near, far } => (near / (far - near), near * far / (far - near)),
             DepthConvention::Projection(m) => (m.z_axis.z, m.w_axis.z),
+            // Unresolved: no depth (the renderer resolves it before reading any depth).
+            DepthConvention::Camera => (f64::NAN, f64::NAN),
         }
     }
 
@@ -60,6 +66,9 @@ impl DepthConvention {
                          fourth column z ≠ 0)"
                     ));
                 }
+            }
+            DepthConvention::Camera => {
+                return Err("DepthConvention::Camera is the renderer's to resolve (the frame's camera)".into())
             }
         }
         Ok(())

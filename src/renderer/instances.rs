@@ -9,8 +9,7 @@
 //! baked in the background, is in (src/renderer/bakes.rs); `thickness = "tsm"` materials need no
 //! table.
 
-use glam::DMat4;
-
+use super::game_math::{GameMatrix, GameVector};
 use super::Renderer;
 use crate::scene::model::Instance;
 use crate::scene::transform::{Transform, TransformOp};
@@ -33,8 +32,9 @@ impl Renderer {
         &mut self,
         mesh: &str,
         material: &str,
-        transform: DMat4,
+        transform: impl GameMatrix,
     ) -> Result<InstanceId, Error> {
+        let transform = transform.to_dmat4();
         let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
         let scene = &loaded.scene;
         let mesh_index =
@@ -109,10 +109,11 @@ impl Renderer {
     /// at once; translucent materials are lit by the first. State is unchanged on error.
     pub fn spawn_light(
         &mut self,
-        direction: glam::DVec3,
-        color: glam::DVec3,
+        direction: impl GameVector,
+        color: impl GameVector,
         intensity: f64,
     ) -> Result<LightId, Error> {
+        let (direction, color) = (direction.to_dvec3(), color.to_dvec3());
         use crate::scene::file::MAX_LIGHTS;
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
         let index = loaded.scene.lights.len();

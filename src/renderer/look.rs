@@ -4,6 +4,7 @@
 
 use glam::DVec3;
 
+use super::game_math::GameVector;
 use super::Renderer;
 use crate::effects::tonemap::ev100_exposure;
 use crate::scene::file::MAX_HDR;
@@ -63,7 +64,8 @@ impl Renderer {
     }
 
     /// Sets the ambient light added to every lit surface (times its albedo) from the next frame.
-    pub fn set_ambient(&mut self, ambient: DVec3) -> Result<(), Error> {
+    pub fn set_ambient(&mut self, ambient: impl GameVector) -> Result<(), Error> {
+        let ambient = ambient.to_dvec3();
         check_colour("ambient", ambient)?;
         self.loaded.as_mut().ok_or(Error::NoScene)?.scene.render.ambient = ambient;
         Ok(())
@@ -71,7 +73,8 @@ impl Renderer {
 
     /// Sets the HDR colour where no surface is hit from the next frame (a game's own frame is
     /// composited with a transparent background whatever this says).
-    pub fn set_background(&mut self, background: DVec3) -> Result<(), Error> {
+    pub fn set_background(&mut self, background: impl GameVector) -> Result<(), Error> {
+        let background = background.to_dvec3();
         check_colour("background", background)?;
         self.loaded.as_mut().ok_or(Error::NoScene)?.scene.render.background = background;
         Ok(())

@@ -21,6 +21,7 @@
 
 pub mod bakes;
 mod deform;
+mod game_math;
 mod effects;
 pub mod ids;
 mod inputs;
@@ -35,6 +36,7 @@ pub mod view_projection;
 pub mod world;
 
 pub use deform::vertex_normals;
+pub use game_math::{GameMatrix, GameVector};
 pub use inputs::{DepthConvention, ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
 pub use look::Exposure;
 pub use readback::AovReadback;
@@ -99,6 +101,9 @@ struct Loaded {
     tables_dirty: bool,
     /// Per mesh with a `wobble`: its loaded positions, and the scene time last applied.
     wobble: deform::WobbleState,
+    /// The projection the game gave with `set_view_projection` (None after `set_camera` or a
+    /// load): what `DepthConvention::Camera` means.
+    game_projection: Option<glam::DMat4>,
 }
 
 impl Loaded {
@@ -246,6 +251,7 @@ impl Renderer {
             bakes: Default::default(),
             tables_dirty: false,
             wobble: deform::WobbleState::default(),
+            game_projection: None,
         });
         if let Some(l) = &mut self.loaded {
             l.wobble = deform::WobbleState::new(&l.scene);

@@ -2,7 +2,7 @@
 //! slot — the game's depth imported, the scene's passes, the output (hadou's tonemapped image, or
 //! a composite into the game's colour).
 
-use super::inputs::{FrameInputs, RecordedFrame};
+use super::inputs::{DepthConvention, FrameInputs, RecordedFrame};
 use super::Renderer;
 use crate::frame::{record_passes, SlotFrame, Timestamps};
 use crate::gpu::barriers::{cmd_barriers, ImageAccess};
@@ -38,7 +38,7 @@ impl Renderer {
             return Err(Error::NoScene);
         }
         if let Some(depth) = &inputs.depth {
-            depth.convention.check().map_err(Error::DepthConvention)?;
+            self.depth_convention(depth, aspect(extent))?;
             if !crate::gpu::memory::is_depth_format(depth.format) {
                 return Err(Error::DepthFormat(depth.format));
             }
@@ -48,13 +48,14 @@ impl Renderer {
 
     /// Builds the depth import and the output pass the first time a frame needs them.
     pub(super) fn ensure_edges(&mut self, inputs: &FrameInputs) -> Result<(), Error> {
+        let convention = self.frame_convention(inputs)?;
         let (ctx, compiler) = (&self.ctx, &mut self.compiler);
         if inputs.depth.is_some() && self.edges.depth_import.is_none() {
             self.edges.depth_import = Some(DepthImportPass::new(ctx, compiler)?);
         }
         if let Some(depth) = inputs.depth.filter(|d| d.write) {
             let out = self.edges.depth_out.get_or_insert_with(DepthOutPass::new);
-            out.use_depth(ctx, compiler, depth.format, depth.convention)?;
+            out.use_depth(ctx, compiler, depth.format, convention.unwrap_or(depth.convention))?;
         }
         match &inputs.color {
             Some(color) => self.edges.composite.get_or_insert_with(CompositePass::new).use_format(
@@ -68,6 +69,11 @@ impl Renderer {
             None => {}
         }
         Ok(())
+    }
+
+    /// The frame's depth convention, resolved (`depth_convention`); None without a game depth.
+    fn frame_convention(&self, inputs: &FrameInputs) -> Result<Option<DepthConvention>, Error> {
+        inputs.depth.as_ref().map(|d| self.depth_convention(d, aspect(inputs.extent))).transpose()
     }
 
     /// Records one frame into `cmd` (recording, outside a render pass, on the context's queue
@@ -179,6 +185,7 @@ impl Renderer {
         slot: usize,
     ) -> Result<(), Error> {
         let extent = inputs.extent;
+        let convention = self.frame_convention(inputs)?;
         let (ctx, memory) = (&self.ctx, &self.memory);
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         let s = &mut self.slots[slot];
@@ -214,8 +221,8 @@ impl Renderer {
         if let Some(depth) = &inputs.depth {
             let last = game_access(depth.layout);
             targets.import(Target::GameDepth, depth.image, depth.view, depth.format, last);
-            if let Some(p) = &mut self.edges.depth_import {
-                p.set_convention(depth.convention);
+            if let (Some(p), Some(convention)) = (&mut self.edges.depth_import, convention) {
+                p.set_convention(convention);
             }
         }
         if let Some(color) = &inputs.color {
@@ -275,5 +282,14 @@ impl Renderer {
         s.record_timestamp_copy(ctx, cmd);
         log::trace!("frame {frame} recorded in slot {slot}");
         Ok(())
+    }
+}
+
+/// Width over height of a frame (1 for an empty one: nothing is recorded for it).
+fn aspect(extent: vk::Extent2D) -> f64 {
+    if extent.height == 0 {
+        1.0
+    } else {
+        f64::from(extent.width) / f64::from(extent.height)
     }
 }

@@ -1,8 +1,9 @@
 //! Per-frame changes without rebuilding pipelines: camera, instance transforms, waves, metaballs.
 //! Each edits the loaded scene; the next `record_frame` uploads it into the existing buffers.
 
-use glam::{DMat4, DVec3};
+use glam::DVec3;
 
+use super::game_math::{GameMatrix, GameVector};
 use super::ids::MaterialId;
 use super::instances::{InstanceId, LightId};
 use super::world::{GroupId, WaveId};
@@ -61,15 +62,18 @@ impl Renderer {
                     .into(),
             });
         }
-        self.loaded_mut()?.scene.camera = camera;
+        let loaded = self.loaded_mut()?;
+        loaded.scene.camera = camera;
+        // The game's projection no longer describes the camera.
+        loaded.game_projection = None;
         Ok(())
     }
 
     /// Places instance `id` by the affine `matrix` (object → world) from the next frame on.
     /// Any instance moves, translucent ones included: their tables are in object space (exact
     /// under any affine transform) and the light's view is fitted again each frame.
-    pub fn set_transform(&mut self, id: InstanceId, matrix: DMat4) -> Result<(), Error> {
-        self.set_transform_ops(id, &[TransformOp::Matrix(matrix)])
+    pub fn set_transform(&mut self, id: InstanceId, matrix: impl GameMatrix) -> Result<(), Error> {
+        self.set_transform_ops(id, &[TransformOp::Matrix(matrix.to_dmat4())])
     }
 
     /// Places instance `id` by transform operations, applied in the order listed (as in scene
@@ -124,7 +128,14 @@ impl Renderer {
     /// centre and coefficient q, for every following frame. The group's keyframes and the ball's
     /// rates are dropped (the other balls then hold their time-0 values plus their own
     /// velocities). A ball past the group's list is `Error::UnknownId`.
-    pub fn set_metaball(&mut self, id: GroupId, ball: usize, centre: DVec3, q: f64) -> Result<(), Error> {
+    pub fn set_metaball(
+        &mut self,
+        id: GroupId,
+        ball: usize,
+        centre: impl GameVector,
+        q: f64,
+    ) -> Result<(), Error> {
+        let centre = centre.to_dvec3();
         let group = self.group_index(id)?;
         let g = &mut self.loaded_mut()?.scene.metaballs_mut()[group];
         let balls = g.balls.len();

@@ -1,10 +1,14 @@
 //! The camera as a game gives it: view and projection matrices (`Renderer::set_view_projection`),
 //! turned into hadou's camera — a position and frame from the view, a [`Lens::Matrix`] and the
 //! near and far planes from the projection — so every pass and every f64 twin builds the same
-//! pixel rays from it (src/scene/camera.rs).
+//! pixel rays from it (src/scene/camera.rs). The camera is given once: a game that hands its depth
+//! says `DepthConvention::Camera` and the depth convention is the same projection's; one that
+//! names a convention of its own is checked against the projection (`depth_convention`).
 
 use glam::{DMat4, DVec2, DVec3};
 
+use super::game_math::GameMatrix;
+use super::inputs::{DepthConvention, ExternalDepth};
 use super::Renderer;
 use crate::scene::camera::{Camera, Lens};
 use crate::Error;
@@ -89,9 +93,55 @@ impl Renderer {
     /// The camera of the following frames as the game's matrices: `view` (world → view) and
     /// `proj` (view → clip), see [`camera_from_matrices`] for what is accepted. Sub-pixel jitter
     /// (TAA) and off-centre frusta are the projection's third column; hadou's pixel rays, raster
-    /// and depth follow it exactly. State is unchanged on error.
-    pub fn set_view_projection(&mut self, view: DMat4, proj: DMat4) -> Result<(), Error> {
-        let camera = camera_from_matrices(view, proj)?;
-        self.set_camera(camera)
+    /// and depth follow it exactly. glam's f32 `Mat4` (or `Affine3A` for the view) is taken as
+    /// it is. The game's depth, handed with `DepthConvention::Camera`, is read in this projection's
+    /// convention. State is unchanged on error.
+    pub fn set_view_projection(&mut self, view: impl GameMatrix, proj: impl GameMatrix) -> Result<(), Error> {
+        let proj = proj.to_dmat4();
+        let camera = camera_from_matrices(view.to_dmat4(), proj)?;
+        self.set_camera(camera)?;
+        self.loaded.as_mut().ok_or(Error::NoScene)?.game_projection = Some(proj);
+        Ok(())
     }
+
+    /// The convention `depth` is read in this frame: `DepthConvention::Camera` is the projection
+    /// given to `set_view_projection`, or, when the camera was set otherwise, hadou's own
+    /// projection of it (`Camera::projection_matrix` at the frame's aspect: reverse-Z). A convention
+    /// the game names itself must agree with a projection it gave (A within 1e-5, B within 1e-5
+    /// relative: f32 rounding of either, not a different near or far), or the frame is refused:
+    /// the two could otherwise disagree silently, the game's depth read at wrong distances.
+    pub(super) fn depth_convention(&self, depth: &ExternalDepth, aspect: f64) -> Result<DepthConvention, Error> {
+        let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
+        let own = loaded.game_projection.map(DepthConvention::Projection);
+        let convention = match depth.convention {
+            DepthConvention::Camera => {
+                own.unwrap_or_else(|| DepthConvention::Projection(loaded.scene.camera.projection_matrix(aspect)))
+            }
+            named => {
+                if let Some(own) = own {
+                    check_agreement(named, own)?;
+                }
+                named
+            }
+        };
+        convention.check().map_err(Error::DepthConvention)?;
+        Ok(convention)
+    }
+}
+
+/// `named` and the camera's projection `own` store the same depth for every view depth, to f32
+/// rounding: d = −A + B/z, so A and B are compared (A absolutely, it is a depth; B relatively).
+fn check_agreement(named: DepthConvention, own: DepthConvention) -> Result<(), Error> {
+    const TOLERANCE: f64 = 1e-5;
+    let ((a0, b0), (a1, b1)) = (named.coefficients(), own.coefficients());
+    let agree = (a0 - a1).abs() <= TOLERANCE && (b0 - b1).abs() <= TOLERANCE * b0.abs().max(b1.abs());
+    if agree {
+        return Ok(());
+    }
+    Err(Error::DepthConvention(format!(
+        "ExternalDepth.convention {named:?} stores d = {:.7} + {b0:.7}/z, but the projection given to \
+         set_view_projection stores d = {:.7} + {b1:.7}/z: give DepthConvention::Camera (the depth is then \
+         read in the camera's projection), or the projection the depth was drawn with",
+        -a0, -a1
+    )))
 }
