@@ -279,6 +279,7 @@ fn the_importer_reads_textures_samplers_and_transforms() {
     let imp = hadou::scene::gltf::import(&path, &Default::default()).unwrap();
     assert!(imp.ignored.is_empty(), "{}", imp.ignored.summary());
     assert!(imp.files.iter().any(|f| f.ends_with("textures.glb")));
+    assert!(imp.files.iter().any(|f| f.ends_with("checker b.png")), "{:?}", imp.files);
     let referenced = hadou::scene::gltf::referenced_files(&path);
     assert!(referenced.iter().any(|f| f.ends_with("checker b.png")), "{referenced:?}");
 }
@@ -493,4 +494,70 @@ fn images_past_the_texel_budget_are_refused() {
             && stderr.contains("texels=N"),
         "{stderr}"
     );
+}
+
+/// `alphaMode: MASK` reads the base-colour texture's alpha: a 4×4 checker of alpha 0 and 255
+/// (NEAREST) on one quad seen straight on leaves exactly the opaque texels' pixels drawn (normal
+/// AOV w > 0), outside the texel-edge band argued at the top of this file.
+#[test]
+fn mask_reads_the_texture_alpha() {
+    const S: u32 = 160;
+    let dir = temp_dir("textures-mask");
+    let mut w = Writer::default();
+    let clear = [[255, 255, 255, 0], [255, 255, 255, 255]];
+    let image = view_image(&mut w, &png(&checker(4, clear)), "image/png");
+    w.extra.insert("images".into(), json!([image]));
+    w.extra.insert("samplers".into(), json!([{ "magFilter": NEAREST, "minFilter": NEAREST }]));
+    w.extra.insert("textures".into(), json!([{ "source": 0, "sampler": 0 }]));
+    let m = w.material(json!({ "alphaMode": "MASK", "alphaCutoff": 0.5,
+        "pbrMetallicRoughness": { "metallicFactor": 0.0, "baseColorTexture": { "index": 0 } } }));
+    let p = quad(&mut w, m, 1.0);
+    let mesh = w.mesh(vec![p]);
+    let n = w.node(json!({ "mesh": mesh }));
+    w.scene_roots.push(n);
+    w.cameras.push(json!({ "type": "perspective", "perspective": { "yfov": 0.4, "znear": 0.1, "zfar": 100.0, "aspectRatio": 1.0 } }));
+    let cam = w.node(json!({ "camera": 0, "translation": [0.0, 0.0, 7.0] }));
+    w.scene_roots.push(cam);
+    let scene = hadou::scene::load_scene(&w.write_glb(&dir, "mask")).unwrap();
+    let mut rt = common::runtime();
+    rt.load_scene(scene.clone()).unwrap();
+    let mut request = FrameRequest::new(S, S);
+    request.aovs = vec![Aov::Normal];
+    let frame = rt.render(&request).unwrap();
+    common::assert_clean(&rt);
+    rt.finish();
+    let normal = &frame.aov(Aov::Normal).unwrap().data;
+    // The texel-space coordinates of a pixel's hit, None off the quad.
+    let at = |x: i32, y: i32| {
+        let (o, u) = scene.camera.pixel_ray(x as u32, y as u32, S, S);
+        let p = o + u * (-o.z / u.z);
+        (p.x.abs() <= 1.0 && p.y.abs() <= 1.0).then(|| texcoords(p.x, p.y, 1.0)[0] * 4.0)
+    };
+    let (mut drawn, mut holes, mut band, mut wrong) = (0, 0, 0, Vec::new());
+    for y in 0..S as i32 {
+        for x in 0..S as i32 {
+            let Some(a) = at(x, y) else { continue };
+            let g = [(-1, 0), (1, 0), (0, -1), (0, 1)]
+                .iter()
+                .filter_map(|(dx, dy)| at(x + dx, y + dy))
+                .map(|b| (b.x - a.x).abs().max((b.y - a.y).abs()))
+                .fold(0.0f64, f64::max);
+            let edge = |v: f64| (v - v.round()).abs() < g / 16.0 + 1.0 / 128.0;
+            // The quad's outline (texel edges 0 and 4) is in the band too.
+            if edge(a.x) || edge(a.y) {
+                band += 1;
+                continue;
+            }
+            let opaque = (wrap(a.x, 4, false) + wrap(a.y, 4, false)) % 2 == 1;
+            let surface = normal[4 * (y as u32 * S + x as u32) as usize + 3] > 0.0;
+            match (opaque, surface) {
+                (true, true) => drawn += 1,
+                (false, false) => holes += 1,
+                _ => wrong.push((x, y)),
+            }
+        }
+    }
+    println!("mask: {drawn} drawn, {holes} holes, {band} in the texel-edge band");
+    assert!(wrong.is_empty(), "{} pixels disagree, first {:?}", wrong.len(), &wrong[..wrong.len().min(5)]);
+    assert!(drawn > 1500 && holes > 1500, "{drawn} {holes}");
 }

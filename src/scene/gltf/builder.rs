@@ -29,7 +29,7 @@ pub(super) struct Builder<'a> {
     /// (glTF material, mesh shape) → hadou material.
     used: HashMap<(Option<usize>, Shape), usize>,
     /// The images the textures read, each decoded once.
-    images: super::texture::Images,
+    pub images: super::texture::Images,
 }
 
 impl<'a> Builder<'a> {

@@ -82,7 +82,7 @@ pub struct GltfImport {
     pub bounds: Option<SceneBounds>,
     /// What was not drawn, with where.
     pub ignored: Ignored,
-    /// The glTF file and the buffer files it read (outputs may not replace them).
+    /// The glTF file and the buffer and image files it read (outputs may not replace them).
     pub files: Vec<PathBuf>,
     /// `ImportOptions::spent` plus what this file draws (for the scene's next file).
     pub spent: Spent,
@@ -157,6 +157,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
     }
     let mut files = vec![path.to_path_buf()];
     files.extend(buffers.files);
+    files.extend(std::mem::take(&mut b.images.files));
     Ok(GltfImport {
         meshes: b.meshes,
         materials: b.materials,
@@ -170,7 +171,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
     })
 }
 
-/// The glTF file and the buffer files it names (empty when it cannot be read: the caller has
+/// The glTF file and the buffer and image files it names (empty when it cannot be read: the caller has
 /// already loaded it, so this only lists what to protect from being overwritten).
 pub fn referenced_files(path: &Path) -> Vec<PathBuf> {
     let mut files = vec![path.to_path_buf()];

@@ -28,6 +28,8 @@ pub const MAX_SIDE: u32 = 16384;
 pub(super) struct Images {
     decoded: HashMap<usize, Arc<TextureImage>>,
     texels: u64,
+    /// The image files read (outputs may not replace them; the viewer watches them).
+    pub files: Vec<std::path::PathBuf>,
 }
 
 /// The texture `info` names (at JSON pointer `at`, e.g. `/materials/0/emissiveTexture`).
@@ -90,7 +92,7 @@ fn image(src: &Source, image: &gltf::Image, images: &mut Images) -> Result<Arc<T
     if let Some(done) = images.decoded.get(&i) {
         return Ok(done.clone());
     }
-    let (bytes, at, shown) = image_bytes(src, image)?;
+    let (bytes, at, shown) = image_bytes(src, image, &mut images.files)?;
     let fail = |message: String| GltfError::at(src.path, at.clone(), format!("{shown}: {message}"));
     let reader = || {
         image::ImageReader::new(Cursor::new(&bytes[..]))
@@ -135,7 +137,11 @@ fn image(src: &Source, image: &gltf::Image, images: &mut Images) -> Result<Arc<T
 
 /// The encoded bytes of an image, the JSON pointer of where they come from and how a message
 /// names them.
-fn image_bytes(src: &Source, image: &gltf::Image) -> Result<(Vec<u8>, String, String), GltfError> {
+fn image_bytes(
+    src: &Source,
+    image: &gltf::Image,
+    files: &mut Vec<std::path::PathBuf>,
+) -> Result<(Vec<u8>, String, String), GltfError> {
     let i = image.index();
     match image.source() {
         gltf::image::Source::View { view, .. } => {
@@ -184,6 +190,7 @@ fn image_bytes(src: &Source, image: &gltf::Image) -> Result<(Vec<u8>, String, St
                 return Err(missing(std::io::Error::other("not a regular file")));
             }
             let bytes = std::fs::read(&file).map_err(missing)?;
+            files.push(file.clone());
             Ok((bytes, at.clone(), format!("image {}", file.display())))
         }
     }
