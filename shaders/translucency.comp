@@ -8,6 +8,8 @@
 //   LUT: d = |P - entry| times the inside fraction the instance's thickness field decodes along
 //        entry -> P in object space (lut_inside_fraction); entry lies on P's own light ray, so
 //        |M(b - a)| = z(P) - z(entry).
+//   pairs: d = |P - entry| times the fraction the seed's pair table gives for the surface voxels
+//        of entry and P (pair_inside_fraction, WITH_PAIRS: the scene's tables hold a pair table).
 // Fallbacks are documented in src/passes/translucency.rs. CPU twin: src/effects/translucency.rs.
 // Dispatched over `rect` only (the pixels that can show a translucent instance: lavapipe runs the
 // whole shader for every 8-lane group, taken branches or not). WITH_LUT (an instance reads a
@@ -59,6 +61,12 @@ layout(set = 0, binding = 14, rg32ui) uniform readonly uimage2D peel_lists;
 #include "common/translucency_peel.glsl"
 #endif
 
+#ifdef WITH_PAIRS
+// The pair tables (effects::thickness_pairs), R8_UNORM, read by texelFetch.
+layout(set = 0, binding = 15) uniform sampler2D pair_table;
+#include "common/translucency_pairs.glsl"
+#endif
+
 // The texel of the light map nearest to `centre` that holds `instance` (the centre first, then its
 // 4 and then its diagonal neighbours), or (-1, -1).
 ivec2 own_texel(ivec2 centre, uint instance) {
@@ -93,8 +101,18 @@ float thickness_at(vec3 P, uint instance, uint mode) {
     }
     float tsm = max(lp.z - imageLoad(light_z, t).r, 0.0);
     TranslucentInstance ti = translucent_instance_at(translucent_texels, instance);
+#ifdef WITH_PAIRS
+    // effects::thickness_pairs: the same path a -> b, the cavities from the pair's table entry.
+    if (mode == THICKNESS_PAIRS && ti.info.x != NO_LUT && ti.info.z != 0u && tsm > 0.0) {
+        LutRecord r = lut_record_at(lut_texels, ti.info.x);
+        uvec4 raw = texelFetch(lut_texels, int(3u * ti.info.x + 2u));
+        vec3 b = (ti.inverse_model * vec4(P, 1.0)).xyz;
+        vec3 a = (ti.inverse_model * vec4(P - params.view.dir.xyz * tsm, 1.0)).xyz;
+        return tsm * pair_inside_fraction(r, raw, a, b);
+    }
+#endif
 #ifdef WITH_LUT
-    if (mode == THICKNESS_TSM || ti.info.x == NO_LUT || !(tsm > 0.0)) return tsm;
+    if (mode == THICKNESS_TSM || ti.info.x == NO_LUT || ti.info.z != 0u || !(tsm > 0.0)) return tsm;
     // effects::translucency::lut_thickness: the path from the light's entry a (on P's own light
     // ray) to b = P, less the gaps the field decodes between them.
     LutRecord r = lut_record_at(lut_texels, ti.info.x);

@@ -100,7 +100,7 @@ const BAD: &[(&str, usize, usize, &str)] = &[
         "translucent_unknown_thickness_mode.toml",
         9,
         13,
-        "`thickness`: expected one of \"lut\", \"tsm\", \"peel\", found \"shadowmap\"",
+        "`thickness`: expected one of \"lut\", \"tsm\", \"peel\", \"pairs\", found \"shadowmap\"",
     ),
     ("wave_nan.toml", 13, 14, "expected a finite number, found nan"),
     ("wave_negative_core.toml", 11, 8, "wave \"beam\" `core`: expected a number >= 0, found -0.5"),

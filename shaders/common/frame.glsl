@@ -35,6 +35,7 @@ struct InstanceData {
 #define THICKNESS_LUT 0u
 #define THICKNESS_TSM 1u
 #define THICKNESS_PEEL 2u
+#define THICKNESS_PAIRS 3u
 
 struct MaterialData {
     vec4 albedo;         // rgb; a: the base colour's alpha

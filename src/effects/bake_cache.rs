@@ -69,7 +69,7 @@ impl Fnv64 {
     }
 }
 
-fn fnv(bytes: &[u8]) -> u64 {
+pub(crate) fn fnv(bytes: &[u8]) -> u64 {
     let mut h = Fnv64::default();
     h.write(bytes);
     h.finish()
@@ -216,7 +216,7 @@ fn file_name(hash: u64, res: u32) -> String {
     format!("lut-{hash:016x}-r{res}.hlut")
 }
 
-fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("lut");

@@ -58,8 +58,8 @@ crate::gpu::layout::gpu_layout!(InstanceData as "InstanceData" { model, normal_m
 pub struct MaterialData {
     /// rgb: the albedo; a: the base colour's alpha (`Surface::alpha`).
     pub albedo: [f32; 4],
-    /// x: `MATERIAL_LAMBERT` or `MATERIAL_TRANSLUCENT`; y (translucent): `THICKNESS_LUT` or
-    /// `THICKNESS_TSM`.
+    /// x: `MATERIAL_LAMBERT` or `MATERIAL_TRANSLUCENT`; y (translucent): `THICKNESS_LUT`,
+    /// `THICKNESS_TSM`, `THICKNESS_PEEL` or `THICKNESS_PAIRS`.
     pub kind: [u32; 4],
     /// rgb (translucent): extinction σ per world unit; 0 for lambert.
     pub sigma: [f32; 4],
@@ -77,6 +77,8 @@ pub const THICKNESS_LUT: u32 = 0;
 pub const THICKNESS_TSM: u32 = 1;
 /// `MaterialData::kind.y` of a translucent material with `thickness = "peel"`.
 pub const THICKNESS_PEEL: u32 = 2;
+/// `MaterialData::kind.y` of a translucent material with `thickness = "pairs"`.
+pub const THICKNESS_PAIRS: u32 = 3;
 
 const _: () = {
     assert!(std::mem::size_of::<GpuLight>() == 32);
@@ -171,6 +173,7 @@ pub fn material_records(scene: &Scene, p: f64) -> Vec<MaterialData> {
                     ThicknessMode::Lut => THICKNESS_LUT,
                     ThicknessMode::Tsm => THICKNESS_TSM,
                     ThicknessMode::Peel => THICKNESS_PEEL,
+                    ThicknessMode::Pairs => THICKNESS_PAIRS,
                 };
                 let kind = [MATERIAL_TRANSLUCENT, mode, 0, 0];
                 MaterialData { albedo, kind, sigma: vec4_f32(sigma, 0.0), emission }

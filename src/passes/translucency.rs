@@ -69,10 +69,12 @@ use glam::DVec3;
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
 use crate::effects::bake_cache::BakeCache;
 use crate::effects::thickness_lut::{bake, BakeOptions, ThicknessLut, TAU_STEPS};
+use crate::effects::thickness_pairs::{self, PairOptions, PairTable};
 use crate::effects::translucency::{light_map_size, LightView};
 use crate::gpu::barriers::ImageAccess;
-use crate::gpu::memory::Memory;
+use crate::gpu::memory::{Image, Memory};
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, Pipeline};
+use crate::gpu::sampler::Sampler;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::texel_buffer::{TexelBuffer, Texels};
 use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
@@ -83,6 +85,22 @@ use crate::targets::Target;
 
 /// `TranslucentInstance::info.x` of an instance without a table.
 pub const NO_LUT: u32 = u32::MAX;
+
+/// Set in a table key's resolution for a pair table (`thickness = "pairs"`): the keys of the
+/// fields and of the pair tables share one list, so run-time bakes handle both
+/// (src/renderer/bakes.rs). voxel_res ≤ 128 leaves the bit free.
+pub const PAIRS_KEY: u32 = 1 << 31;
+
+/// The table key (mesh, voxel_res, with `PAIRS_KEY` for a pair table) of an instance of `mesh`
+/// drawn with a translucent material of this resolution and mode; `None` for a mode without a
+/// table (tsm, peel).
+pub fn table_key(mesh: usize, voxel_res: u32, mode: ThicknessMode) -> Option<(usize, u32)> {
+    match mode {
+        ThicknessMode::Lut => Some((mesh, voxel_res)),
+        ThicknessMode::Pairs => Some((mesh, voxel_res | PAIRS_KEY)),
+        ThicknessMode::Tsm | ThicknessMode::Peel => None,
+    }
+}
 
 /// One baked field. Keep in sync with `LutRecord` in shaders/common/translucency.glsl.
 #[repr(C)]
@@ -102,7 +120,8 @@ pub struct LutRecord {
 pub struct TranslucentInstance {
     pub model: [[f32; 4]; 4],
     pub inverse_model: [[f32; 4]; 4],
-    /// x: `LutRecord` index or `NO_LUT`; y: 1 when the material is translucent.
+    /// x: `LutRecord` index or `NO_LUT`; y: 1 when the material is translucent; z: 1 when the
+    /// record is a pair table.
     pub info: [u32; 4],
 }
 
@@ -170,8 +189,10 @@ impl LightViewData {
 pub struct LutSummary {
     pub mesh: String,
     pub res: u32,
-    /// Bytes of its field and τ (1 a corner, 1 a cell).
+    /// Bytes of its field and τ (1 a corner, 1 a cell); of a pair table, its N² table bytes.
     pub field_bytes: u64,
+    /// A pair table (`thickness = "pairs"`) and its surface voxels; `None` for a field.
+    pub surface_voxels: Option<u64>,
 }
 
 /// The scene's baked translucency data on the GPU, read by `translucency`: what does not change
@@ -186,6 +207,9 @@ pub struct TranslucentData {
     // texel) and the LutRecords (3 four-uint texels each).
     pub fields: TexelBuffer,
     pub records: TexelBuffer,
+    /// The pair tables, one above the other (R8_UNORM, `PairAtlas`), and the sampler the pass
+    /// reads it with; `None` when no table is a pair table.
+    pub pairs: Option<(Image, Sampler)>,
 }
 
 /// What the translucent instances look like this frame, from the scene's current transforms and
@@ -236,6 +260,58 @@ pub(crate) struct Packed {
     keys: Vec<(usize, u32)>,
     fields: Vec<u32>,
     records: Vec<LutRecord>,
+    atlas: PairAtlas,
+}
+
+/// The pair tables stacked in one image (no descriptor indexing on lavapipe): table m's row i is
+/// image row `first_row_m + i`, its column j image column j; width the largest N, height ΣN.
+#[derive(Default)]
+struct PairAtlas {
+    width: u32,
+    height: u32,
+    /// width × height bytes, row 0 first.
+    bytes: Vec<u8>,
+}
+
+impl PairAtlas {
+    /// Appends `t`'s rows; returns its first row.
+    fn push(&mut self, t: &PairTable) -> u32 {
+        let n = t.surface_voxels() as u32;
+        let first = self.height;
+        if n > self.width {
+            // Widen the rows already there (zero columns past each table's N are never read).
+            let old = std::mem::take(&mut self.bytes);
+            self.bytes = old
+                .chunks(self.width.max(1) as usize)
+                .flat_map(|row| row.iter().copied().chain(std::iter::repeat_n(0, (n - self.width) as usize)))
+                .collect();
+            self.width = n;
+        }
+        for row in t.table.chunks(n as usize) {
+            self.bytes.extend_from_slice(row);
+            self.bytes.extend(std::iter::repeat_n(0, (self.width - n) as usize));
+        }
+        self.height += n;
+        first
+    }
+}
+
+/// The device limits a packing must respect.
+#[derive(Clone, Copy, Debug)]
+pub struct PackLimits {
+    /// maxTexelBufferElements: the fields' words (and the pair lookups').
+    pub texels: u32,
+    /// maxImageDimension2D: the pair atlas's sides.
+    pub image_dim: u32,
+}
+
+impl PackLimits {
+    pub fn of(ctx: &GpuContext) -> Self {
+        PackLimits {
+            texels: ctx.limits.max_texel_buffer_elements,
+            image_dim: ctx.limits.max_image_dimension2_d,
+        }
+    }
 }
 
 fn translucent_mode(scene: &Scene, instance: usize) -> Option<(u32, ThicknessMode)> {
@@ -266,18 +342,60 @@ fn bake_table(
         }),
         None => bake(&m.mesh, res, &options, none).map(|(lut, _)| lut),
     };
-    // Name where the resolution was asked for: the voxel_res of a material this mesh is drawn with.
-    let at = scene
+    baked.map_err(|e| GpuError::Bake {
+        what: format!("{}thickness LUT of mesh \"{}\" at {res}³", asked_at(scene, mesh, res, false), m.name),
+        message: e.to_string(),
+    })
+}
+
+/// Where the resolution of the table of `mesh` at `res` was asked for: the voxel_res of a
+/// material this mesh is drawn with ("" when none is found).
+fn asked_at(scene: &Scene, mesh: usize, res: u32, pairs: bool) -> String {
+    scene
         .instances
         .iter()
         .filter(|i| i.mesh == mesh)
         .map(|i| &scene.materials[i.material])
-        .find(|mat| matches!(mat.kind, MaterialKind::Translucent { voxel_res, .. } if voxel_res == res))
+        .find(|mat| match mat.kind {
+            MaterialKind::Translucent { voxel_res, thickness, .. } => {
+                voxel_res == res && (thickness == ThicknessMode::Pairs) == pairs
+            }
+            MaterialKind::Lambert => false,
+        })
         .map_or(String::new(), |mat| {
             format!("{}: voxel_res of material \"{}\": ", mat.voxel_res_at, mat.name)
-        });
+        })
+}
+
+/// The pair table of `mesh` at `res` (through the bake cache when there is one), refused above
+/// the device's image side or the memory budget with the material named.
+fn bake_pair_table(
+    scene: &Scene,
+    mesh: usize,
+    res: u32,
+    image_dim: u32,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> GpuResult<PairTable> {
+    let m = &scene.meshes[mesh];
+    let options = PairOptions { max_image_dim: image_dim, ..PairOptions::default() };
+    let baked = match BakeCache::from_env() {
+        Some(cache) => cache.get_or_bake_pairs(&m.mesh, res, &options, progress).map(|c| {
+            log::info!(
+                "thickness pair table of mesh \"{}\" at {res}³: {:?} in {:.2} s",
+                m.name,
+                c.outcome,
+                c.seconds
+            );
+            c.table
+        }),
+        None => thickness_pairs::bake(&m.mesh, res, &options, progress).map(|(t, _)| t),
+    };
     baked.map_err(|e| GpuError::Bake {
-        what: format!("{at}thickness LUT of mesh \"{}\" at {res}³", m.name),
+        what: format!(
+            "{}thickness pair table of mesh \"{}\" at {res}³",
+            asked_at(scene, mesh, res, true),
+            m.name
+        ),
         message: e.to_string(),
     })
 }
@@ -286,9 +404,10 @@ fn bake_table(
 fn table_keys(scene: &Scene) -> Vec<(usize, u32)> {
     let mut keys: Vec<(usize, u32)> = Vec::new();
     for (id, inst) in scene.instances.iter().enumerate() {
-        if let Some((res, ThicknessMode::Lut)) = translucent_mode(scene, id) {
-            if !keys.contains(&(inst.mesh, res)) {
-                keys.push((inst.mesh, res));
+        if let Some(key) = translucent_mode(scene, id).and_then(|(res, mode)| table_key(inst.mesh, res, mode))
+        {
+            if !keys.contains(&key) {
+                keys.push(key);
             }
         }
     }
@@ -304,16 +423,13 @@ pub fn instance_table(scene: &Scene, keys: &[(usize, u32)]) -> Vec<TranslucentIn
         .enumerate()
         .map(|(id, inst)| {
             let mode = translucent_mode(scene, id);
-            let lut = match mode {
-                Some((res, ThicknessMode::Lut)) => {
-                    keys.iter().position(|k| *k == (inst.mesh, res)).map_or(NO_LUT, |k| k as u32)
-                }
-                _ => NO_LUT,
-            };
+            let key = mode.and_then(|(res, mode)| table_key(inst.mesh, res, mode));
+            let lut = key.and_then(|key| keys.iter().position(|k| *k == key)).map_or(NO_LUT, |k| k as u32);
+            let pairs = key.is_some_and(|(_, r)| r & PAIRS_KEY != 0) && lut != NO_LUT;
             TranslucentInstance {
                 model: mat4_f32(inst.transform.matrix),
                 inverse_model: mat4_f32(inst.transform.inverse),
-                info: [lut, u32::from(mode.is_some()), 0, 0],
+                info: [lut, u32::from(mode.is_some()), u32::from(pairs), 0],
             }
         })
         .collect();
@@ -324,21 +440,36 @@ pub fn instance_table(scene: &Scene, keys: &[(usize, u32)]) -> Vec<TranslucentIn
     instances
 }
 
-fn pack(scene: &Scene, limit: u32) -> GpuResult<Packed> {
-    pack_keys(scene, table_keys(scene), limit, &|_, _| {})
+fn pack(scene: &Scene, limits: PackLimits) -> GpuResult<Packed> {
+    pack_keys(scene, table_keys(scene), limits, &|_, _| {})
 }
 
-/// The tables of `keys` (mesh, voxel_res), baked through the cache, packed as the pass reads
-/// them (`limit`: the device's maxTexelBufferElements); `progress(done, total)` of each bake in
-/// turn. Runs on any thread (run-time bakes).
+/// The tables of `keys` (mesh, voxel_res; `table_key`), baked through the cache, packed as the
+/// pass reads them (under the device's `limits`); `progress(done, total)` of each bake in turn.
+/// Runs on any thread (run-time bakes).
 pub(crate) fn pack_keys(
     scene: &Scene,
     keys: Vec<(usize, u32)>,
-    limit: u32,
+    limits: PackLimits,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> GpuResult<Packed> {
+    let limit = limits.texels;
     let (mut tables, mut fields, mut records) = (Vec::new(), Vec::new(), Vec::new());
-    for &(mesh, res) in &keys {
+    let mut atlas = PairAtlas::default();
+    for &(mesh, key_res) in &keys {
+        if key_res & PAIRS_KEY != 0 {
+            let res = key_res & !PAIRS_KEY;
+            let t = bake_pair_table(scene, mesh, res, limits.image_dim, progress)?;
+            records.push(pack_pairs(&t, &mut fields, &mut atlas, limits)?);
+            tables.push(LutSummary {
+                mesh: scene.meshes[mesh].name.clone(),
+                res,
+                field_bytes: t.bytes(),
+                surface_voxels: Some(t.surface_voxels() as u64),
+            });
+            continue;
+        }
+        let res = key_res;
         let lut = bake_table(scene, mesh, res, progress)?;
         let words = lut.words();
         if fields.len() as u64 + words.len() as u64 > limit as u64 {
@@ -364,6 +495,7 @@ pub(crate) fn pack_keys(
             mesh: scene.meshes[mesh].name.clone(),
             res,
             field_bytes: lut.bytes() as u64,
+            surface_voxels: None,
         });
     }
     if records.is_empty() {
@@ -372,7 +504,63 @@ pub(crate) fn pack_keys(
     if fields.is_empty() {
         fields.push(0);
     }
-    Ok(Packed { tables, keys, fields, records })
+    Ok(Packed { tables, keys, fields, records, atlas })
+}
+
+/// A pair table's record: its lookup and surface coordinates appended to the fields' words, its
+/// rows to the atlas. Record layout for a pair table: origin.xyz + h; dims.xyz + the first lookup
+/// word; scale.x = D (object units of a stored 1.0), scale.y/z = the bits of its first atlas row
+/// and of its first coordinate word.
+fn pack_pairs(
+    t: &PairTable,
+    fields: &mut Vec<u32>,
+    atlas: &mut PairAtlas,
+    limits: PackLimits,
+) -> GpuResult<LutRecord> {
+    let v = &t.voxels;
+    let words = (v.lookup.len() + v.count()) as u64;
+    if fields.len() as u64 + words > limits.texels as u64 {
+        return Err(GpuError::DeviceLimit {
+            what: "translucency pair lookups".into(),
+            limit: "maxTexelBufferElements",
+            needed: fields.len() as u64 + words,
+            max: u64::from(limits.texels),
+            message: format!(
+                "the scene's tables need {} words, more than the device's maxTexelBufferElements {}; lower \
+                 the materials' voxel_res",
+                fields.len() as u64 + words,
+                limits.texels
+            ),
+        });
+    }
+    let height = atlas.height as u64 + v.count() as u64;
+    let width = (atlas.width as u64).max(v.count() as u64);
+    let budget = thickness_pairs::DEFAULT_MEMORY_BUDGET;
+    if height > limits.image_dim as u64 || width * height > budget {
+        return Err(GpuError::DeviceLimit {
+            what: "translucency pair tables".into(),
+            limit: "maxImageDimension2D",
+            needed: height,
+            max: u64::from(limits.image_dim),
+            message: format!(
+                "the scene's pair tables stack to a {width}×{height} image ({} bytes), above the device's \
+                 maxImageDimension2D {} or the {budget}-byte budget; lower the voxel_res of the \
+                 thickness = \"pairs\" materials",
+                width * height,
+                limits.image_dim
+            ),
+        });
+    }
+    let first_lookup = fields.len() as u32;
+    fields.extend_from_slice(&v.lookup);
+    let first_coordinate = fields.len() as u32;
+    fields.extend(t.coordinate_words());
+    let first_row = atlas.push(t);
+    Ok(LutRecord {
+        origin: v4(v.origin, v.voxel_size as f32),
+        dims: [v.dims[0], v.dims[1], v.dims[2], first_lookup],
+        scale: [t.max_thickness as f32, f32::from_bits(first_row), f32::from_bits(first_coordinate), 0.0],
+    })
 }
 
 /// One instanced draw of the light_id pass.
@@ -412,11 +600,12 @@ pub fn draw_runs(scene: &Scene) -> Vec<LightDraw> {
 impl TranslucentData {
     /// Bakes (through the cache) and uploads everything the translucency pass reads.
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
-        Self::upload(ctx, memory, pack(scene, ctx.limits.max_texel_buffer_elements)?)
+        Self::upload(ctx, memory, pack(scene, PackLimits::of(ctx))?)
     }
 
     /// Uploads tables packed already (`pack_keys`, e.g. by a run-time bake): host-visible texel
-    /// buffers, written at once.
+    /// buffers, written at once; the pair tables' image (if any) by a one-off copy waited for
+    /// (`gpu::staged_image`: once per set of tables, not per frame).
     pub(crate) fn upload(ctx: &GpuContext, memory: &Memory, packed: Packed) -> GpuResult<Self> {
         let (word, quad) = (Texels::U32, Texels::U32x4);
         let texels =
@@ -429,7 +618,30 @@ impl TranslucentData {
             packed.tables.len(),
             packed.fields.len()
         );
-        Ok(TranslucentData { tables: packed.tables, keys: packed.keys, fields, records })
+        let a = &packed.atlas;
+        let pairs = if a.height == 0 {
+            None
+        } else {
+            let extent = vk::Extent2D { width: a.width, height: a.height };
+            let format = vk::Format::R8_UNORM;
+            let image = crate::gpu::staged_image::upload_compute_image(
+                ctx,
+                memory,
+                "translucency pair tables",
+                extent,
+                format,
+                1,
+                &a.bytes,
+            )?;
+            log::info!(
+                "translucency: pair tables in a {}x{} R8_UNORM image ({} bytes)",
+                a.width,
+                a.height,
+                a.bytes.len()
+            );
+            Some((image, Sampler::nearest(ctx, "translucency pair tables")?))
+        };
+        Ok(TranslucentData { tables: packed.tables, keys: packed.keys, fields, records, pairs })
     }
 }
 
@@ -456,7 +668,7 @@ pub struct TranslucencyPass {
     rect: Option<PixelRect>,
     extent: vk::Extent2D,
     data: Arc<TranslucentData>,
-    /// Built with WITH_PEEL: reads the peel pass's lists (bindings 12, 13).
+    /// Built with WITH_PEEL: reads the peel pass's lists (bindings 13, 14).
     peel: bool,
 }
 
@@ -474,6 +686,11 @@ impl TranslucencyPass {
         }
         if peel {
             defines.push(("WITH_PEEL", "1"));
+        }
+        // The pair tables' march-free read, where the tables in use hold one (WITH_PAIRS: the
+        // image at binding 15).
+        if data.pairs.is_some() {
+            defines.push(("WITH_PAIRS", "1"));
         }
         let spirv = compiler.compile("translucency.comp", &defines)?;
         let fill_spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
@@ -557,6 +774,14 @@ impl Pass for TranslucencyPass {
         if self.peel {
             bindings.extend([Binding::Image(Target::PeelCounts), Binding::Image(Target::PeelLists)]);
         }
+        if let Some((image, sampler)) = &data.pairs {
+            // Bindings are by position: without the peel lists, 13 and 14 are placeholders the
+            // shader does not declare (the set binds only what it declares).
+            while bindings.len() < 15 {
+                bindings.push(Binding::Bound(Bound::UniformTexel(data.fields.view)));
+            }
+            bindings.push(Binding::Bound(Bound::Sampled(image.view, sampler.raw)));
+        }
         Ok(bindings)
     }
 
@@ -612,7 +837,13 @@ mod tests {
             material = "jade"
         "#;
         let scene = crate::scene::parse_scene(text, std::path::Path::new("inline.toml")).unwrap();
-        let packed = pack_keys(&scene, table_keys(&scene), u32::MAX, &|_, _| {}).unwrap();
+        let packed = pack_keys(
+            &scene,
+            table_keys(&scene),
+            PackLimits { texels: u32::MAX, image_dim: 16384 },
+            &|_, _| {},
+        )
+        .unwrap();
         assert_eq!(packed.records.len(), 2);
         let first_words = packed.records[1].dims[3] as usize;
         // Corners two a word, then cells four a word: each table's words round its bytes up by
@@ -622,7 +853,11 @@ mod tests {
         assert!((lo..hi).contains(&(first_words as u64)), "{first_words} words");
         let (lo, hi) = words(packed.tables[1].field_bytes);
         assert!((lo..hi).contains(&(packed.fields.len() as u64 - first_words as u64)));
-        let message = pack_keys(&scene, table_keys(&scene), 100, &|_, _| {}).err().unwrap().to_string();
+        let message =
+            pack_keys(&scene, table_keys(&scene), PackLimits { texels: 100, image_dim: 16384 }, &|_, _| {})
+                .err()
+                .unwrap()
+                .to_string();
         assert!(message.contains("maxTexelBufferElements 100"), "{message}");
     }
 

@@ -7,6 +7,8 @@
 //! written at once, the LUT image filled by a copy in that frame's own command buffer, no wait —
 //! and rebuilds the two translucency passes on them: the instance switches to its table. One job runs at a time; keys asked for meanwhile make the next.
 //! `bakes_in_progress` shows progress, `wait_for_bakes` blocks until all are in (tests, tools).
+//! The seed's pair tables (`thickness = "pairs"`, keys with `PAIRS_KEY`) go the same way; their
+//! image is filled by a one-off copy waited for when the job's tables are put in use.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -14,7 +16,7 @@ use std::thread::JoinHandle;
 
 use super::Renderer;
 use crate::gpu::GpuResult;
-use crate::passes::translucency::{pack_keys, Packed, TranslucentData};
+use crate::passes::translucency::{pack_keys, PackLimits, Packed, TranslucentData, PAIRS_KEY};
 use crate::Error;
 
 /// A run-time bake not yet in use.
@@ -67,7 +69,7 @@ impl Renderer {
     /// Makes sure the tables exist (an empty set when the scene never drew a translucent
     /// instance) so passes built from now on find them instead of baking on this thread.
     pub(super) fn ensure_tables(&mut self) -> Result<(), Error> {
-        let limit = self.ctx.limits.max_texel_buffer_elements;
+        let limit = PackLimits::of(&self.ctx);
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         if current_data(&loaded.passes.shared).is_none() {
             let packed = pack_keys(&loaded.scene, Vec::new(), limit, &|_, _| {})?;
@@ -89,7 +91,7 @@ impl Renderer {
     }
 
     fn start_bake_job(&mut self) {
-        let limit = self.ctx.limits.max_texel_buffer_elements;
+        let limit = PackLimits::of(&self.ctx);
         let Some(loaded) = &mut self.loaded else { return };
         if loaded.bakes.job.is_some() || loaded.bakes.queued.is_empty() {
             return;
@@ -135,7 +137,7 @@ impl Renderer {
                 let names: Vec<String> = job
                     .adds
                     .iter()
-                    .map(|&(m, r)| format!("\"{}\" at {r}³", loaded.scene.meshes[m].name))
+                    .map(|&(m, r)| format!("\"{}\" at {}³", loaded.scene.meshes[m].name, r & !PAIRS_KEY))
                     .collect();
                 log::warn!(
                     "thickness tables of {}: {e}; those instances stay on shadow-map thickness",
@@ -158,13 +160,18 @@ impl Renderer {
             let (done, total) = (job.done.load(Ordering::Relaxed), job.total.load(Ordering::Relaxed));
             out.extend(job.adds.iter().map(|&(m, r)| BakeProgress {
                 mesh: name(m),
-                voxel_res: r,
+                voxel_res: r & !PAIRS_KEY,
                 done,
                 total,
             }));
         }
         let queued = loaded.bakes.queued.iter();
-        out.extend(queued.map(|&(m, r)| BakeProgress { mesh: name(m), voxel_res: r, done: 0, total: 0 }));
+        out.extend(queued.map(|&(m, r)| BakeProgress {
+            mesh: name(m),
+            voxel_res: r & !PAIRS_KEY,
+            done: 0,
+            total: 0,
+        }));
         out
     }
 

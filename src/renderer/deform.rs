@@ -12,7 +12,7 @@ use glam::Vec3;
 
 use super::Renderer;
 use crate::scene::procedural::MAX_LENGTH;
-use crate::scene::{MaterialKind, ThicknessMode};
+use crate::scene::MaterialKind;
 use crate::Error;
 
 fn invalid(what: String, expected: impl Into<String>) -> Error {
@@ -123,7 +123,7 @@ impl Renderer {
             i.mesh == index
                 && matches!(
                     scene.materials[i.material].kind,
-                    MaterialKind::Translucent { thickness: ThicknessMode::Lut, .. }
+                    MaterialKind::Translucent { thickness, .. } if thickness.is_baked()
                 )
         });
         if let Some(i) = lut {
@@ -131,7 +131,7 @@ impl Renderer {
             return Err(invalid(
                 what(),
                 format!(
-                    "a mesh no instance draws with a thickness = \"lut\" material (material \"{material}\" \
+                    "a mesh no instance draws with a thickness = \"lut\" or \"pairs\" material (material \"{material}\" \
                      reads a table baked from the loaded shape; use \"peel\" or \"tsm\")"
                 ),
             ));

@@ -11,9 +11,10 @@
 
 use super::game_math::{GameMatrix, GameVector};
 use super::Renderer;
+use crate::passes::translucency::table_key;
 use crate::scene::model::Instance;
 use crate::scene::transform::{Transform, TransformOp};
-use crate::scene::{MaterialKind, ThicknessMode};
+use crate::scene::MaterialKind;
 use crate::Error;
 
 /// An instance of the world (from the scene file or spawned); stale once despawned.
@@ -47,8 +48,8 @@ impl Renderer {
         let transform = Transform::from_ops(&[TransformOp::Matrix(transform)])
             .map_err(|e| invalid(format!("instance of \"{mesh}\""), e.to_string()))?;
         let table = match scene.materials[material_index].kind {
-            MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Lut, .. } => {
-                Some((mesh_index, voxel_res))
+            MaterialKind::Translucent { voxel_res, thickness, .. } => {
+                table_key(mesh_index, voxel_res, thickness)
             }
             _ => None,
         };

@@ -398,7 +398,7 @@ pub fn section(
         steps.next(&format!("translucency: {label}"));
         // (bake seconds, bytes): the LUT's tables, or the peel pass's per-frame lists (no bake).
         let memory = match mode {
-            ThicknessMode::Lut => Some(bake_all(&scene)?),
+            ThicknessMode::Lut | ThicknessMode::Pairs => Some(bake_all(&scene)?),
             ThicknessMode::Peel => Some((0.0, peel::image_bytes(map) as usize)),
             ThicknessMode::Tsm => None,
         };
@@ -450,6 +450,7 @@ pub fn section(
                 ThicknessMode::Lut => 0,
                 ThicknessMode::Tsm => 1,
                 ThicknessMode::Peel => 2,
+                ThicknessMode::Pairs => 3,
             },
         });
     }

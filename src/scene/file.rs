@@ -20,7 +20,7 @@ use super::file_schema::{
 };
 use super::model::{
     DirectionalLight, ExposureMode, Instance, Material, MaterialKind, MetaballGroup, RenderSettings, Scene,
-    SceneMesh, ThicknessMode,
+    SceneMesh,
 };
 use super::transform::{Transform, TransformOp};
 use crate::effect::{EffectStates, Effects, SceneFile};
@@ -409,7 +409,7 @@ fn instances(
             super::file_material::check_instance_mesh(&o, material_span, m, &meshes[mesh])?;
             closed[mesh] = true;
         }
-        let lut = matches!(m.kind, MaterialKind::Translucent { thickness: ThicknessMode::Lut, .. });
+        let lut = matches!(m.kind, MaterialKind::Translucent { thickness, .. } if thickness.is_baked());
         if lut && meshes[mesh].wobble.is_some() {
             let material_span = d.material.as_ref().map_or(o.span.clone(), Spanned::span);
             let message = format!(

@@ -16,7 +16,7 @@ use super::model::{
 };
 
 const KINDS: &[&str] = &["lambert", "translucent"];
-const THICKNESS_MODES: &[&str] = &["lut", "tsm", "peel"];
+const THICKNESS_MODES: &[&str] = &["lut", "tsm", "peel", "pairs"];
 /// Attenuation colours: the fraction of light left after `attenuation_distance`, strictly between
 /// 0 (σ infinite) and 1 (σ zero).
 const OPEN_UNIT: Rule = Rule { ok: |v| v > 0.0 && v < 1.0, bound: "in (0, 1)" };
@@ -62,6 +62,7 @@ fn translucent(o: &Owner, def: &MaterialDef) -> Result<MaterialKind, SceneError>
             "lut" => ThicknessMode::Lut,
             "tsm" => ThicknessMode::Tsm,
             "peel" => ThicknessMode::Peel,
+            "pairs" => ThicknessMode::Pairs,
             other => {
                 return Err(o.fail(v.span(), "thickness", &one_of(THICKNESS_MODES), format!("\"{other}\"")))
             }

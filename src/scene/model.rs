@@ -165,6 +165,17 @@ pub enum ThicknessMode {
     /// depth lists (the `peel` pass) and the inside intervals of the instance between the light
     /// and the pixel are summed; cavities excluded, follows meshes deformed at run time.
     Peel,
+    /// The seed's own LUT (effects::thickness_pairs): the thickness between the centroids of every
+    /// pair of surface voxels, cavities excluded, in an N×N R8 image (memory ∝ N²).
+    Pairs,
+}
+
+impl ThicknessMode {
+    /// The mode reads a table baked from the loaded shape (`lut`, `pairs`): a mesh that deforms
+    /// cannot use it.
+    pub fn is_baked(self) -> bool {
+        matches!(self, ThicknessMode::Lut | ThicknessMode::Pairs)
+    }
 }
 
 /// An `[[instance]]`: one drawn copy of a mesh.

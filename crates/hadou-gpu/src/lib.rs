@@ -39,6 +39,8 @@ pub mod set_layout;
 #[doc(hidden)]
 pub mod shader;
 #[doc(hidden)]
+pub mod staged_image;
+#[doc(hidden)]
 pub mod texel_buffer;
 #[doc(hidden)]
 pub mod timestamps;

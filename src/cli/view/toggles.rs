@@ -33,7 +33,7 @@ impl Toggles {
         self.thickness = Some(match now {
             ThicknessMode::Lut => ThicknessMode::Tsm,
             ThicknessMode::Tsm => ThicknessMode::Peel,
-            ThicknessMode::Peel => ThicknessMode::Lut,
+            ThicknessMode::Peel | ThicknessMode::Pairs => ThicknessMode::Lut,
         });
     }
 
@@ -100,6 +100,7 @@ impl Toggles {
             (true, Some(ThicknessMode::Lut)) => "lut",
             (true, Some(ThicknessMode::Tsm)) => "tsm",
             (true, Some(ThicknessMode::Peel)) => "peel",
+            (true, Some(ThicknessMode::Pairs)) => "pairs",
         };
         let meta = match (self.metaballs, file.metaballs().is_empty()) {
             (false, _) => "off",
