@@ -13,7 +13,7 @@ use glam::DVec2;
 
 /// A decoded image: every mip level, level 0 first, each `width(l) × height(l)` RGBA8 texels,
 /// row by row, colour sRGB-encoded and alpha linear (glTF's base colour and emissive textures).
-#[derive(Clone, PartialEq)]
+#[derive(Clone, PartialEq, Eq)]
 pub struct TextureImage {
     /// The file and JSON pointer it came from (`/images/3`), for names and errors.
     pub name: String,
