@@ -96,6 +96,7 @@ fn quick_report_has_every_row() {
     let tl = Csv::read(&out.join("translucency.csv"));
     let mut labels: Vec<String> = opts.voxel_res.iter().map(|r| format!("lut {r}")).collect();
     labels.extend(opts.peel_res.iter().map(|r| format!("peel {r}")));
+    labels.extend(opts.pairs_res.iter().map(|r| format!("pairs {r}")));
     labels.push("tsm".into());
     for label in &labels {
         let row = tl.row("variant", label);
@@ -113,7 +114,7 @@ fn quick_report_has_every_row() {
             finite(row, column);
         }
         assert!(finite(row, "light map") >= 256.0);
-        if label.starts_with("lut") {
+        if label.starts_with("lut") || label.starts_with("pairs") {
             assert!(finite(row, "memory bytes") > 0.0);
             finite(row, "bake s");
             assert_eq!(row["peel ms"], "", "{label}: no peel pass");

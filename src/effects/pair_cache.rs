@@ -42,6 +42,14 @@ impl BakeCache {
         self.dir().join(format!("pairs-{:016x}-r{res}.hpair", mesh_hash(mesh)))
     }
 
+    /// Writes `table` (a bake of `mesh`) atomically.
+    pub fn store_pairs(&self, mesh: &Mesh, table: &PairTable) -> std::io::Result<std::path::PathBuf> {
+        std::fs::create_dir_all(self.dir())?;
+        let path = self.pairs_path_for(mesh, table.voxels.res);
+        write_atomic(&path, &encode(table, mesh_hash(mesh)))?;
+        Ok(path)
+    }
+
     /// The cached pair table if it is valid (and within `options`' limits), else a fresh bake,
     /// stored for next time.
     pub fn get_or_bake_pairs(
@@ -67,9 +75,7 @@ impl BakeCache {
             }
         };
         let (table, stats) = bake(mesh, res, options, progress)?;
-        let stored = std::fs::create_dir_all(self.dir())
-            .and_then(|_| write_atomic(&path, &encode(&table, mesh_hash(mesh))));
-        if let Err(e) = stored {
+        if let Err(e) = self.store_pairs(mesh, &table) {
             log::warn!("thickness pair cache {}: cannot write it: {e}", path.display());
         }
         let outcome = match refused {

@@ -49,6 +49,9 @@ pub struct ReportOptions {
     /// Voxel resolutions of the bake-free `thickness = "peel"` rows: they size its light map
     /// (texels of ¼ voxel, `effects::translucency::light_map_size`), so each is a light-map size.
     pub peel_res: Vec<u32>,
+    /// Voxel resolutions of the `thickness = "pairs"` rows (the seed's own LUT: its bytes grow
+    /// as the square of the surface voxels, so low resolutions).
+    pub pairs_res: Vec<u32>,
     /// A folder to read the scenes from; `None` (the default) takes the built-in copies of
     /// `assets/scenes` (`crate::builtin`), so the report runs from any directory.
     pub scenes: Option<PathBuf>,
@@ -67,6 +70,7 @@ impl ReportOptions {
                 raymarch_steps: vec![8, 16, 32, 64, 128, 256, 512, 1024],
                 voxel_res: vec![16, 25],
                 peel_res: vec![25],
+                pairs_res: vec![16],
                 scenes,
             }
         } else {
@@ -79,6 +83,7 @@ impl ReportOptions {
                 raymarch_steps: vec![8, 16, 32, 64, 128, 256, 512, 1024],
                 voxel_res: vec![25, 40, 56],
                 peel_res: vec![25, 56],
+                pairs_res: vec![16, 25],
                 scenes,
             }
         }
@@ -87,7 +92,7 @@ impl ReportOptions {
     /// How many steps `run` reports through its progress callback.
     pub fn step_count(&self) -> usize {
         2 + (1 + self.raymarch_steps.len())
-            + (self.voxel_res.len() + self.peel_res.len() + 2)
+            + (self.voxel_res.len() + self.peel_res.len() + self.pairs_res.len() + 2)
             + metaballs::STEPS
             + self.frame_sizes.len()
     }

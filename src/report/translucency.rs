@@ -1,5 +1,5 @@
 //! Translucency (seed 003): the thickness LUT at several voxel resolutions against the TSM
-//! baseline on assets/scenes/translucency.toml. Per variant: pass times, LUT bytes and bake
+//! baseline on assets/scenes/translucency.toml, with peel and the seed's own pair table. Per variant: pass times, LUT bytes and bake
 //! seconds, the GPU thickness against the exact f64 thickness (`effects::thickness`) at the
 //! GPU's own shaded point, and the colour against the f64 shading (`effects::translucency`).
 
@@ -11,6 +11,7 @@ use crate::effects::bake_cache::BakeCache;
 use crate::effects::raycast::{MeshBvh, SceneCaster};
 use crate::effects::thickness::{exact_thickness, tsm_thickness};
 use crate::effects::thickness_lut::{bake, BakeOptions};
+use crate::effects::thickness_pairs::{self, PairOptions};
 use crate::effects::translucency::{exit_weight, light_map_size, translucent_colour};
 use crate::passes::peel;
 use crate::profile::Summary;
@@ -286,6 +287,40 @@ fn bake_all(scene: &Scene) -> Result<(f64, usize), Error> {
     Ok((seconds, bytes))
 }
 
+/// Bakes every pair table (`thickness = "pairs"`) the scene uses, timed (the sum over its meshes),
+/// and stores them in the bake cache when there is one. Returns (seconds, bytes: the tables' N²
+/// and their lookups' words).
+fn bake_all_pairs(scene: &Scene) -> Result<(f64, usize), Error> {
+    let mut keys: Vec<(usize, u32)> = Vec::new();
+    for inst in &scene.instances {
+        if let MaterialKind::Translucent { voxel_res, thickness: ThicknessMode::Pairs, .. } =
+            scene.materials[inst.material].kind
+        {
+            if !keys.contains(&(inst.mesh, voxel_res)) {
+                keys.push((inst.mesh, voxel_res));
+            }
+        }
+    }
+    let options = PairOptions::default();
+    let cache = BakeCache::from_env();
+    let (mut seconds, mut bytes) = (0.0, 0);
+    for (mesh, res) in keys {
+        let m = &scene.meshes[mesh];
+        let start = Instant::now();
+        let (table, _) = thickness_pairs::bake(&m.mesh, res, &options, &|_, _| {}).map_err(|e| {
+            Error::Report(format!("thickness pair table of mesh \"{}\" at {res}³: {e}", m.name))
+        })?;
+        seconds += start.elapsed().as_secs_f64();
+        bytes += table.gpu_bytes() as usize;
+        if let Some(cache) = &cache {
+            if let Err(e) = cache.store_pairs(&m.mesh, &table) {
+                log::warn!("bake cache not written: {e}");
+            }
+        }
+    }
+    Ok((seconds, bytes))
+}
+
 /// Errors of one variant against the f64 references.
 struct Errors {
     pixels: usize,
@@ -379,12 +414,13 @@ pub fn section(
         ),
         x_label: "light_id + peel + translucency ms (p50)".into(),
         y_label: "p95 |thickness error| (world units)".into(),
-        series: vec!["LUT".into(), "TSM".into(), "peel".into()],
+        series: vec!["LUT".into(), "TSM".into(), "peel".into(), "pairs (seed's LUT)".into()],
         points: Vec::new(),
     };
     let mut variants: Vec<(ThicknessMode, Option<u32>)> =
         opts.voxel_res.iter().map(|&r| (ThicknessMode::Lut, Some(r))).collect();
     variants.extend(opts.peel_res.iter().map(|&r| (ThicknessMode::Peel, Some(r))));
+    variants.extend(opts.pairs_res.iter().map(|&r| (ThicknessMode::Pairs, Some(r))));
     variants.push((ThicknessMode::Tsm, None));
     let pixels = opts.effect_size.0 as f64 * opts.effect_size.1 as f64;
     for (mode, res) in variants {
@@ -393,12 +429,14 @@ pub fn section(
         let label = match (mode, res) {
             (ThicknessMode::Lut, Some(r)) => format!("lut {r}"),
             (ThicknessMode::Peel, Some(r)) => format!("peel {r}"),
+            (ThicknessMode::Pairs, Some(r)) => format!("pairs {r}"),
             _ => "tsm".to_string(),
         };
         steps.next(&format!("translucency: {label}"));
         // (bake seconds, bytes): the LUT's tables, or the peel pass's per-frame lists (no bake).
         let memory = match mode {
-            ThicknessMode::Lut | ThicknessMode::Pairs => Some(bake_all(&scene)?),
+            ThicknessMode::Lut => Some(bake_all(&scene)?),
+            ThicknessMode::Pairs => Some(bake_all_pairs(&scene)?),
             ThicknessMode::Peel => Some((0.0, peel::image_bytes(map) as usize)),
             ThicknessMode::Tsm => None,
         };
@@ -413,7 +451,7 @@ pub fn section(
             num(map as f64, Fmt::Int),
             memory.map_or(Cell::Missing, |b| num(b.1 as f64, Fmt::Int)),
             match (mode, memory) {
-                (ThicknessMode::Lut, Some(b)) => num(b.0, Fmt::Fixed(2)),
+                (ThicknessMode::Lut | ThicknessMode::Pairs, Some(b)) => num(b.0, Fmt::Fixed(2)),
                 _ => Cell::Missing,
             },
             ms(r.light_id_ms),
@@ -466,7 +504,10 @@ pub fn section(
          seconds of baking every table of the row (all cores), before the frames. Peel rows (`thickness = \"peel\"`, no bake): the voxel resolution only sizes the \
          light map (texels of ¼ voxel), and their memory is the pass's crossing lists and counts \
          (`passes::peel::image_bytes`), allocated for every frame; the light_id maps (the light map's \
-         size, all rows) are not counted. The TSM row has neither.",
+         size, all rows) are not counted. The TSM row has neither. Pairs rows (`thickness = \"pairs\"`, \
+         the seed's own LUT, `effects::thickness_pairs`): every pair of surface voxels' thickness in an \
+         N×N R8 image; bytes are the tables' N² plus a 4-byte word a grid voxel and a surface voxel \
+         (the lookups), bake s casts every pair in f64.",
         path.display(),
         opts.effect_size.0,
         opts.effect_size.1
