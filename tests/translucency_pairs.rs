@@ -206,3 +206,62 @@ fn a_table_past_the_budget_is_refused_naming_the_material() {
     }
     rt.finish();
 }
+
+/// A pairs instance spawned at run time (its mesh has no table yet) is drawn with TSM while the
+/// table bakes in the background (src/renderer/bakes.rs, the same jobs as the fields'); once it
+/// is in use (one copy into the table image, waited for once), the frame is bit for bit the scene
+/// loaded with that instance.
+#[test]
+fn a_pairs_instance_spawned_at_run_time_bakes_in_the_background() {
+    let head = r#"
+        [camera]
+        position = [0, 1.2, 6]
+        look_at = [0, 0, 0]
+        [[light]]
+        direction = [0.2, -0.3, -1]
+        intensity = 3
+        [[mesh]]
+        name = "block"
+        kind = "cube"
+        size = 1.2
+        [[mesh]]
+        name = "ring"
+        kind = "torus"
+        [[material]]
+        name = "jade"
+        kind = "translucent"
+        albedo = [0.55, 0.85, 0.65]
+        sigma = [3.0, 1.2, 2.2]
+        voxel_res = 14
+        thickness = "pairs"
+        [[instance]]
+        mesh = "block"
+        material = "jade"
+        transform = [{ translate = [-1.2, 0, 0] }]
+    "#;
+    let ring = "[[instance]]\nmesh = \"ring\"\nmaterial = \"jade\"\ntransform = [{ rotate = { angle_deg = 70, axis = [1, 0, 0] } }, { translate = [1.2, 0, 0] }]\n";
+    let file = common::parse(&format!("{head}{ring}"));
+    let mut request = FrameRequest::new(64, 48);
+    request.aovs = vec![Aov::Hdr, Aov::Thickness];
+    let mut live = common::runtime();
+    live.load_scene(common::parse(head)).unwrap();
+    live.render(&request).unwrap();
+    let r = live.renderer();
+    r.spawn_instance("ring", "jade", file.instances[1].transform.matrix).unwrap();
+    let progress = r.bakes_in_progress();
+    assert_eq!(progress.len(), 1, "{progress:?}");
+    assert_eq!((progress[0].mesh.as_str(), progress[0].voxel_res), ("ring", 14));
+    let early = live.render(&request).unwrap();
+    assert!(early.aov(Aov::Thickness).unwrap().data.iter().all(|v| !v.is_nan()));
+    live.renderer().wait_for_bakes().unwrap();
+    assert!(live.renderer().bakes_in_progress().is_empty());
+    let got = live.render(&request).unwrap();
+    let mut rt = common::runtime();
+    rt.load_scene(file).unwrap();
+    let want = rt.render(&request).unwrap();
+    for aov in &request.aovs {
+        assert!(common::same_bits(got.aov(*aov).unwrap(), want.aov(*aov).unwrap()), "{} differs", aov.name());
+    }
+    common::assert_clean(&live);
+    common::assert_clean(&rt);
+}
