@@ -20,7 +20,7 @@ use hadou::scene::Scene;
 use hadou::{Aov, AovImage, Error, FrameRequest};
 
 fn fog_effects() -> Effects {
-    Effects::builtin().with(HeightFog).unwrap()
+    Effects::builtin().with(HeightFog::default()).unwrap()
 }
 
 fn parse(text: &str) -> Result<Scene, hadou::scene::SceneError> {
@@ -376,6 +376,52 @@ fn registrations_that_collide_are_refused() {
     assert!(matches!(claims("x", &[], "energy_wave"), EffectError::DuplicatePass(n) if n == "energy_wave"));
 }
 
+/// An effect's own configuration reaches its passes (`EffectPass` holds closures): with the
+/// game's `min_density` above the file's fog, the fog pass is not needed, so not planned; at or
+/// below it, it is. A pass's build captures its configuration the same way (a build counter here).
+#[test]
+fn the_effects_configuration_reaches_its_passes() {
+    let scene = parse(&scene_with("position = [0, 2, 8]\nlook_at = [0, 0.5, 0]", "density = 0.2")).unwrap();
+    let plan = |min_density| Effects::builtin().with(HeightFog { min_density }).unwrap().plan(&scene);
+    assert!(plan(0.0).contains(&"fog"));
+    assert!(plan(0.2).contains(&"fog"));
+    assert!(!plan(0.25).contains(&"fog"), "{:?}", plan(0.25));
+
+    let builds = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let counter = builds.clone();
+    let pass = EffectPass::new(
+        "counted",
+        |_| true,
+        move |_| {
+            counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            Err(hadou::gpu::GpuError::Shader { name: "counted".into(), message: "never built whole".into() })
+        },
+    );
+    assert!(pass.needed(&scene) && pass.variant(&scene).is_empty());
+    let effects = fog_effects().with(Counted(pass)).unwrap();
+    let mut rt = common::runtime_with_effects(effects);
+    let err = rt.load_scene(scene).expect_err("the failing build fails the load").to_string();
+    assert!(err.contains("never built whole"), "{err}");
+    assert_eq!(
+        builds.load(std::sync::atomic::Ordering::Relaxed),
+        1,
+        "the captured counter counted the build"
+    );
+}
+
+/// An effect whose one pass is given whole.
+struct Counted(EffectPass);
+
+impl Effect for Counted {
+    fn name(&self) -> &'static str {
+        "counted"
+    }
+
+    fn passes(&self) -> Vec<EffectPass> {
+        vec![self.0.clone()]
+    }
+}
+
 static NOBODY_WRITES: ImageDesc = ImageDesc {
     name: "nobody_writes",
     format: vk::Format::R32_SFLOAT,
@@ -426,12 +472,12 @@ impl Effect for WrongEffect {
     }
 
     fn passes(&self) -> Vec<EffectPass> {
-        vec![EffectPass {
-            name: "wrong",
-            needed: |s| s.effects.get::<bool>().is_some(),
-            variant: |s| format!("{:?}", s.effects.get::<bool>()),
-            build: |b| Ok(Box::new(Wrong { reads_unwritten: *b.scene.effects.get::<bool>().unwrap() })),
-        }]
+        vec![EffectPass::new(
+            "wrong",
+            |s| s.effects.get::<bool>().is_some(),
+            |b| Ok(Box::new(Wrong { reads_unwritten: *b.scene.effects.get::<bool>().unwrap() })),
+        )
+        .with_variant(|s| format!("{:?}", s.effects.get::<bool>()))]
     }
 }
 

@@ -78,9 +78,14 @@ struct FogTable {
     color: Option<Spanned<[f64; 3]>>,
 }
 
-/// The effect: registered with `Effects::builtin().with(HeightFog)`.
-#[derive(Clone, Copy, Debug)]
-pub struct HeightFog;
+/// The effect: registered with `Effects::builtin().with(HeightFog::default())`. Its configuration
+/// is the game's, not the scene file's: it travels into the pass through `EffectPass`'s closures.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct HeightFog {
+    /// Fog thinner than this (density per world unit at `base_height`) is not drawn: its pass is
+    /// not even run (a game's quality setting). 0, the default, draws any fog of density > 0.
+    pub min_density: f64,
+}
 
 /// Its image: the transmittance T per pixel (R32F), an AOV as `Aov::Effect(&FOG_TRANSMITTANCE)`.
 pub static FOG_TRANSMITTANCE: ImageDesc = ImageDesc {
@@ -153,12 +158,13 @@ impl Effect for HeightFog {
     }
 
     fn passes(&self) -> Vec<EffectPass> {
-        vec![EffectPass::new("fog", needed, |b| Ok(Box::new(FogPass::new(b)?)))]
+        let min_density = self.min_density;
+        vec![EffectPass::new("fog", move |s| needed(s, min_density), |b| Ok(Box::new(FogPass::new(b)?)))]
     }
 }
 
-fn needed(scene: &Scene) -> bool {
-    scene.effects.get::<Fog>().is_some_and(|f| f.density > 0.0)
+fn needed(scene: &Scene, min_density: f64) -> bool {
+    scene.effects.get::<Fog>().is_some_and(|f| f.density > 0.0 && f.density >= min_density)
 }
 
 /// Push constants of fog.comp.

@@ -12,7 +12,7 @@ use hadou::{Aov, FrameRequest, Runtime, RuntimeOptions};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args().nth(1).unwrap_or_else(|| "out/custom_effect.png".into());
     // One registration: hadou's effects and the fog after them.
-    let effects = Effects::builtin().with(HeightFog)?;
+    let effects = Effects::builtin().with(HeightFog::default())?;
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/custom_effect/foggy.toml");
     let scene = hadou::scene::load_scene_with(&path, &effects)?;
     let (width, height) = (scene.render.width, scene.render.height);

@@ -64,17 +64,13 @@ impl Effect for Translucency {
                 Ok(boxed(LightIdPass::new(b.ctx, b.compiler, data, b.scene)?))
             }),
             EffectPass::new("peel", peel::needed, |b| Ok(boxed(PeelPass::new(b.ctx, b.compiler, b.scene)?))),
-            EffectPass {
-                name: "translucency",
-                needed: translucency::needed,
-                // With or without the field's march and the peel lists.
-                variant: translucency::variant,
-                build: |b| {
-                    let data = translucent_data(b)?;
-                    let (lut, peel) = (translucency::reads_lut(b.scene), peel::needed(b.scene));
-                    Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, data, lut, peel)?))
-                },
-            },
+            EffectPass::new("translucency", translucency::needed, |b| {
+                let data = translucent_data(b)?;
+                let (lut, peel) = (translucency::reads_lut(b.scene), peel::needed(b.scene));
+                Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, data, lut, peel)?))
+            })
+            // With or without the field's march and the peel lists.
+            .with_variant(translucency::variant),
         ]
     }
 }

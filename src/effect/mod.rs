@@ -48,6 +48,7 @@ pub use crate::passes::{Binding, FrameContext, ImageUse, Pass, PassRecording, Re
 pub use crate::targets::{ImageDesc, Target};
 
 use std::any::{Any, TypeId};
+use std::sync::Arc;
 
 use crate::gpu::memory::Memory;
 use crate::gpu::shader::ShaderCompiler;
@@ -88,28 +89,62 @@ pub trait Effect: Send + Sync + 'static {
     }
 }
 
-/// One pass of an effect: when a scene needs it and how it is built.
-#[derive(Clone, Copy)]
+/// Whether a scene needs a pass now.
+type NeededFn = dyn Fn(&Scene) -> bool + Send + Sync;
+/// What of a scene a pass's build depends on.
+type VariantFn = dyn Fn(&Scene) -> String + Send + Sync;
+/// Builds a pass.
+type BuildFn = dyn Fn(&mut PassBuilder) -> GpuResult<Box<dyn Pass>> + Send + Sync;
+
+/// One pass of an effect: when a scene needs it, the variant it is built for and how it is built.
+/// Each is a closure, so an effect's own configuration (a quality setting, a shader variant, a
+/// handle to the game's data) travels into its passes: `EffectPass::new("fog", move |s| …,
+/// move |b| FogPass::new(b, steps))`.
+#[derive(Clone)]
 pub struct EffectPass {
     /// The pass's `Pass::name()` (checked when it is built): label, timestamp scope, profile row.
     pub name: &'static str,
-    /// Whether the scene needs the pass now (e.g. `|s| s.effects.get::<Fog>().is_some()`).
-    pub needed: fn(&Scene) -> bool,
-    /// What of the scene its build depends on: a pass built for another variant is built again
-    /// (and the old one parked); `String::new()` when nothing does.
-    pub variant: fn(&Scene) -> String,
-    /// Builds it.
-    pub build: fn(&mut PassBuilder) -> GpuResult<Box<dyn Pass>>,
+    needed: Arc<NeededFn>,
+    variant: Arc<VariantFn>,
+    build: Arc<BuildFn>,
 }
 
 impl EffectPass {
-    /// A pass needed when `needed` says so, with one variant.
+    /// A pass needed when `needed` says so (e.g. `|s| s.effects.get::<Fog>().is_some()`), built
+    /// by `build`, with one variant.
     pub fn new(
         name: &'static str,
-        needed: fn(&Scene) -> bool,
-        build: fn(&mut PassBuilder) -> GpuResult<Box<dyn Pass>>,
+        needed: impl Fn(&Scene) -> bool + Send + Sync + 'static,
+        build: impl Fn(&mut PassBuilder) -> GpuResult<Box<dyn Pass>> + Send + Sync + 'static,
     ) -> Self {
-        EffectPass { name, needed, variant: |_| String::new(), build }
+        EffectPass {
+            name,
+            needed: Arc::new(needed),
+            variant: Arc::new(|_| String::new()),
+            build: Arc::new(build),
+        }
+    }
+
+    /// The pass built again whenever `variant` of the scene changes (the one built for the old
+    /// variant is parked, kept for when the scene comes back to it).
+    pub fn with_variant(mut self, variant: impl Fn(&Scene) -> String + Send + Sync + 'static) -> Self {
+        self.variant = Arc::new(variant);
+        self
+    }
+
+    /// Whether `scene` needs the pass now.
+    pub fn needed(&self, scene: &Scene) -> bool {
+        (self.needed)(scene)
+    }
+
+    /// The variant of the pass `scene` needs.
+    pub fn variant(&self, scene: &Scene) -> String {
+        (self.variant)(scene)
+    }
+
+    /// Builds the pass.
+    pub(crate) fn build(&self, builder: &mut PassBuilder) -> GpuResult<Box<dyn Pass>> {
+        (self.build)(builder)
     }
 }
 

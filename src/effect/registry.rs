@@ -166,7 +166,15 @@ impl Active {
 
 /// The (name, variant) of each scene pass `scene` needs now, in frame order.
 pub(crate) fn plan_passes(effects: &Effects, scene: &Scene) -> Vec<(EffectPass, String)> {
-    effects.passes().into_iter().filter(|p| (p.needed)(scene)).map(|p| (p, (p.variant)(scene))).collect()
+    effects
+        .passes()
+        .into_iter()
+        .filter(|p| p.needed(scene))
+        .map(|p| {
+            let variant = p.variant(scene);
+            (p, variant)
+        })
+        .collect()
 }
 
 /// A scene's passes: those the world needs now (in frame order), those built before and not
@@ -202,7 +210,7 @@ impl ScenePasses {
                 None => {
                     let shared = &mut self.shared;
                     let mut builder = PassBuilder { ctx, memory, compiler, scene, shared, used: Vec::new() };
-                    let pass = (entry.build)(&mut builder)?;
+                    let pass = entry.build(&mut builder)?;
                     if pass.name() != entry.name {
                         let named = pass.name();
                         return Err(EffectError::PassName { registered: entry.name, named }.into());

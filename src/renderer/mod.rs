@@ -21,8 +21,8 @@
 
 pub mod bakes;
 mod deform;
-mod game_math;
 mod effects;
+mod game_math;
 pub mod ids;
 mod inputs;
 pub mod instances;

@@ -110,13 +110,17 @@ impl Renderer {
     /// the game names itself must agree with a projection it gave (A within 1e-5, B within 1e-5
     /// relative: f32 rounding of either, not a different near or far), or the frame is refused:
     /// the two could otherwise disagree silently, the game's depth read at wrong distances.
-    pub(super) fn depth_convention(&self, depth: &ExternalDepth, aspect: f64) -> Result<DepthConvention, Error> {
+    pub(super) fn depth_convention(
+        &self,
+        depth: &ExternalDepth,
+        aspect: f64,
+    ) -> Result<DepthConvention, Error> {
         let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
         let own = loaded.game_projection.map(DepthConvention::Projection);
         let convention = match depth.convention {
-            DepthConvention::Camera => {
-                own.unwrap_or_else(|| DepthConvention::Projection(loaded.scene.camera.projection_matrix(aspect)))
-            }
+            DepthConvention::Camera => own.unwrap_or_else(|| {
+                DepthConvention::Projection(loaded.scene.camera.projection_matrix(aspect))
+            }),
             named => {
                 if let Some(own) = own {
                     check_agreement(named, own)?;

@@ -40,12 +40,12 @@ impl Effect for Metaballs {
     }
 
     fn passes(&self) -> Vec<EffectPass> {
-        vec![EffectPass {
-            name: "metaballs",
-            needed: |s| !s.metaballs().is_empty(),
-            variant: metaballs::variant,
-            build: |b| Ok(Box::new(MetaballsPass::new(b.ctx, b.compiler, b.scene)?)),
-        }]
+        vec![EffectPass::new(
+            "metaballs",
+            |s| !s.metaballs().is_empty(),
+            |b| Ok(Box::new(MetaballsPass::new(b.ctx, b.compiler, b.scene)?)),
+        )
+        .with_variant(metaballs::variant)]
     }
 }
 
