@@ -265,3 +265,33 @@ fn a_pairs_instance_spawned_at_run_time_bakes_in_the_background() {
     common::assert_clean(&live);
     common::assert_clean(&rt);
 }
+
+/// `hadou bake` on a scene with a `thickness = "pairs"` material bakes its pair table into the
+/// cache (then a hit), and `--out` writes it in the cache's format.
+#[test]
+fn hadou_bake_bakes_pair_tables() {
+    use common::cli::{output_within, s, scratch, text, RUN_LIMIT};
+    let dir = scratch("pairs-bake");
+    let scene = dir.join("pairs.toml");
+    let text_scene = SCENE.replace("MESH", "kind = \"cavity_cube\"").replace("LIGHT", "[0, 0, 1]");
+    std::fs::write(&scene, text_scene.replace("voxel_res = 14", "voxel_res = 10")).unwrap();
+    let run = |args: &[&str]| {
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_hadou"));
+        cmd.args(args).env("HADOU_CACHE_DIR", dir.join("cache"));
+        output_within(&mut cmd, RUN_LIMIT)
+    };
+    let out = dir.join("table.hpair");
+    let first = run(&["bake", s(&scene), "--out", s(&out)]);
+    assert!(first.status.success(), "{}", text(&first));
+    assert!(
+        text(&first).contains("pair table") && text(&first).contains("baked, cached"),
+        "{}",
+        text(&first)
+    );
+    let second = run(&["bake", s(&scene)]);
+    assert!(text(&second).contains("cache hit"), "{}", text(&second));
+    let mesh = common::parse(&std::fs::read_to_string(&scene).unwrap()).meshes[0].mesh.clone();
+    let table = hadou::effects::pair_cache::decode(&std::fs::read(&out).unwrap(), &mesh, 10).unwrap();
+    assert!(table.surface_voxels() > 0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
