@@ -295,3 +295,12 @@ fn hadou_bake_bakes_pair_tables() {
     assert!(table.surface_voxels() > 0);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A wobbling mesh cannot be drawn with a pair table (baked from the loaded shape): refused at the
+/// instance's `material`, as for `"lut"`.
+#[test]
+fn a_wobbling_mesh_with_a_pair_table_is_refused() {
+    let text = SCENE.replace("MESH", "kind = \"sphere\"\nwobble = 0.05").replace("LIGHT", "[0, 0, 1]");
+    let e = hadou::scene::parse_scene(&text, std::path::Path::new("inline.toml")).unwrap_err().to_string();
+    assert!(e.contains("material \"jade\" reads a thickness table") && e.contains("wobbles"), "{e}");
+}
