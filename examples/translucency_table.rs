@@ -1,5 +1,6 @@
 //! The `hadou report` translucency table alone (ceilings, then the LUT at 25, 40, 56, 64, 128, peel
-//! with the light maps of res 25 and 56, and TSM at 512×512), for docs/PERFORMANCE.md.
+//! with the light maps of res 25 and 56, the seed's pair table at 16 and 25, and TSM at 512×512),
+//! for docs/PERFORMANCE.md.
 //!
 //! cargo run --release --example translucency_table
 fn main() {
@@ -7,6 +8,7 @@ fn main() {
     let mut opts = hadou::report::ReportOptions::new(false);
     opts.voxel_res = vec![25, 40, 56, 64, 128];
     opts.peel_res = vec![25, 56];
+    opts.pairs_res = vec![16, 25];
     opts.frames = 10;
     let mut show = |label: &str, _: usize, _: usize| eprintln!("{label}");
     let mut steps = hadou::report::Steps::new(opts.step_count(), &mut show);
