@@ -147,6 +147,8 @@ fn pairs_case(label: &str, mesh: &str, light: &str) {
             }
             _ => 0.0,
         };
+        // 1e-6 absolute: a silhouette pixel's tsm of ~0, where the relative terms vanish but the
+        // f32 light-map distance itself is rounded.
         let tolerance = quantization + 1e-5 * tsm + 1e-6;
         let diff = (s.gpu - twin).abs();
         // A NaN is not > 1: compared (and failing), never excluded.
