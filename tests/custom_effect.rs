@@ -6,11 +6,14 @@ mod common;
 
 #[path = "../examples/custom_effect/fog.rs"]
 mod fog;
+#[path = "../examples/custom_effect/glow.rs"]
+mod glow;
 
 use std::path::Path;
 
 use fog::{Fog, FogParams, HeightFog, FOG_TRANSMITTANCE};
 use glam::DVec3;
+use glow::{Glow, GlowParams, SkyGlow};
 use hadou::effect::{
     Binding, Effect, EffectError, EffectPass, Effects, FrameContext, GpuResult, ImageAccess, ImageDesc,
     ImageUse, Pass, PassRecording, Pipeline, Target,
@@ -420,6 +423,70 @@ impl Effect for Counted {
     fn passes(&self) -> Vec<EffectPass> {
         vec![self.0.clone()]
     }
+}
+
+/// An effect's graphics pass: the sky glow (examples/custom_effect/glow.rs), a full-screen
+/// fragment shader blended additively into `hdr`, inserted at run time. Against its f64 twin on
+/// the shader's f32 inputs: hdr with the glow − hdr without it is the twin's radiance where the
+/// pixel sees sky, and exactly 0 on surfaces (adding 0 to a value the image holds gives it back).
+/// Tolerance: the blend rounds the f32 sum into RGBA16F once, which Vulkan lets a float attachment
+/// do either way — ≤ 2⁻¹⁰ of the sum; the shader's ray (a normalize of f32 sums), dot and square
+/// add ≤ 32·2⁻²⁴ of the glow.
+#[test]
+fn a_graphics_pass_adds_the_sky_glow() {
+    let scene = parse(SCENE).unwrap();
+    let mut rt = common::runtime_with_effects(fog_effects().with(SkyGlow).unwrap());
+    rt.load_scene(scene.clone()).unwrap();
+    let mut request = FrameRequest::new(SIZE.0, SIZE.1);
+    request.aovs = vec![Aov::Hdr, Aov::Depth];
+    let plain = rt.render(&request).unwrap();
+    assert!(!rt.pass_names().contains(&"sky_glow"));
+    let glow = Glow { direction: DVec3::new(0.2, 0.5, -1.0), color: DVec3::new(2.0, 1.0, 0.5) };
+    rt.renderer().insert_effect("sky_glow", glow.clone()).unwrap();
+    let glowing = rt.render(&request).unwrap();
+    assert!(rt.pass_names().contains(&"sky_glow"), "{:?}", rt.pass_names());
+    common::assert_clean(&rt);
+
+    let p = GlowParams::new(&glow, hadou::effect::pre_exposure(&scene));
+    let v = |a: [f32; 4]| DVec3::new(a[0].into(), a[1].into(), a[2].into());
+    let twin = Glow { direction: v(p.direction), color: v(p.color) };
+    let [right, up, forward] = scene.camera.ray_frame(SIZE.0, SIZE.1).to_f32();
+    let (before, after) = (plain.aov(Aov::Hdr).unwrap(), glowing.aov(Aov::Hdr).unwrap());
+    let distance = plain.aov(Aov::Depth).unwrap();
+    let (mut sky, mut surface) = (0, 0);
+    for y in 0..SIZE.1 {
+        for x in 0..SIZE.0 {
+            let ndc_x = 2.0 * (x as f64 + 0.5) / SIZE.0 as f64 - 1.0 + f64::from(right[3]);
+            let ndc_y = 1.0 - 2.0 * (y as f64 + 0.5) / SIZE.1 as f64 + f64::from(up[3]);
+            let u = (v(forward) + ndc_x * v(right) + ndc_y * v(up)).normalize();
+            let is_sky = distance.at(x, y, 0).is_infinite();
+            let want = if is_sky { twin.radiance(u) } else { DVec3::ZERO }.to_array();
+            for c in 0..3 {
+                let (b, a) = (f64::from(before.at(x, y, c)), f64::from(after.at(x, y, c)));
+                if !is_sky {
+                    assert_eq!(a, b, "({x}, {y}) channel {c}: a surface pixel changed");
+                    continue;
+                }
+                let bound = a.abs() / 1024.0 + 32.0 * ULP * want[c as usize];
+                let err = (a - b - want[c as usize]).abs();
+                assert!(
+                    err <= bound,
+                    "({x}, {y}) channel {c}: {a} − {b} vs glow {} (bound {bound})",
+                    want[c as usize]
+                );
+            }
+            assert_eq!(before.at(x, y, 3), after.at(x, y, 3), "({x}, {y}): alpha changed");
+            if is_sky {
+                sky += 1;
+            } else {
+                surface += 1;
+            }
+        }
+    }
+    assert!(sky > 100 && surface > 100, "{sky} sky and {surface} surface pixels");
+    // A glow with no direction is refused, the scene left as it was.
+    let bad = rt.renderer().update_effect(|g: &mut Glow| g.direction = DVec3::ZERO).unwrap_err();
+    assert!(bad.to_string().contains("non-zero direction"), "{bad}");
 }
 
 static NOBODY_WRITES: ImageDesc = ImageDesc {

@@ -41,7 +41,7 @@ pub use state::{EffectState, EffectStates};
 
 pub use crate::effects::tonemap::pre_exposure;
 pub use crate::gpu::barriers::ImageAccess;
-pub use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
+pub use crate::gpu::pipeline::{create_compute_pipeline, Blend, Bound, BufferRange, Pipeline};
 pub use crate::gpu::recorder::Recorder;
 pub use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
 pub use crate::passes::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
@@ -184,6 +184,41 @@ impl PassBuilder<'_> {
     ) -> GpuResult<Pipeline> {
         let spirv = self.compiler.compile_source(&format!("{name}.comp"), source, &[])?;
         create_compute_pipeline(self.ctx, name, &spirv, push_constant_bytes)
+    }
+
+    /// A full-screen graphics pipeline: hadou's full-screen-triangle vertex shader and the
+    /// fragment shader `fragment_source` (GLSL, `#include "common/…"` as for compute), writing its
+    /// location 0 into `target` (one of hadou's colour images, e.g. `Target::Hdr`, or the effect's
+    /// own `Target::Custom` with `COLOR_ATTACHMENT` in its usage) with `blend`. Set 0 is
+    /// reflected from both stages, so the pass binds it like a compute pass's (`Binding`s in
+    /// binding order); a storage image a fragment shader reads is declared with
+    /// `ImageAccess::FRAGMENT_READ`, the target with `ImageAccess::COLOR_ATTACHMENT`. Record with
+    /// `rec.begin_rendering_views(extent, &[(targets.image(target).view, None)], None)`,
+    /// `bind_pipeline`, `push_constants`, `draw_fullscreen`, `end_rendering`.
+    pub fn fullscreen_pipeline(
+        &mut self,
+        name: &str,
+        fragment_source: &str,
+        push_constant_bytes: u32,
+        target: Target,
+        blend: Blend,
+    ) -> GpuResult<Pipeline> {
+        let vertex = self.compiler.compile("fullscreen.vert", &[])?;
+        let fragment = self.compiler.compile_source(&format!("{name}.frag"), fragment_source, &[])?;
+        let desc = crate::gpu::pipeline::GraphicsDesc {
+            name,
+            vertex: &vertex,
+            fragment: &fragment,
+            push_constant_bytes,
+            vertex_bindings: &[],
+            vertex_attributes: &[],
+            color_formats: &[target.format()],
+            depth_format: vk::Format::UNDEFINED,
+            depth_compare: vk::CompareOp::ALWAYS,
+            cull_mode: vk::CullModeFlags::NONE,
+            blend,
+        };
+        crate::gpu::pipeline::create_graphics_pipeline(self.ctx, &desc)
     }
 
     /// The device memory allocator (for buffers and images a pass owns).

@@ -49,6 +49,12 @@ impl ImageAccess {
         ),
         layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
     };
+    /// A storage image read by a fragment shader (a full-screen effect pass reading `distance`).
+    pub const FRAGMENT_READ: ImageAccess = ImageAccess {
+        stage: vk::PipelineStageFlags2::FRAGMENT_SHADER,
+        access: vk::AccessFlags2::SHADER_STORAGE_READ,
+        layout: vk::ImageLayout::GENERAL,
+    };
     pub const COMPUTE_READ: ImageAccess = ImageAccess {
         stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
         access: vk::AccessFlags2::SHADER_STORAGE_READ,

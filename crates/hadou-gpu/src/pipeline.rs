@@ -186,6 +186,8 @@ pub enum Blend {
     Replace,
     /// Premultiplied alpha: result = src + (1 − src.a)·dst (colour and alpha).
     PremultipliedOver,
+    /// Added: colour = src + dst, the attachment's alpha kept (light an effect adds to `hdr`).
+    Add,
 }
 
 impl Blend {
@@ -201,6 +203,14 @@ impl Blend {
                 .color_blend_op(vk::BlendOp::ADD)
                 .src_alpha_blend_factor(vk::BlendFactor::ONE)
                 .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+                .alpha_blend_op(vk::BlendOp::ADD),
+            Blend::Add => state
+                .blend_enable(true)
+                .src_color_blend_factor(vk::BlendFactor::ONE)
+                .dst_color_blend_factor(vk::BlendFactor::ONE)
+                .color_blend_op(vk::BlendOp::ADD)
+                .src_alpha_blend_factor(vk::BlendFactor::ZERO)
+                .dst_alpha_blend_factor(vk::BlendFactor::ONE)
                 .alpha_blend_op(vk::BlendOp::ADD),
         }
     }
