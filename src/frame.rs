@@ -189,6 +189,9 @@ pub(crate) fn record_passes(
     crate::effect::check_reads(names.iter().copied().zip(prepared.iter().map(|p| p.uses.as_slice())))?;
     let rec = Recorder { ctx: f.ctx, cmd: f.cmd };
     for (pass, p) in passes.iter().zip(&prepared) {
+        // A history image with no previous frame to read is cleared to zeros first.
+        let targets: Vec<Target> = p.uses.iter().map(|u| u.target).collect();
+        f.targets.clear_fresh_history(&rec, &targets);
         let barriers: Vec<_> =
             p.uses.iter().filter_map(|u| f.targets.transition(u.target, u.access)).collect();
         let stage = match pass.pipelines().first().map(|p| p.bind_point) {

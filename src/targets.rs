@@ -66,6 +66,12 @@ pub enum Target {
     GameColor,
     /// An image an effect declared.
     Custom(&'static ImageDesc),
+    /// `Custom(desc)` as the previous frame left it, read-only: a temporal effect (an
+    /// accumulation, a TAA history) reads it and writes this frame's `Custom(desc)`. The runner
+    /// keeps two images and swaps them each frame, so no copy is made. It holds zeros when there
+    /// is no previous frame to read: the first frame that uses it, after a resize, or after a
+    /// frame in which no pass used it.
+    Previous(&'static ImageDesc),
 }
 
 impl Target {
@@ -86,7 +92,7 @@ impl Target {
             Target::PeelLists => "peel_lists",
             Target::GameDepth => "game depth",
             Target::GameColor => "game colour",
-            Target::Custom(d) => d.name,
+            Target::Custom(d) | Target::Previous(d) => d.name,
         }
     }
 
@@ -100,7 +106,7 @@ impl Target {
             Target::Ldr => vk::Format::R8G8B8A8_UNORM,
             // The game's images carry their own format (`Targets::import`).
             Target::GameDepth | Target::GameColor => vk::Format::UNDEFINED,
-            Target::Custom(d) => d.format,
+            Target::Custom(d) | Target::Previous(d) => d.format,
         }
     }
 
@@ -115,7 +121,7 @@ impl Target {
             | Target::PeelCounts => 4,
             Target::Hdr | Target::Normal | Target::Ids | Target::PeelLists => 8,
             Target::GameDepth | Target::GameColor => 0,
-            Target::Custom(d) => d.texel_bytes,
+            Target::Custom(d) | Target::Previous(d) => d.texel_bytes,
         }
     }
 
@@ -128,8 +134,16 @@ impl Target {
             }
             Target::PeelCounts | Target::PeelLists => "an instance with a thickness = \"peel\" material",
             Target::GameDepth | Target::GameColor => "a game's image handed to record_frame",
-            Target::Custom(d) => d.needs,
+            Target::Custom(d) | Target::Previous(d) => d.needs,
             _ => "a frame recorded first",
+        }
+    }
+
+    /// The image this one is the previous frame of (`Previous(d)` → `Custom(d)`).
+    pub fn current(self) -> Option<Target> {
+        match self {
+            Target::Previous(d) => Some(Target::Custom(d)),
+            _ => None,
         }
     }
 
@@ -156,6 +170,11 @@ impl Target {
             Target::PeelLists => base | vk::ImageUsageFlags::STORAGE,
             Target::GameDepth | Target::GameColor => vk::ImageUsageFlags::empty(),
             Target::Custom(d) => base | vk::ImageUsageFlags::STORAGE | d.usage,
+            // The two images of a history swap roles: the same usage, and TRANSFER_DST for the
+            // clear of a fresh history.
+            Target::Previous(d) => {
+                base | vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST | d.usage
+            }
             _ => base | vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
         }
     }
@@ -171,6 +190,9 @@ struct Tracked {
     fixed: bool,
     external: Option<External>,
     last: ImageAccess,
+    /// Made since the frame's history images were last swapped: its contents are undefined
+    /// (a `Previous` image is cleared to zeros before it is read).
+    fresh: bool,
 }
 
 /// A game image imported for one frame.
@@ -225,6 +247,7 @@ impl Targets {
             fixed,
             external: None,
             last: ImageAccess::UNDEFINED,
+            fresh: true,
         };
         self.images.push((target, tracked));
         Ok(())
@@ -241,7 +264,8 @@ impl Targets {
     ) {
         self.images.retain(|(t, _)| *t != target);
         let external = Some(External { raw, view, format });
-        self.images.push((target, Tracked { image: None, writer: last, fixed: false, external, last }));
+        let tracked = Tracked { image: None, writer: last, fixed: false, external, last, fresh: false };
+        self.images.push((target, tracked));
     }
 
     /// Drops the images no pass of the frame uses any more (retired with the frame).
@@ -323,9 +347,57 @@ impl Targets {
 
     /// Forgets the contents (every frame clears or overwrites them): the next transition starts
     /// from UNDEFINED but still waits for the last use, so a new frame never races the previous one.
+    /// History images (`Previous`) keep theirs.
     pub fn discard_all(&mut self) {
-        for (_, t) in &mut self.images {
-            t.last.layout = vk::ImageLayout::UNDEFINED;
+        for (target, t) in &mut self.images {
+            if !matches!(target, Target::Previous(_)) {
+                t.last.layout = vk::ImageLayout::UNDEFINED;
+            }
+        }
+    }
+
+    /// Starts a frame's history: each `Custom(d)` the last frame wrote becomes this frame's
+    /// `Previous(d)` and the old previous image is overwritten as this frame's `Custom(d)` (the
+    /// two swap, no copy). A `Previous(d)` whose `Custom(d)` was made anew since (a resize) stays
+    /// fresh: cleared before it is read. Called before `discard_all`.
+    pub fn advance_history(&mut self) {
+        let histories: Vec<usize> =
+            (0..self.images.len()).filter(|&i| matches!(self.images[i].0, Target::Previous(_))).collect();
+        for i in histories {
+            let Some(current) = self.images[i].0.current() else { continue };
+            let Some(j) = self.images.iter().position(|(t, _)| *t == current) else { continue };
+            let (a, b) = (&self.images[i].1, &self.images[j].1);
+            let same_size = a.image.as_ref().map(|im| im.extent) == b.image.as_ref().map(|im| im.extent);
+            if !same_size {
+                continue;
+            }
+            // Swap the images with what is known of them; the new previous image holds what
+            // the last frame wrote (not fresh), the new current one is overwritten this frame.
+            let (lo, hi) = (i.min(j), i.max(j));
+            let (left, right) = self.images.split_at_mut(hi);
+            std::mem::swap(&mut left[lo].1, &mut right[0].1);
+            self.images[i].1.fresh = false;
+        }
+    }
+
+    /// The fresh history images of `uses` (nothing to read yet) cleared to zeros, recording the
+    /// clear as their last write; the pass's own transition then waits for it.
+    pub fn clear_fresh_history(&mut self, rec: &crate::gpu::recorder::Recorder, uses: &[Target]) {
+        for &target in uses {
+            if !matches!(target, Target::Previous(_)) {
+                continue;
+            }
+            let fresh = self.images.iter().any(|(t, tr)| *t == target && tr.fresh);
+            if !fresh {
+                continue;
+            }
+            let barrier = self.transition(target, ImageAccess::CLEAR_GENERAL);
+            crate::gpu::barriers::cmd_barriers(&rec.ctx.device, rec.cmd, barrier.as_slice(), &[]);
+            let zero = vk::ClearColorValue { uint32: [0; 4] };
+            rec.clear_general_image(&self.image(target), zero);
+            if let Some((_, t)) = self.images.iter_mut().find(|(t, _)| *t == target) {
+                t.fresh = false;
+            }
         }
     }
 }

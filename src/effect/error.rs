@@ -62,4 +62,28 @@ pub enum EffectError {
         /// What would write it.
         needs: &'static str,
     },
+    /// A pass writes an image's previous frame (`Target::Previous`), which is read-only.
+    #[error(
+        "pass {pass} writes the previous frame of image {image} (expected Target::Custom for this frame's)"
+    )]
+    WritesHistory {
+        /// The pass.
+        pass: &'static str,
+        /// The image.
+        image: &'static str,
+    },
+    /// A pass reads an image's previous frame, but no pass of the frame writes this frame's, so
+    /// the next frame would have none.
+    #[error(
+        "pass {pass} reads the previous frame of image {image}, which no pass of this frame writes \
+         (it needs {needs})"
+    )]
+    HistoryNotWritten {
+        /// The pass.
+        pass: &'static str,
+        /// The image.
+        image: &'static str,
+        /// What would write it.
+        needs: &'static str,
+    },
 }

@@ -9,13 +9,29 @@ use crate::passes::{Binding, ImageUse, Pass};
 use crate::targets::Target;
 
 /// Refuses a pass reading an image no earlier pass of the frame writes; `passes` are the frame's
-/// passes in order, each with the images it declared.
+/// passes in order, each with the images it declared. An image's previous frame
+/// (`Target::Previous`) is read-only, and read only where some pass of the frame (before or after
+/// the reader) writes this frame's image, which becomes the next frame's previous one.
 pub(crate) fn check_reads<'a>(
-    passes: impl Iterator<Item = (&'static str, &'a [ImageUse])>,
+    passes: impl Iterator<Item = (&'static str, &'a [ImageUse])> + Clone,
 ) -> Result<(), EffectError> {
+    let written_anywhere: Vec<Target> = passes
+        .clone()
+        .flat_map(|(_, uses)| uses.iter().filter(|u| u.access.writes()).map(|u| u.target))
+        .collect();
     let mut written: Vec<Target> = Vec::new();
     for (pass, uses) in passes {
         for u in uses {
+            if let Some(current) = u.target.current() {
+                if u.access.writes() {
+                    return Err(EffectError::WritesHistory { pass, image: u.target.name() });
+                }
+                if !written_anywhere.contains(&current) {
+                    let (image, needs) = (u.target.name(), u.target.needs());
+                    return Err(EffectError::HistoryNotWritten { pass, image, needs });
+                }
+                continue;
+            }
             if !u.access.writes() && !u.target.is_external() && !written.contains(&u.target) {
                 return Err(EffectError::NotWritten {
                     pass,

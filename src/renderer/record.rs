@@ -217,6 +217,7 @@ impl Renderer {
 
         let targets = self.targets.get_or_insert_with(|| Targets::new(extent));
         targets.extent = extent;
+        targets.advance_history();
         targets.discard_all();
         if let Some(depth) = &inputs.depth {
             let last = game_access(depth.layout);

@@ -55,6 +55,12 @@ impl ImageAccess {
         access: vk::AccessFlags2::SHADER_STORAGE_READ,
         layout: vk::ImageLayout::GENERAL,
     };
+    /// The destination of `vkCmdClearColorImage` on a storage image (GENERAL layout).
+    pub const CLEAR_GENERAL: ImageAccess = ImageAccess {
+        stage: vk::PipelineStageFlags2::CLEAR,
+        access: vk::AccessFlags2::TRANSFER_WRITE,
+        layout: vk::ImageLayout::GENERAL,
+    };
     pub const COMPUTE_READ: ImageAccess = ImageAccess {
         stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
         access: vk::AccessFlags2::SHADER_STORAGE_READ,
