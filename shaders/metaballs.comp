@@ -149,14 +149,16 @@ void store_hit(uvec2 p, vec3 u, MetaHit best, uint best_group) {
     vec3 v = -u;
     vec3 diffuse = frame.ambient.rgb;
     vec3 specular = vec3(0.0);
+    vec3 world = frame.camera_pos.xyz + best.t * u;
     uint i = 0u;
     do {  // a do-while: see shaders/common/metaballs.glsl on loops
-        vec3 l = -frame.lights[i].direction.xyz;
+        vec3 l;
+        vec3 arriving = light_arriving(frame.lights[i], world, l);
         float nl = dot(n, l);
         if (i < frame.counts.x && nl > 0.0) {
-            diffuse += nl * frame.lights[i].radiance.rgb;
+            diffuse += nl * arriving;
             vec3 hv = normalize(l + v);
-            specular += SPECULAR * pow(max(dot(n, hv), 0.0), SHININESS) * frame.lights[i].radiance.rgb;
+            specular += SPECULAR * pow(max(dot(n, hv), 0.0), SHININESS) * arriving;
         }
         ++i;
     } while (i < frame.counts.x);

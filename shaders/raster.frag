@@ -1,5 +1,6 @@
 #version 460
-// raster: Lambert + ambient under the scene's directional lights, plus emission and the
+// raster: Lambert + ambient under the scene's lights (directional, point, spot: light_arriving
+// in common/frame.glsl), plus emission and the
 // G-buffer. The base colour is the material's albedo, times the vertex colour with
 // VERTEX_ATTRIBUTES; a fragment whose alpha is below the material's cutoff (alphaMode MASK) is
 // not drawn. Without them (TOML materials, meshes without attributes) the colour is the albedo
@@ -11,6 +12,8 @@
 #include "common/frame.glsl"
 
 layout(set = 0, binding = 0, std140) uniform FrameBlock { FrameUniforms frame; };
+
+const float HALF_MAX = 65504.0;
 
 layout(location = 0) in vec3 v_world;
 layout(location = 1) in vec3 v_normal;
@@ -69,11 +72,14 @@ void main() {
     // A do-while: lavapipe runs a for loop's body once more, masked, to find it done.
     uint i = 0u;
     do {
-        vec3 add = max(dot(n, -frame.lights[i].direction.xyz), 0.0) * frame.lights[i].radiance.rgb;
+        vec3 l;
+        vec3 arriving = light_arriving(frame.lights[i], v_world, l);
+        vec3 add = max(dot(n, l), 0.0) * arriving;
         light += i < frame.counts.x ? add : vec3(0.0);
         ++i;
     } while (i < frame.counts.x);
-    out_hdr = vec4(base.rgb * light + emission, 1.0);
+    // Capped at RGBA16F's largest (a point light next to a surface): never +inf in the target.
+    out_hdr = vec4(min(base.rgb * light + emission, vec3(HALF_MAX)), 1.0);
     out_normal = vec4(n, 1.0);
     out_ids = v_ids;
     out_distance = length(to_camera);

@@ -346,7 +346,6 @@ fn ignored_parts_are_listed_not_dropped() {
         "textures hadou does not draw (normal, occlusion, metallic-roughness, transmission, thickness) (/materials/0/normalTexture)",
         "alpha blending (alphaMode BLEND, drawn opaque) (/materials/0/alphaMode)",
         "primitives hadou cannot draw (/meshes/1/primitives/0: mode LINES)",
-        "point lights (/extensions/KHR_lights_punctual/lights/0)",
         "orthographic cameras and cameras on degenerate nodes (/nodes/4/camera)",
         "animations (/animations/0)",
         "extensions (/extensionsUsed/1 (KHR_materials_sheen))",
@@ -354,8 +353,13 @@ fn ignored_parts_are_listed_not_dropped() {
     ] {
         assert!(summary.contains(part), "missing {part:?} in {summary}");
     }
-    // Emission is drawn (tests/gltf_materials.rs): not listed.
+    // Emission is drawn (tests/gltf_materials.rs): not listed; nor are point lights (drawn,
+    // tests/point_spot_lights.rs): the point light is the import's one light.
     assert!(!summary.contains("emissi"), "{summary}");
+    assert!(!summary.contains("point light") && !summary.contains("spot light"), "{summary}");
+    assert_eq!(imp.lights.len(), 1);
+    assert!(matches!(imp.lights[0].kind, hadou::scene::LightKind::Point));
+    assert_eq!(imp.lights[0].intensity, 3.0, "candela kept as they are");
     assert_eq!(imp.instances.len(), 4, "three cubes and the tetrahedron");
     assert!(imp.camera.is_none());
 }

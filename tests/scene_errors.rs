@@ -72,7 +72,7 @@ const BAD: &[(&str, usize, usize, &str)] = &[
     ("obj_index_out_of_range.toml", 8, 8, "mesh \"wedge\": "),
     ("image_size_zero.toml", 2, 9, "`size`: expected integers in 1..=16384, found 0"),
     ("image_size_too_large.toml", 2, 14, "`size`: expected integers in 1..=16384, found 16385"),
-    ("too_many_lights.toml", 21, 1, "too many [[light]] tables (expected at most 8, found 9)"),
+    ("too_many_lights.toml", 21, 1, "too many [[light]] tables (expected at most 8 lights of any kind, the frame uniform's array; found 9)"),
     ("not_utf8.toml", 2, 25, "invalid UTF-8 (byte 0xe9); expected a UTF-8 text file"),
     (
         "translucent_open_mesh.toml",

@@ -6,8 +6,10 @@
 #define MAX_LIGHTS 8
 
 struct Light {
-    vec4 direction;   // xyz: unit direction the light travels
-    vec4 radiance;    // rgb: colour × intensity
+    vec4 direction;   // xyz: unit direction a directional light travels, a spot light's axis
+    vec4 radiance;    // rgb: colour × intensity (point, spot: × candela / pi); w: 1 / range^2 (0: none)
+    vec4 position;    // xyz: a point or spot light's position; w: 1 for them, 0 directional
+    vec4 cone;        // x, y: the spot cone's scale and offset of cos(theta); point: 0, 1
 };
 
 struct FrameUniforms {
@@ -23,6 +25,30 @@ struct FrameUniforms {
     vec4 ray_up;
     vec4 ray_forward;
 };
+
+// Twin: Light and LOCAL_LIGHT_* in src/scene/model.rs, effects::shading::LocalLight.
+#define LOCAL_LIGHT_D2_MIN 1e-30
+#define LOCAL_LIGHT_MAX 1e30
+
+// The radiance of `light` arriving at surface point `world` (to be multiplied by max(n.l, 0)), and
+// in `l` the unit vector from the point toward the light. A directional light: -direction and its
+// radiance, as they are. A point or spot light (glTF KHR_lights_punctual): the inverse square with
+// d^2 floored at LOCAL_LIGHT_D2_MIN (at the light itself l = 0: no light, no NaN), glTF's range
+// window clamp(1 - (d/range)^4, 0, 1) and its spot attenuation clamp(cos(theta)*scale + offset,
+// 0, 1)^2, the product capped at LOCAL_LIGHT_MAX (finite in any sum and times any albedo).
+vec3 light_arriving(Light light, vec3 world, out vec3 l) {
+    if (light.position.w == 0.0) {
+        l = -light.direction.xyz;
+        return light.radiance.rgb;
+    }
+    vec3 v = light.position.xyz - world;
+    float d2 = max(dot(v, v), LOCAL_LIGHT_D2_MIN);
+    l = v * inversesqrt(d2);
+    float t = d2 * light.radiance.w;
+    float window = clamp(1.0 - t * t, 0.0, 1.0);
+    float cone = clamp(dot(light.direction.xyz, -l) * light.cone.x + light.cone.y, 0.0, 1.0);
+    return min(light.radiance.rgb * (window * cone * cone / d2), vec3(LOCAL_LIGHT_MAX));
+}
 
 struct InstanceData {
     mat4 model;

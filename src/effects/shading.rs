@@ -1,6 +1,7 @@
 //! CPU twin of the base shading in f64: the raster surfaces of shaders/raster.frag (Lambert +
-//! ambient under the scene's directional lights, times the vertex colour, plus emission, alpha
-//! masked) and the metaball surfaces of
+//! ambient under the scene's lights, times the vertex colour, plus emission, alpha masked; point
+//! and spot lights as shaders/common/frame.glsl's `light_arriving`: `LocalLight`) and the metaball
+//! surfaces of
 //! shaders/metaballs.comp (`store_hit`: the same diffuse light plus a white Blinn-Phong
 //! highlight), then `effects::tonemap` to the 8-bit sRGB code. Written from the model
 //! (docs/scene-format.md: "a surface with unit normal n receives colour · intensity ·
@@ -10,7 +11,7 @@
 use glam::DVec3;
 
 use crate::passes::gpu_structs::MAX_LIGHTS;
-use crate::scene::Scene;
+use crate::scene::{Light, Scene, LOCAL_LIGHT_D2_MIN, LOCAL_LIGHT_MAX};
 
 /// Strength of the white Blinn-Phong highlight on every metaball material. Keep in sync with
 /// `SPECULAR` in shaders/metaballs.comp.
@@ -29,12 +30,35 @@ pub struct SurfaceLight {
     pub radiance: DVec3,
 }
 
-/// The scene's ambient light and the directional lights the passes use (the first
-/// `MAX_LIGHTS`).
+/// One point or spot light as a surface sees it (shaders/common/frame.glsl, `light_arriving`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalLight {
+    /// The light (its kind, position, axis, range and cone).
+    pub light: Light,
+    /// `light.radiance()`: colour × candela / π.
+    pub radiance: DVec3,
+}
+
+impl LocalLight {
+    /// The unit vector from surface point `p` toward the light (0 at the light itself) and the
+    /// radiance arriving there before the n·l factor: radiance · window · cone² / max(d²,
+    /// `LOCAL_LIGHT_D2_MIN`), capped at `LOCAL_LIGHT_MAX` (`scene::Light` has the model).
+    pub fn arriving(&self, p: DVec3) -> (DVec3, DVec3) {
+        let v = self.light.position - p;
+        let d2 = v.length_squared().max(LOCAL_LIGHT_D2_MIN);
+        let l = v / d2.sqrt();
+        let f = self.light.window(d2) * self.light.cone_attenuation(-l) / d2;
+        (l, (self.radiance * f).min(DVec3::splat(LOCAL_LIGHT_MAX)))
+    }
+}
+
+/// The scene's ambient light and the lights the passes use (the first `MAX_LIGHTS`):
+/// directional ones in `lights`, point and spot ones in `local`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lighting {
     pub ambient: DVec3,
     pub lights: Vec<SurfaceLight>,
+    pub local: Vec<LocalLight>,
 }
 
 /// A metaball surface's light split as the shader adds it: `albedo × diffuse + specular`.
@@ -48,24 +72,85 @@ pub struct MetaballLight {
 
 impl Lighting {
     pub fn new(scene: &Scene) -> Self {
-        let lights = scene
-            .lights
+        let used = &scene.lights[..scene.lights.len().min(MAX_LIGHTS)];
+        let lights = used
             .iter()
-            .take(MAX_LIGHTS)
+            .filter(|l| !l.is_local())
             .map(|l| SurfaceLight { to_light: -l.direction.normalize(), radiance: l.color * l.intensity })
             .collect();
-        Lighting { ambient: scene.render.ambient, lights }
+        let local = used
+            .iter()
+            .filter(|l| l.is_local())
+            .map(|&light| LocalLight { light, radiance: light.radiance() })
+            .collect();
+        Lighting { ambient: scene.render.ambient, lights, local }
     }
 
-    /// ambient + Σ max(n·l, 0)·L: the light a surface of unit normal `n` receives.
+    /// Panics where a scene has point or spot lights, for the functions that take no surface
+    /// position (theirs need one: the `_at` forms).
+    fn directional_only(&self) {
+        assert!(
+            self.local.is_empty(),
+            "a scene with point or spot lights is shaded at a position (the `_at` forms)"
+        );
+    }
+
+    /// ambient + Σ max(n·l, 0)·L: the light a surface of unit normal `n` receives. Directional
+    /// lights only (`diffuse_at` for point and spot lights).
     pub fn diffuse(&self, n: DVec3) -> DVec3 {
+        self.directional_only();
         self.lights.iter().fold(self.ambient, |sum, l| sum + l.radiance * n.dot(l.to_light).max(0.0))
     }
 
+    /// ambient + Σ max(n·l, 0)·L over every light at surface point `p` with unit normal `n`;
+    /// exactly `diffuse(n)` for directional lights alone.
+    pub fn diffuse_at(&self, p: DVec3, n: DVec3) -> DVec3 {
+        let directional =
+            self.lights.iter().fold(self.ambient, |sum, l| sum + l.radiance * n.dot(l.to_light).max(0.0));
+        self.local.iter().fold(directional, |sum, l| {
+            let (to_light, arriving) = l.arriving(p);
+            sum + arriving * n.dot(to_light).max(0.0)
+        })
+    }
+
     /// ambient + Σ L: what a surface facing every light at once would receive (the scale of
-    /// `diffuse`, for error bounds).
+    /// `diffuse`, for error bounds). Directional lights only (`diffuse_scale_at`).
     pub fn diffuse_scale(&self) -> DVec3 {
+        self.directional_only();
         self.lights.iter().fold(self.ambient, |sum, l| sum + l.radiance)
+    }
+
+    /// ambient + Σ of each light's radiance arriving at `p` (the scale of `diffuse_at`).
+    pub fn diffuse_scale_at(&self, p: DVec3) -> DVec3 {
+        let directional = self.lights.iter().fold(self.ambient, |sum, l| sum + l.radiance);
+        self.local.iter().fold(directional, |sum, l| sum + l.arriving(p).1)
+    }
+
+    /// The HDR colour of a raster surface at world point `p` (shaders/raster.frag): albedo ×
+    /// `diffuse_at(p, n)`, `n` the unit normal turned toward the camera. Scene-linear: the shader
+    /// writes it pre-exposed and capped, `(v · pre_exposure).min(HALF_MAX)`.
+    pub fn raster_at(&self, albedo: DVec3, p: DVec3, n: DVec3) -> DVec3 {
+        albedo * self.diffuse_at(p, n)
+    }
+
+    /// The light of a metaball surface at `p` (`metaball_light` with point and spot lights).
+    pub fn metaball_light_at(&self, p: DVec3, n: DVec3, v: DVec3) -> MetaballLight {
+        let mut out = self.metaball_directional(n, v);
+        for l in &self.local {
+            let (to_light, arriving) = l.arriving(p);
+            let nl = n.dot(to_light);
+            if nl > 0.0 {
+                out.diffuse += arriving * nl;
+                out.specular += arriving * Self::highlight(n, to_light, v);
+            }
+        }
+        out
+    }
+
+    /// The HDR colour of a metaball surface at `p`: min(albedo × diffuse + specular, HALF_MAX).
+    pub fn metaball_at(&self, albedo: DVec3, p: DVec3, n: DVec3, v: DVec3) -> DVec3 {
+        let m = self.metaball_light_at(p, n, v);
+        (albedo * m.diffuse + m.specular).min(DVec3::splat(HALF_MAX))
     }
 
     /// The HDR colour of a raster surface (shaders/raster.frag): albedo × `diffuse(n)`, `n` the
@@ -81,6 +166,18 @@ impl Lighting {
         albedo * vertex_color * self.diffuse(n) + emission
     }
 
+    /// `raster_surface` at world point `p` under every light (scene-linear, as `raster_at`).
+    pub fn raster_surface_at(
+        &self,
+        albedo: DVec3,
+        vertex_color: DVec3,
+        emission: DVec3,
+        p: DVec3,
+        n: DVec3,
+    ) -> DVec3 {
+        albedo * vertex_color * self.diffuse_at(p, n) + emission
+    }
+
     /// Whether the raster draws a fragment of `alpha` (base × vertex colour alpha) under a
     /// material's alpha cutoff (`alphaMode: MASK`; 0 for opaque materials, which draw all).
     pub fn drawn(alpha: f64, cutoff: f64) -> bool {
@@ -91,6 +188,11 @@ impl Lighting {
     /// (`v` the unit vector from the surface toward the camera): only lights with n·l > 0 add
     /// a diffuse and a highlight term.
     pub fn metaball_light(&self, n: DVec3, v: DVec3) -> MetaballLight {
+        self.directional_only();
+        self.metaball_directional(n, v)
+    }
+
+    fn metaball_directional(&self, n: DVec3, v: DVec3) -> MetaballLight {
         let mut out = MetaballLight { diffuse: self.ambient, specular: DVec3::ZERO };
         for l in &self.lights {
             let nl = n.dot(l.to_light);
@@ -132,6 +234,7 @@ mod tests {
                 SurfaceLight { to_light: DVec3::Y, radiance: DVec3::new(2.0, 1.0, 0.5) },
                 SurfaceLight { to_light: DVec3::X, radiance: DVec3::splat(3.0) },
             ],
+            local: Vec::new(),
         }
     }
 

@@ -3,6 +3,8 @@
 //! (shaders/exposure.comp). Definitions: Lagarde & de Rousiers, "Moving Frostbite to PBR" (2014),
 //! §4.2 and §5.1; docs/scene-format.md, "Exposure and light units".
 
+use glam::DVec3;
+
 use crate::scene::model::{ExposureMode, Scene};
 
 /// Exposed HDR values are clamped to this before the curve. `aces(x)` reaches 1 (and is clamped
@@ -143,10 +145,70 @@ pub fn measure(hdr: &[[f64; 3]], surface: &[bool], width: usize, pre_exposure_lo
 
 /// The brightest a lit surface of `scene` can be, per channel, before exposure: ambient plus
 /// every light's colour × intensity (albedo ≤ 1, n·l ≤ 1), plus the brightest material emission.
+/// A point or spot light counts with its luminance on a white surface facing it at
+/// `nearest_surface_distance` (`Light::radiance` / d², window and cone ≤ 1).
 pub fn lit_max(scene: &Scene) -> f64 {
-    let lit = scene.lights.iter().fold(scene.render.ambient, |sum, l| sum + l.color * l.intensity);
+    let local: Vec<&crate::scene::Light> = scene.lights.iter().filter(|l| l.is_local()).collect();
+    let boxes = if local.is_empty() { Vec::new() } else { instance_boxes(scene) };
+    let lit = scene.lights.iter().fold(scene.render.ambient, |sum, l| {
+        if l.is_local() {
+            let d = nearest_surface_distance(&boxes, l.position);
+            sum + l.radiance() / (d * d)
+        } else {
+            sum + l.color * l.intensity
+        }
+    });
     let emission = scene.materials.iter().map(|m| m.surface.emission.max_element()).fold(0.0, f64::max);
     lit.max_element() + emission
+}
+
+/// The world-space bounding boxes of the scene's instances (each mesh's box, its 8 corners
+/// transformed).
+fn instance_boxes(scene: &Scene) -> Vec<(DVec3, DVec3)> {
+    let mesh_bounds: Vec<(DVec3, DVec3)> = scene.meshes.iter().map(|m| m.mesh.bounds()).collect();
+    scene
+        .instances
+        .iter()
+        .map(|inst| {
+            let (lo, hi) = mesh_bounds[inst.mesh];
+            (0..8).fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(a, b), k| {
+                let pick = |bit: usize, x: f64, y: f64| if k & bit == 0 { x } else { y };
+                let c = DVec3::new(pick(1, lo.x, hi.x), pick(2, lo.y, hi.y), pick(4, lo.z, hi.z));
+                let w = inst.transform.transform_point(c);
+                (a.min(w), b.max(w))
+            })
+        })
+        .collect()
+}
+
+/// The fraction of the farthest box corner's distance below which `nearest_surface_distance` does
+/// not go: surfaces closer to a light than 1% of the scene's extent around it are a small part of
+/// the view, and the brightest of them may be capped at the HDR target's largest value (the
+/// raster's cap; at the pre-exposures chosen here such a value is past the curve's white anyway).
+pub const NEAREST_SURFACE_FRACTION: f64 = 0.01;
+
+/// The distance from a point or spot light at `p` to the nearest surface it can light, estimated
+/// from the instances' world boxes `boxes`: the distance to the nearest box's surface (from
+/// outside, to the box; from inside, to its nearest face: a room's walls), but at least
+/// `NEAREST_SURFACE_FRACTION` of the distance to the farthest box corner, and > 0. Without
+/// instances, 1 (nothing is lit but metaballs, whose colour is capped at the HDR maximum).
+pub fn nearest_surface_distance(boxes: &[(DVec3, DVec3)], p: DVec3) -> f64 {
+    if boxes.is_empty() {
+        return 1.0;
+    }
+    let (mut near, mut far) = (f64::INFINITY, 0.0f64);
+    for &(lo, hi) in boxes {
+        let outside = (lo - p).max(p - hi).max(DVec3::ZERO);
+        let d = if outside == DVec3::ZERO { (p - lo).min(hi - p).min_element() } else { outside.length() };
+        near = near.min(d);
+        far = far.max((p - lo).abs().max((p - hi).abs()).length());
+    }
+    let d = near.max(NEAREST_SURFACE_FRACTION * far);
+    if d > 0.0 && d.is_finite() {
+        d
+    } else {
+        1.0
+    }
 }
 
 /// The largest value a lit surface may reach in the HDR target after pre-exposure: 16× below
@@ -162,7 +224,7 @@ pub const PRE_EXPOSED_MAX: f64 = 4096.0;
 ///   physical units): p = 1, the frame as it always was, bit for bit.
 /// - Otherwise a power of two, so scaling is exact: the one nearest the exposure (`exposure_ev100`,
 ///   a linear exposure), or 1 / `lit_max` (`"auto"`, whose exposure is not known before the
-///   frame), and never so large that a lit surface (`lit_max`) or the background passes
+///   frame; with point or spot lights `PRE_EXPOSED_MAX` / `lit_max`), and never so large that a lit surface (`lit_max`) or the background passes
 ///   `PRE_EXPOSED_MAX`.
 ///
 /// The renderer computes it once per frame (`FrameContext::pre_exposure`).
@@ -175,6 +237,10 @@ pub fn pre_exposure(scene: &Scene) -> f64 {
     }
     let nominal = match r.exposure_mode {
         ExposureMode::Linear | ExposureMode::Ev100(_) => r.exposure,
+        // With point or spot lights `lit` is a hot spot at the nearest surface, far brighter than
+        // the rest (1/d²): the largest p the cap allows keeps the dim surfaces far from f16's
+        // subnormals (below 2⁻¹⁴) instead of centring the hot spot on 1.
+        ExposureMode::Auto if lit > 0.0 && scene.lights.iter().any(|l| l.is_local()) => PRE_EXPOSED_MAX / lit,
         ExposureMode::Auto if lit > 0.0 => 1.0 / lit,
         ExposureMode::Auto => 1.0,
     };

@@ -12,7 +12,7 @@
 //! its centre (Vulkan: NDC y = −1 is row 0).
 //!
 //! **Colour.** colour = surface + w·L·albedo·exp(−σ·d) per RGB channel (seed 003, eq. 2): `surface`
-//! is the raster's Lambert + ambient, L the first light's colour × intensity, d the thickness, and
+//! is the raster's Lambert + ambient (every light), L the first directional light's colour × intensity, d the thickness, and
 //! w = max(n·l, 0) the exit weight (`exit_weight`). The seed's eq. 2 alone gives I_out = I_in on a
 //! face the light reaches directly (d = 0 there), which adds the light a second time on top of the
 //! Lambert term that already counts it: a lit jade cube renders white. The weight is 0 on every face
@@ -42,10 +42,10 @@ pub struct LightView {
 }
 
 impl LightView {
-    /// The view along the scene's first light fitted to its translucent instances; `None` without
-    /// a light or a translucent instance.
+    /// The view along the scene's first directional light fitted to its translucent instances;
+    /// `None` without one or without a translucent instance.
     pub fn fit(scene: &Scene) -> Option<LightView> {
-        let light = scene.lights.first()?;
+        let light = scene.first_directional_light()?;
         let mut corners = Vec::new();
         for inst in &scene.instances {
             if !matches!(scene.materials[inst.material].kind, MaterialKind::Translucent { .. }) {

@@ -13,11 +13,44 @@ pub const MAX_LIGHTS: usize = 8;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct GpuLight {
+    /// xyz: the unit direction a directional light travels, a spot light's axis (0 for a point
+    /// light); w: 0.
     pub direction: [f32; 4],
+    /// rgb: `Light::radiance()` pre-exposed; w: 1 / range² (0: no range) of a point or spot light.
     pub radiance: [f32; 4],
+    /// xyz: a point or spot light's position; w: 1 for them, 0 for a directional light.
+    pub position: [f32; 4],
+    /// x, y: the spot cone's scale and offset of cos θ (`Light::cone_scale_offset`; a point or
+    /// directional light: 0, 1).
+    pub cone: [f32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(GpuLight as "Light" { direction, radiance });
+crate::gpu::layout::gpu_layout!(GpuLight as "Light" { direction, radiance, position, cone });
+
+impl GpuLight {
+    /// `light` with its radiance pre-exposed by `p`. A directional light's record holds exactly
+    /// what it did before point and spot lights existed (direction, colour × intensity × p).
+    pub fn new(light: &crate::scene::Light, p: f64) -> Self {
+        let (scale, offset) = light.cone_scale_offset();
+        let cone = [scale as f32, offset as f32, 0.0, 0.0];
+        if !light.is_local() {
+            return GpuLight {
+                direction: vec4_f32(light.direction, 0.0),
+                radiance: vec4_f32(light.radiance() * p, 0.0),
+                position: [0.0; 4],
+                cone,
+            };
+        }
+        // 1/range² within f32 (a range below 2⁻⁶³ would be +inf: the window is 0 anyway).
+        let inv_range2 = light.range.map_or(0.0, |r| (1.0 / (r * r)).min(f32::MAX as f64)) as f32;
+        GpuLight {
+            direction: vec4_f32(light.direction, 0.0),
+            radiance: vec4_f32(light.radiance() * p, inv_range2),
+            position: vec4_f32(light.position, 1.0),
+            cone,
+        }
+    }
+}
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -81,8 +114,8 @@ pub const THICKNESS_PEEL: u32 = 2;
 pub const THICKNESS_PAIRS: u32 = 3;
 
 const _: () = {
-    assert!(std::mem::size_of::<GpuLight>() == 32);
-    assert!(std::mem::size_of::<FrameUniforms>() == 128 + 32 * MAX_LIGHTS + 48);
+    assert!(std::mem::size_of::<GpuLight>() == 64);
+    assert!(std::mem::size_of::<FrameUniforms>() == 128 + 64 * MAX_LIGHTS + 48);
     assert!(std::mem::offset_of!(FrameUniforms, camera_pos) == 64);
     assert!(std::mem::offset_of!(FrameUniforms, counts) == 112);
     assert!(std::mem::offset_of!(FrameUniforms, lights) == 128);
@@ -111,8 +144,7 @@ impl FrameUniforms {
     pub fn new(scene: &Scene, width: u32, height: u32, p: f64) -> Self {
         let mut lights = [GpuLight::default(); MAX_LIGHTS];
         for (slot, light) in lights.iter_mut().zip(&scene.lights) {
-            slot.direction = vec4_f32(light.direction, 0.0);
-            slot.radiance = vec4_f32(light.color * light.intensity * p, 0.0);
+            *slot = GpuLight::new(light, p);
         }
         let [ray_right, ray_up, mut ray_forward] = scene.camera.ray_frame(width, height).to_f32();
         ray_forward[3] = scene.camera.far as f32;

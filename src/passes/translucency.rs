@@ -146,7 +146,7 @@ crate::gpu::layout::gpu_layout!(LightViewData as "LightViewData" { centre, right
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TranslucencyParams {
-    /// rgb: the first light's colour × intensity; w: 1 when the scene has a light.
+    /// rgb: the first directional light's colour × intensity; w: 1 when the scene has one.
     pub radiance: [f32; 4],
     pub view: LightViewData,
     /// Light map size, scene instances, 0, 0.
@@ -215,10 +215,10 @@ pub struct TranslucentData {
 /// What the translucent instances look like this frame, from the scene's current transforms and
 /// lights.
 pub struct TranslucentFrame {
-    /// The first light's view fitted to the translucent instances; `None` without a light.
+    /// The first directional light's view fitted to the translucent instances; `None` without one.
     pub view: Option<LightView>,
     pub view_data: LightViewData,
-    /// The first light's colour × intensity.
+    /// The first directional light's colour × intensity (point and spot lights add no light through).
     pub radiance: glam::DVec3,
     /// Runs of translucent instances in the scene's instance table, for the light_id pass.
     pub draws: Vec<LightDraw>,
@@ -244,8 +244,7 @@ impl TranslucentFrame {
             view_data,
             // Pre-exposed as the frame's other radiances (`effects::tonemap::pre_exposure`).
             radiance: scene
-                .lights
-                .first()
+                .first_directional_light()
                 .map_or(glam::DVec3::ZERO, |l| l.color * l.intensity * pre_exposure),
             draws: draw_runs(scene),
             instances: instance_table(scene, &data.keys),

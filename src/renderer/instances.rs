@@ -100,14 +100,16 @@ impl Renderer {
     }
 }
 
-/// A directional light of the world (from the scene file or spawned); stale once despawned.
+/// A light of the world (directional, point or spot; from the scene file or spawned); stale once
+/// despawned.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct LightId(pub(super) u64);
 
 impl Renderer {
     /// Adds a directional light (the direction it travels, any non-zero length; colour and
     /// intensity ≥ 0) from the next frame on. At most `MAX_LIGHTS` (8, the frame uniform's array)
-    /// at once; translucent materials are lit by the first. State is unchanged on error.
+    /// at once, of every kind together; translucent materials are lit through the first
+    /// directional one. State is unchanged on error. `spawn_light_with` adds a point or spot light.
     pub fn spawn_light(
         &mut self,
         direction: impl GameVector,
@@ -115,25 +117,32 @@ impl Renderer {
         intensity: f64,
     ) -> Result<LightId, Error> {
         let (direction, color) = (direction.to_dvec3(), color.to_dvec3());
+        self.spawn_light_with(crate::scene::Light {
+            direction,
+            color,
+            intensity,
+            ..crate::scene::Light::directional(glam::DVec3::NEG_Y, glam::DVec3::ZERO, 0.0)
+        })
+    }
+
+    /// Adds any light — `Light::directional`, `Light::point(position, color, candela)`,
+    /// `Light::spot(..)`, `.with_range(r)` — from the next frame on, checked as a `[[light]]`
+    /// table is (finite numbers, colour and intensity ≥ 0 within f32, a non-zero direction, a
+    /// range > 0, cone half-angles in [0, π/2] with the outer one > 0; docs/scene-format.md). At
+    /// most `MAX_LIGHTS` at once, of every kind together. State is unchanged on error.
+    pub fn spawn_light_with(&mut self, light: crate::scene::Light) -> Result<LightId, Error> {
         use crate::scene::file::MAX_LIGHTS;
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
         let index = loaded.scene.lights.len();
         if index >= MAX_LIGHTS {
             return Err(invalid(
                 format!("light {}", index + 1),
-                format!("at most {MAX_LIGHTS} directional lights (the frame uniform's array)"),
+                format!("at most {MAX_LIGHTS} lights of any kind (the frame uniform's array)"),
             ));
         }
-        let placeholder = crate::scene::model::DirectionalLight {
-            direction: glam::DVec3::NEG_Y,
-            color: glam::DVec3::ZERO,
-            intensity: 0.0,
-        };
-        loaded.scene.lights.push(placeholder);
-        if let Err(e) = self.set_light_at(index, direction, color, intensity) {
-            self.loaded.as_mut().ok_or(Error::NoScene)?.scene.lights.pop();
-            return Err(e);
-        }
+        let light = super::update::checked_light(index, light)?;
+        let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
+        loaded.scene.lights.push(light);
         let id = self.next_id();
         self.loaded.as_mut().ok_or(Error::NoScene)?.light_ids.push(id);
         self.sync_passes()?;

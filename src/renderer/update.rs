@@ -10,7 +10,7 @@ use super::world::{GroupId, WaveId};
 use super::Renderer;
 use crate::scene::camera::Camera;
 use crate::scene::transform::{Transform, TransformOp};
-use crate::scene::MaterialKind;
+use crate::scene::{Light, LightKind, MaterialKind};
 use crate::Error;
 
 /// A wave's state from now on, at every time: keyframes and velocity are dropped.
@@ -189,8 +189,10 @@ impl Renderer {
         Ok(())
     }
 
-    /// Sets light `id`: the direction it travels (any non-zero length), its colour and
-    /// intensity. The translucent objects' light view follows it from the next frame.
+    /// Sets light `id`: the direction it travels (any non-zero length; a spot light's axis, unused
+    /// by a point light), its colour and intensity (a point or spot light's in candela); its kind,
+    /// position, range and cone are kept (`set_light_with` changes them). The translucent objects'
+    /// light view follows it from the next frame.
     pub fn set_light(
         &mut self,
         id: LightId,
@@ -199,39 +201,26 @@ impl Renderer {
         intensity: f64,
     ) -> Result<(), Error> {
         let index = self.light_index(id)?;
-        self.set_light_at(index, direction, color, intensity)
+        let light = self.loaded_mut()?.scene.lights[index];
+        let light = checked_light(index, Light { direction, color, intensity, ..light })?;
+        self.loaded_mut()?.scene.lights[index] = light;
+        Ok(())
     }
 
-    /// `set_light` by scene index (in range: the caller resolved it).
-    pub(super) fn set_light_at(
-        &mut self,
-        index: usize,
-        direction: DVec3,
-        color: DVec3,
-        intensity: f64,
-    ) -> Result<(), Error> {
-        let loaded = self.loaded_mut()?;
-        let light = &mut loaded.scene.lights[index];
-        // As in a file: finite numbers within f32's range. However bright, the lights fit the HDR
-        // image: the frame is pre-exposed (`effects::tonemap::pre_exposure`).
-        let f32_max = f64::from(f32::MAX);
-        let ok = direction.is_finite()
-            && direction.length() > 0.0
-            && color.is_finite()
-            && color.min_element() >= 0.0
-            && color.max_element() <= f32_max
-            && intensity.is_finite()
-            && (0.0..=f32_max).contains(&intensity);
-        if !ok {
-            return Err(Error::InvalidUpdate {
-                what: format!("light {index}: direction {direction}, colour {color}, intensity {intensity}"),
-                expected: "a finite non-zero direction, a colour and an intensity ≥ 0 within f32's range \
-                           (3.4e38)"
-                    .into(),
-            });
-        }
-        (light.direction, light.color, light.intensity) = (direction.normalize(), color, intensity);
-        Ok(())
+    /// Replaces light `id` with `light` (any kind: a directional light may become a point or spot
+    /// light and back), checked as `spawn_light_with` checks it. State is unchanged on error.
+    pub fn set_light_with(&mut self, id: LightId, light: Light) -> Result<(), Error> {
+        let index = self.light_index(id)?;
+        let light = checked_light(index, light)?;
+        self.loaded_mut()?.scene.lights[index] = light;
+        // Which light translucent materials are lit through may have changed.
+        self.sync_passes()
+    }
+
+    /// Light `id` as it is now.
+    pub fn light(&self, id: LightId) -> Result<Light, Error> {
+        let index = self.light_index(id)?;
+        Ok(self.loaded.as_ref().ok_or(Error::NoScene)?.scene.lights[index])
     }
 
     /// Sets material `id`'s albedo and, for a translucent material, its extinction σ per world
@@ -257,4 +246,45 @@ impl Renderer {
         loaded.tables_dirty = true;
         Ok(())
     }
+}
+
+/// `light` as a scene file would accept it (its direction normalized), or the error naming light
+/// `index`: finite numbers within f32's range (however bright, the lights fit the HDR image: the
+/// frame is pre-exposed, `effects::tonemap::pre_exposure`), a non-zero direction, a position
+/// within `MAX_EXTENT`, a range in [2⁻⁶³, 2⁶³] (its square a normal f32), cone half-angles in
+/// [0, π/2] with the outer one > 0.
+pub(super) fn checked_light(index: usize, light: Light) -> Result<Light, Error> {
+    let f32_max = f64::from(f32::MAX);
+    let extent = crate::scene::file::MAX_EXTENT;
+    let half_pi = std::f64::consts::FRAC_PI_2;
+    let cone_ok = match light.kind {
+        LightKind::Spot { inner_cone, outer_cone } => {
+            (0.0..=half_pi).contains(&inner_cone) && outer_cone > 0.0 && outer_cone <= half_pi
+        }
+        _ => true,
+    };
+    let ok = light.direction.is_finite()
+        && light.direction.length() > 0.0
+        && light.position.is_finite()
+        && light.position.abs().max_element() <= extent
+        && light.color.is_finite()
+        && light.color.min_element() >= 0.0
+        && light.color.max_element() <= f32_max
+        && light.intensity.is_finite()
+        && (0.0..=f32_max).contains(&light.intensity)
+        && light.range.is_none_or(|r| (1.0842021724855044e-19..=9.223372036854776e18).contains(&r))
+        && cone_ok;
+    if !ok {
+        return Err(Error::InvalidUpdate {
+            what: format!("light {index}: {light:?}"),
+            expected: "a finite non-zero direction, a position within 2.8e14, a colour and an intensity ≥ 0 \
+                       within f32's range (3.4e38), a range in [1.08e-19, 9.22e18] or none, spot cone \
+                       half-angles in [0, π/2] with the outer one > 0"
+                .into(),
+        });
+    }
+    // A unit direction (a scene's, `Light::spot`'s) is kept bit for bit: normalizing again may move
+    // its last bits, and a light set from the scene would then differ from it.
+    let unit = (light.direction.length_squared() - 1.0).abs() <= 4.0 * f64::EPSILON;
+    Ok(Light { direction: if unit { light.direction } else { light.direction.normalize() }, ..light })
 }

@@ -19,14 +19,15 @@ use super::file_schema::{
     CameraDef, InstanceDef, LightDef, MaterialDef, NumOrWord, OpDef, RenderDef, SceneDef, Tables,
 };
 use super::model::{
-    DirectionalLight, ExposureMode, Instance, Material, MaterialKind, MetaballGroup, RenderSettings, Scene,
+    ExposureMode, Instance, Light, LightKind, Material, MaterialKind, MetaballGroup, RenderSettings, Scene,
     SceneMesh,
 };
 use super::transform::{Transform, TransformOp};
 use crate::effect::{EffectStates, Effects, SceneFile};
 use crate::effects::tonemap::ev100_exposure;
 
-/// The most directional lights a scene may have (the raster pass's uniform array).
+/// The most lights (directional, point and spot together) a scene may have (the frame uniform's
+/// array).
 pub const MAX_LIGHTS: usize = 8;
 /// The largest image side, lavapipe's and most GPUs' 2D image limit.
 pub const MAX_IMAGE_SIZE: u32 = 16384;
@@ -114,12 +115,20 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
         lights = placed.lights;
         if lights.is_empty() {
             let direction = super::gltf::DEFAULT_LIGHT_DIRECTION.normalize();
-            lights.push(DirectionalLight { direction, color: DVec3::ONE, intensity: 1.0 });
+            lights.push(Light::directional(direction, DVec3::ONE, 1.0));
         }
     }
     let materials = materials.list;
     let metaballs = effects.get::<crate::effects::metaballs::MetaballGroups>().map_or(&[][..], |g| &g.0);
     warn_unused(path, &meshes, &materials, &instances, metaballs);
+    let translucent = materials.iter().any(|m| matches!(m.kind, MaterialKind::Translucent { .. }));
+    if translucent && lights.iter().any(Light::is_local) {
+        log::warn!(
+            "{}: point and spot lights light the surfaces of translucent materials, not through them (the light \
+             through them is the first directional light's; docs/scene-format.md)",
+            path.display()
+        );
+    }
     Ok(Scene { source: path.to_path_buf(), render, camera, lights, meshes, materials, instances, effects })
 }
 
@@ -289,10 +298,13 @@ fn check_up(o: &Owner, c: &CameraDef, up: DVec3, forward: DVec3) -> Result<(), S
     Err(o.fail(span, "up", &expected, format!("{}{default}", show_vec(up))))
 }
 
-fn lights(ctx: Ctx, defs: &Tables<LightDef>) -> Result<Vec<DirectionalLight>, SceneError> {
+fn lights(ctx: Ctx, defs: &Tables<LightDef>) -> Result<Vec<Light>, SceneError> {
     if let Some(extra) = defs.0.get(MAX_LIGHTS) {
-        let message =
-            format!("too many [[light]] tables (expected at most {MAX_LIGHTS}, found {})", defs.0.len());
+        let message = format!(
+            "too many [[light]] tables (expected at most {MAX_LIGHTS} lights of any kind, the frame uniform's \
+             array; found {})",
+            defs.0.len()
+        );
         return Err(ctx.err(extra.span(), message));
     }
     let light_at = |(i, def): (usize, &Spanned<LightDef>)| {
@@ -301,16 +313,69 @@ fn lights(ctx: Ctx, defs: &Tables<LightDef>) -> Result<Vec<DirectionalLight>, Sc
     defs.0.iter().enumerate().map(light_at).collect()
 }
 
-fn light(o: Owner, def: &LightDef) -> Result<DirectionalLight, SceneError> {
-    o.kind(def.kind.as_ref(), &["directional"])?;
-    let direction_def = o.required("direction", def.direction.as_ref(), "an array of 3 numbers")?;
-    let direction = o.check_vec3("direction", direction_def, ANY)?;
-    let Some(direction) = direction.try_normalize() else {
-        return Err(o.fail(direction_def.span(), "direction", "a non-zero vector", show_vec(direction)));
-    };
+/// A light's range: squared on the GPU (1/range²), so within 2^±63 like a metaball's radius.
+const RANGE: Rule = Rule {
+    ok: |v| (1.0842021724855044e-19..=9.223372036854776e18).contains(&v),
+    bound: "in [1.0842e-19, 9.2234e18] (> 0, its square a normal f32; leave it out for an infinite range)",
+};
+/// A spot light's cone half-angles in degrees.
+const OUTER_CONE: Rule = Rule { ok: |v| v > 0.0 && v <= 90.0, bound: "in (0, 90] (degrees from the axis)" };
+const INNER_CONE: Rule =
+    Rule { ok: |v| (0.0..=90.0).contains(&v), bound: "in [0, 90] (degrees from the axis)" };
+
+fn light(o: Owner, def: &LightDef) -> Result<Light, SceneError> {
+    let kind = o.kind(def.kind.as_ref(), &["directional", "point", "spot"])?.unwrap_or("directional");
+    // A field the kind has no use for is refused at its key (a point light's `direction` would
+    // otherwise be silently meaningless).
+    let fields: [(&str, Option<std::ops::Range<usize>>, bool); 5] = [
+        ("direction", def.direction.as_ref().map(Spanned::span), kind != "point"),
+        ("position", def.position.as_ref().map(Spanned::span), kind != "directional"),
+        ("range", def.range.as_ref().map(Spanned::span), kind != "directional"),
+        ("inner_cone_deg", def.inner_cone_deg.as_ref().map(Spanned::span), kind == "spot"),
+        ("outer_cone_deg", def.outer_cone_deg.as_ref().map(Spanned::span), kind == "spot"),
+    ];
+    for (field, span, belongs) in fields.clone() {
+        if let (Some(span), false) = (span, belongs) {
+            let has: Vec<String> = fields.iter().filter(|f| f.2).map(|f| format!("`{}`", f.0)).collect();
+            let message = format!(
+                "{}: `{field}` is not a field of a {kind} light (its fields: `kind`, {}, `color`, `intensity`)",
+                o.label,
+                has.join(", ")
+            );
+            return Err(o.ctx.err(o.ctx.key_start(&span)..span.end, message));
+        }
+    }
     let color = o.vec3("color", def.color.as_ref(), DVec3::ONE, NON_NEGATIVE)?;
     let intensity = o.num("intensity", def.intensity.as_ref(), 1.0, NON_NEGATIVE)?;
-    Ok(DirectionalLight { direction, color, intensity })
+    let direction = |o: &Owner| -> Result<DVec3, SceneError> {
+        let direction_def = o.required("direction", def.direction.as_ref(), "an array of 3 numbers")?;
+        let direction = o.check_vec3("direction", direction_def, ANY)?;
+        direction.try_normalize().ok_or_else(|| {
+            o.fail(direction_def.span(), "direction", "a non-zero vector", show_vec(direction))
+        })
+    };
+    if kind == "directional" {
+        return Ok(Light::directional(direction(&o)?, color, intensity));
+    }
+    let position_def = o.required("position", def.position.as_ref(), "an array of 3 numbers")?;
+    let position = o.check_vec3("position", position_def, EXTENT)?;
+    let range = match def.range.as_ref() {
+        Some(r) => Some(o.check_num("range", r, RANGE)?),
+        None => None,
+    };
+    let mut light = if kind == "point" {
+        Light::point(position, color, intensity)
+    } else {
+        let outer = o.num("outer_cone_deg", def.outer_cone_deg.as_ref(), 45.0, OUTER_CONE)?;
+        let inner = o.num("inner_cone_deg", def.inner_cone_deg.as_ref(), 0.0, INNER_CONE)?;
+        let mut spot =
+            Light::spot(position, DVec3::NEG_Z, color, intensity, inner.to_radians(), outer.to_radians());
+        spot.direction = direction(&o)?;
+        spot
+    };
+    light.range = range;
+    debug_assert!(matches!(light.kind, LightKind::Point | LightKind::Spot { .. }));
+    Ok(light)
 }
 
 fn materials(ctx: Ctx, defs: &Tables<MaterialDef>) -> Result<Vec<Material>, SceneError> {

@@ -7,14 +7,14 @@ use super::file::{transform, Materials, MAX_LIGHTS};
 use super::file_check::{Ctx, Owner};
 use super::file_schema::{GltfDef, Tables};
 use super::gltf::{import, placed_by_transform, GltfCamera, ImportOptions, Spent};
-use super::model::{DirectionalLight, Instance, SceneMesh, DEFAULT_VOXEL_RES, MAX_VOXEL_RES, MIN_VOXEL_RES};
+use super::model::{Instance, Light, SceneMesh, DEFAULT_VOXEL_RES, MAX_VOXEL_RES, MIN_VOXEL_RES};
 
 /// What the placed files bring besides geometry.
 pub(super) struct Placed {
     /// The first file's camera, if it has one.
     pub camera: Option<GltfCamera>,
     /// Their directional lights, in file order (at most `MAX_LIGHTS`).
-    pub lights: Vec<DirectionalLight>,
+    pub lights: Vec<Light>,
 }
 
 /// Imports every `[[gltf]]` into `meshes`, `materials` and `instances`.

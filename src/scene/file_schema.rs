@@ -57,8 +57,12 @@ pub(crate) struct CameraDef {
 pub(crate) struct LightDef {
     pub kind: Option<Spanned<String>>,
     pub direction: Option<Spanned<Array<Num, 3>>>,
+    pub position: Option<Spanned<Array<Num, 3>>>,
     pub color: Option<Spanned<Array<Num, 3>>>,
     pub intensity: Option<Spanned<Num>>,
+    pub range: Option<Spanned<Num>>,
+    pub inner_cone_deg: Option<Spanned<Num>>,
+    pub outer_cone_deg: Option<Spanned<Num>>,
 }
 
 /// Every field of every mesh kind. Which ones a kind accepts is checked in file_mesh.rs, so the

@@ -18,8 +18,9 @@ pub struct Scene {
     pub render: RenderSettings,
     /// `[camera]`.
     pub camera: Camera,
-    /// `[[light]]`s in file order, at most `MAX_LIGHTS`; translucent materials use the first.
-    pub lights: Vec<DirectionalLight>,
+    /// `[[light]]`s in file order, at most `MAX_LIGHTS`; translucent materials are lit through
+    /// the first directional one.
+    pub lights: Vec<Light>,
     /// `[[mesh]]`es in file order, each built once.
     pub meshes: Vec<SceneMesh>,
     /// `[[material]]`s in file order, then the built-in `"default"` if something needed it.
@@ -29,6 +30,15 @@ pub struct Scene {
     /// The world data of the registered effects the scene uses (`crate::effect`), by effect name:
     /// what their scene-file tables said, changed at run time by `Renderer::update_effect`.
     pub effects: crate::effect::EffectStates,
+}
+
+impl Scene {
+    /// The light translucent materials are lit through (the light-space map, the thickness along
+    /// its parallel rays): the first directional one. Point and spot lights light a translucent
+    /// surface like an opaque one (the raster's Lambert), without light through the material.
+    pub fn first_directional_light(&self) -> Option<&Light> {
+        self.lights.iter().find(|l| !l.is_local())
+    }
 }
 
 /// `[render]`: defaults for rendering the scene.
@@ -63,17 +73,160 @@ pub enum ExposureMode {
     Auto,
 }
 
-/// A `[[light]]`: a directional light, at infinite distance.
+/// What a `[[light]]` is: a directional light at infinite distance, or a point or spot light at
+/// a position (glTF's `KHR_lights_punctual` kinds).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DirectionalLight {
-    /// Unit direction the light travels (from the light toward the scene).
+pub enum LightKind {
+    /// Shines down `direction` everywhere; `intensity` is the luminance (cd/m²) of a white
+    /// Lambertian surface facing it: illuminance (lux) / π.
+    Directional,
+    /// Shines every way from `position`; `intensity` in candela (cd, luminous intensity).
+    Point,
+    /// Shines from `position` down `direction` in a cone; `intensity` in candela on its axis.
+    /// Half-angles from the axis in radians: full inside `inner_cone`, none outside `outer_cone`,
+    /// between them glTF's smooth attenuation (`Light::cone_attenuation`). `inner_cone` ≥
+    /// `outer_cone` gives glTF's guard: a ramp 0.001 wide in cos θ just inside `outer_cone`.
+    Spot {
+        /// Half-angle (radians) within which the light is full.
+        inner_cone: f64,
+        /// Half-angle (radians) outside which there is no light.
+        outer_cone: f64,
+    },
+}
+
+/// A `[[light]]` (or a glTF light, or one spawned at run time).
+///
+/// What a surface point p with unit normal n receives (docs/scene-format.md, "Exposure and light
+/// units"; twin of shaders/common/frame.glsl's `light_arriving`):
+/// - directional: color · intensity · max(0, −n·direction);
+/// - point and spot: color · intensity / π · max(0, n·l) · window · cone² / d², with d = |position −
+///   p| (d² floored at `LOCAL_LIGHT_D2_MIN`), l = (position − p) / d, window = clamp(1 −
+///   (d/range)⁴, 0, 1) (1 without a range) and cone = 1 for a point light. The illuminance of a
+///   point light of I candela on a surface facing it at distance d is I/d² lux, so the luminance
+///   of a white Lambertian surface is I/(π·d²): the directional rule E/π.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Light {
+    /// Directional, point or spot.
+    pub kind: LightKind,
+    /// Unit direction the light travels: a directional light's, a spot light's axis (from the
+    /// light outward). Unused by a point light (−z).
     pub direction: DVec3,
+    /// Where a point or spot light is (world space); unused by a directional light (0).
+    pub position: DVec3,
     /// Linear RGB, each ≥ 0.
     pub color: DVec3,
-    /// ≥ 0. A surface with unit normal n receives color · intensity · max(0, −n·direction), so a
-    /// white Lambertian surface facing the light has luminance color · intensity: in physical
-    /// units, intensity = illuminance (lux) / π, in cd/m² (a glTF light's lux are divided by π).
+    /// ≥ 0: a directional light's luminance of a white surface facing it (lux / π, cd/m²); a
+    /// point or spot light's candela (`LightKind`).
     pub intensity: f64,
+    /// Point and spot lights: the distance where glTF's smooth window reaches 0 (> 0); None:
+    /// infinite, the pure inverse square.
+    pub range: Option<f64>,
+}
+
+/// d² below this (in world units²) is taken as this in a point or spot light's 1/d²: a surface
+/// point at the light gets a finite light (and none at all where l = 0), never NaN or ∞.
+pub const LOCAL_LIGHT_D2_MIN: f64 = 1e-30;
+/// The largest radiance a point or spot light adds to a surface before its albedo (pre-exposed
+/// HDR units), so that neither a sum of 8 nor a product with an albedo of 0 overflows f32 (∞, or
+/// 0 · ∞ = NaN). The shaded colour is then clamped to the HDR target's largest value.
+pub const LOCAL_LIGHT_MAX: f64 = 1e30;
+
+impl Light {
+    /// A directional light travelling along `direction` (normalized here; non-zero).
+    pub fn directional(direction: DVec3, color: DVec3, intensity: f64) -> Self {
+        Light {
+            kind: LightKind::Directional,
+            direction: direction.normalize(),
+            position: DVec3::ZERO,
+            color,
+            intensity,
+            range: None,
+        }
+    }
+
+    /// A point light at `position` of `candela`, infinite range.
+    pub fn point(position: DVec3, color: DVec3, candela: f64) -> Self {
+        Light {
+            kind: LightKind::Point,
+            direction: DVec3::NEG_Z,
+            position,
+            color,
+            intensity: candela,
+            range: None,
+        }
+    }
+
+    /// A spot light at `position` shining down `direction` (normalized here; non-zero), cone
+    /// half-angles in radians, infinite range.
+    pub fn spot(
+        position: DVec3,
+        direction: DVec3,
+        color: DVec3,
+        candela: f64,
+        inner_cone: f64,
+        outer_cone: f64,
+    ) -> Self {
+        Light {
+            kind: LightKind::Spot { inner_cone, outer_cone },
+            direction: direction.normalize(),
+            position,
+            color,
+            intensity: candela,
+            range: None,
+        }
+    }
+
+    /// The same light with glTF's `range` (> 0).
+    pub fn with_range(self, range: f64) -> Self {
+        Light { range: Some(range), ..self }
+    }
+
+    /// A point or spot light (at a position).
+    pub fn is_local(&self) -> bool {
+        !matches!(self.kind, LightKind::Directional)
+    }
+
+    /// colour × the factor a white surface facing the light at unit distance gets: colour ×
+    /// intensity for a directional light, colour × candela / π for a point or spot light.
+    pub fn radiance(&self) -> DVec3 {
+        match self.kind {
+            LightKind::Directional => self.color * self.intensity,
+            _ => self.color * (self.intensity / std::f64::consts::PI),
+        }
+    }
+
+    /// glTF's spot cone as the scale and offset of cos θ (θ from the axis): attenuation =
+    /// clamp(cos θ · scale + offset, 0, 1)², scale = 1 / max(0.001, cos inner − cos outer), offset
+    /// = −cos outer · scale (the spec's recommended implementation). A point light: (0, 1), 1
+    /// everywhere.
+    pub fn cone_scale_offset(&self) -> (f64, f64) {
+        match self.kind {
+            LightKind::Spot { inner_cone, outer_cone } => {
+                let scale = 1.0 / (inner_cone.cos() - outer_cone.cos()).max(0.001);
+                (scale, -outer_cone.cos() * scale)
+            }
+            _ => (0.0, 1.0),
+        }
+    }
+
+    /// The spot cone's attenuation for a direction of travel `toward` (unit, from the light to the
+    /// surface): clamp(cos θ · scale + offset, 0, 1)²; 1 for a point light.
+    pub fn cone_attenuation(&self, toward: DVec3) -> f64 {
+        let (scale, offset) = self.cone_scale_offset();
+        let c = (self.direction.dot(toward) * scale + offset).clamp(0.0, 1.0);
+        c * c
+    }
+
+    /// glTF's range window at distance² `d2`: clamp(1 − (d/range)⁴, 0, 1); 1 without a range.
+    pub fn window(&self, d2: f64) -> f64 {
+        match self.range {
+            Some(r) => {
+                let t = d2 / (r * r);
+                (1.0 - t * t).clamp(0.0, 1.0)
+            }
+            None => 1.0,
+        }
+    }
 }
 
 /// A `[[mesh]]`: what the file asked for and the mesh built from it.

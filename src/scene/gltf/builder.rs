@@ -10,7 +10,7 @@ use super::material::Shape;
 use super::{accessor, material, primitive, GltfError, ImportOptions};
 use crate::scene::file::MAX_LIGHTS;
 use crate::scene::mesh::{Mesh, MeshSpec};
-use crate::scene::model::{DirectionalLight, Instance, Material, SceneMesh};
+use crate::scene::model::{Instance, Light, Material, SceneMesh};
 use crate::scene::transform::{Transform, TransformOp};
 
 /// The scene parts as they are built, with the caches that make meshes and materials shared.
@@ -20,7 +20,7 @@ pub(super) struct Builder<'a> {
     pub meshes: Vec<SceneMesh>,
     pub materials: Vec<Material>,
     pub instances: Vec<Instance>,
-    pub lights: Vec<DirectionalLight>,
+    pub lights: Vec<Light>,
     pub ignored: Ignored,
     /// (glTF mesh, primitive) → (hadou mesh, its shape) or None when skipped.
     built: HashMap<(usize, usize), Option<(usize, Shape)>>,
@@ -136,7 +136,10 @@ impl<'a> Builder<'a> {
         for t in [&textures.base, &textures.emissive].into_iter().flatten() {
             let k = t.texcoord as usize;
             if attributes.is_none_or(|a| a.texcoords[k].is_empty()) {
-                self.ignored.add("textures on primitives without their TEXCOORD_n (sampled at (0, 0))", format!("{at}/TEXCOORD_{k}"));
+                self.ignored.add(
+                    "textures on primitives without their TEXCOORD_n (sampled at (0, 0))",
+                    format!("{at}/TEXCOORD_{k}"),
+                );
             }
         }
         if textures.base.is_some()
@@ -185,12 +188,12 @@ impl<'a> Builder<'a> {
         Ok(i)
     }
 
-    /// Keeps at most `MAX_LIGHTS`. Their intensity is not limited: the frame is pre-exposed
+    /// Keeps at most `MAX_LIGHTS` (of any kind; the others are named in the warning). Their intensity is not limited: the frame is pre-exposed
     /// (`effects::tonemap::pre_exposure`), so no light overflows the HDR target.
-    pub fn push_light(&mut self, l: DirectionalLight, index: usize) -> Result<(), GltfError> {
+    pub fn push_light(&mut self, l: Light, index: usize) -> Result<(), GltfError> {
         let at = format!("/extensions/KHR_lights_punctual/lights/{index}");
         if self.lights.len() == MAX_LIGHTS {
-            self.ignored.add("directional lights past the 8th", at);
+            self.ignored.add("lights past the 8th (the frame uniform holds 8)", at);
             return Ok(());
         }
         self.lights.push(l);

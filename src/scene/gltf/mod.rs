@@ -32,13 +32,13 @@ pub(crate) use limits::placed_by_transform;
 pub use limits::MAX_WORLD;
 pub use material::{sigma, MIN_ATTENUATION_COLOR, MIN_SIGMA};
 pub use nodes::MAX_DEPTH;
-pub use texture::MAX_SIDE as MAX_TEXTURE_SIDE;
 pub use primitive::Spent;
 pub(crate) use scene::build_primitive;
 pub use scene::{is_gltf, load_gltf, DEFAULT_LIGHT_DIRECTION};
+pub use texture::MAX_SIDE as MAX_TEXTURE_SIDE;
 pub use view::{framing, GltfCamera, SceneBounds, BACKDROP_RATIO, FRAMING_DIRECTION, FRAMING_FOV_DEG};
 
-use super::model::{DirectionalLight, Instance, Material, SceneMesh, DEFAULT_VOXEL_RES};
+use super::model::{Instance, Light, Material, SceneMesh, DEFAULT_VOXEL_RES};
 use super::transform::{Transform, TransformOp};
 
 /// How a glTF file is placed into a scene.
@@ -74,8 +74,8 @@ pub struct GltfImport {
     pub materials: Vec<Material>,
     /// One per (node, primitive), in depth-first node order.
     pub instances: Vec<Instance>,
-    /// Directional lights, in node order (at most `MAX_LIGHTS`).
-    pub lights: Vec<DirectionalLight>,
+    /// Lights (directional, point, spot), in node order (at most `MAX_LIGHTS`).
+    pub lights: Vec<Light>,
     /// The first perspective camera of the scene's nodes.
     pub camera: Option<GltfCamera>,
     /// World bounds (min, max) of every drawn instance, and of those a framing camera frames.
@@ -104,6 +104,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
     let mut b = builder::Builder::new(path, options, ignored);
     let all_nodes: Vec<gltf::Node> = doc.nodes().collect();
     let mut cameras = Vec::new();
+    let mut local_lights: Vec<String> = Vec::new();
     for &n in &order {
         let node = &all_nodes[n];
         let ops = hierarchy.world_ops(n, &options.base);
@@ -133,8 +134,24 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<GltfImport, GltfEr
         }
         if let Some(light) = node.light() {
             if let Some(l) = lights::light(path, &light, n, &world, &mut b.ignored)? {
+                if l.is_local() {
+                    local_lights.push(format!("/extensions/KHR_lights_punctual/lights/{}", light.index()));
+                }
                 b.push_light(l, light.index())?;
             }
+        }
+    }
+    // Translucent materials (transmission, volume) are lit through by the first directional light
+    // only; a point or spot light lights their surface as it lights an opaque one (`Scene::
+    // first_directional_light`): what it does not draw is named.
+    let translucent =
+        b.materials.iter().any(|m| matches!(m.kind, super::model::MaterialKind::Translucent { .. }));
+    if translucent {
+        for at in local_lights {
+            b.ignored.add(
+                "light of point and spot lights through translucent materials (their surfaces are lit; the light through them is the first directional light's)",
+                at,
+            );
         }
     }
     if b.instances.is_empty() {

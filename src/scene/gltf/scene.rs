@@ -11,7 +11,7 @@ use super::{framing, import, GltfError, ImportOptions};
 use crate::scene::error::SceneError;
 use crate::scene::file::MAX_IMAGE_SIZE;
 use crate::scene::mesh::{Mesh, MeshError};
-use crate::scene::model::{DirectionalLight, ExposureMode, RenderSettings, Scene};
+use crate::scene::model::{ExposureMode, Light, RenderSettings, Scene};
 
 /// The light a glTF file without `KHR_lights_punctual` directional lights gets (travelling down
 /// and away from the framing camera's side, intensity 1, white), so its surfaces are not lit by
@@ -46,7 +46,7 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
     }
     if lights.is_empty() {
         let direction = DEFAULT_LIGHT_DIRECTION.normalize();
-        lights.push(DirectionalLight { direction, color: DVec3::ONE, intensity: 1.0 });
+        lights.push(Light::directional(direction, DVec3::ONE, 1.0));
     }
     Ok(Scene {
         source: path.to_path_buf(),
