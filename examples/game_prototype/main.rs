@@ -95,6 +95,19 @@ impl Running {
         else {
             return Ok(()); // minimized or out of date: nothing drawn this time
         };
+        if let Err(e) = self.record_and_submit(&acquired) {
+            // Nothing was submitted with the image's fence: give the image back, so the next
+            // acquire does not wait on a fence nothing will signal.
+            if let Err(back) = self.presenter.abandon(self.game.vk.queue, &acquired) {
+                return Err(format!("{e} (and giving the swapchain image back failed: {back})"));
+            }
+            return Err(e);
+        }
+        self.presenter.present(self.game.vk.queue, &acquired).map_err(|e| e.to_string())
+    }
+
+    /// Records the frame into the acquired image and submits it (the last fallible step).
+    fn record_and_submit(&mut self, acquired: &hadou::present::Acquired) -> Result<(), String> {
         // The presenter waited on this slot's fence: frame n − FRAMES_IN_FLIGHT has finished.
         self.game.vk.begin_waited_slot(acquired.slot)?;
         let target = ColorTarget {
@@ -106,8 +119,7 @@ impl Running {
         };
         self.game.record(&target)?;
         let wait = (acquired.wait, vk::PipelineStageFlags2::ALL_COMMANDS);
-        self.game.vk.submit(wait, acquired.signal, acquired.fence)?;
-        self.presenter.present(self.game.vk.queue, &acquired).map_err(|e| e.to_string())
+        self.game.vk.submit(wait, acquired.signal, acquired.fence)
     }
 
     fn title(&mut self) -> String {

@@ -145,6 +145,18 @@ pub enum GpuError {
         /// What was wanted and what the surface offers.
         message: String,
     },
+    /// `Presenter::acquire` called while the previous image was neither presented nor given back
+    /// with `Presenter::abandon`: its fence was reset for a submission that never came, so waiting
+    /// on it would never return.
+    #[error("swapchain image {index} (frame slot {slot}): {message}")]
+    FrameNotFinished {
+        /// The image index of the unfinished frame.
+        index: u32,
+        /// Its frame-in-flight slot.
+        slot: usize,
+        /// What to call.
+        message: String,
+    },
     /// Pixels handed to the presenter's copy that are not one RGBA8 image of the acquired size.
     #[error("pixel copy: {bytes} bytes for a {width}x{height} RGBA8 image")]
     PixelCount {

@@ -65,18 +65,42 @@ impl ViewerGpu {
         time: f64,
     ) -> anyhow::Result<Option<Presented>> {
         let Some(acquired) = self.output.presenter.acquire(window)? else { return Ok(None) };
-        let (width, height) = (acquired.extent.width, acquired.extent.height);
+        let queue = self.runtime.context().queue;
+        match self.render_and_copy(&acquired, camera, time) {
+            Ok((rgba, stats, start)) => {
+                self.output.presenter.present(queue, &acquired)?;
+                let present_ms = start.elapsed().as_secs_f64() * 1e3;
+                let (width, height) = (acquired.extent.width, acquired.extent.height);
+                Ok(Some(Presented { width, height, rgba, stats, present_ms }))
+            }
+            Err(e) => {
+                // Nothing was submitted with the image's fence: give the image back so the next
+                // acquire (or the device's teardown) does not wait on a fence nothing signals.
+                if let Err(back) = self.output.presenter.abandon(queue, &acquired) {
+                    log::warn!("giving back the swapchain image after a failed frame: {back}");
+                }
+                Err(e)
+            }
+        }
+    }
+
+    /// Renders at the acquired image's size and copies the colour into it (one submission, the
+    /// last fallible step, signals the image's fence); the instant is when the copy began.
+    fn render_and_copy(
+        &mut self,
+        acquired: &hadou::present::Acquired,
+        camera: Camera,
+        time: f64,
+    ) -> anyhow::Result<(Vec<u8>, FrameStats, std::time::Instant)> {
         self.runtime.renderer().set_camera(camera)?;
-        let mut request = FrameRequest::new(width, height);
+        let mut request = FrameRequest::new(acquired.extent.width, acquired.extent.height);
         request.time = time;
         let frame = self.runtime.render(&request)?;
         let rgba = frame.color.context("the runtime returned no colour")?;
         let queue = self.runtime.context().queue;
         let start = std::time::Instant::now();
-        self.output.copier.copy_and_submit(queue, &acquired, &rgba)?;
-        self.output.presenter.present(queue, &acquired)?;
-        let present_ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok(Some(Presented { width, height, rgba, stats: frame.stats, present_ms }))
+        self.output.copier.copy_and_submit(queue, acquired, &rgba)?;
+        Ok((rgba, frame.stats, start))
     }
 }
 

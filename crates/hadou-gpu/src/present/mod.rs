@@ -10,7 +10,10 @@
 //!    `PRESENT_SRC_KHR` on exit) and submits them once, waiting on [`Acquired::wait`], signalling
 //!    [`Acquired::signal`] and [`Acquired::fence`] — the fence is reset by `acquire`, so a
 //!    submission with it must follow.
-//! 3. [`Presenter::present`] queues the image.
+//! 3. [`Presenter::present`] queues the image. A frame whose recording or submission failed calls
+//!    [`Presenter::abandon`] instead: it signals the fence and consumes the acquire semaphore with
+//!    an empty submission, so the slot's next wait returns; `acquire` refuses (an error, not a
+//!    wait that never returns) while the previous image was neither presented nor abandoned.
 //!
 //! A renderer that allows one frame in flight only (hadou's `Renderer` writes its per-frame data
 //! on the host) sets `PresentConfig::frames_in_flight = 1`: `acquire` then waits for the previous

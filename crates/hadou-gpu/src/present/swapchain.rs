@@ -76,6 +76,9 @@ pub struct Presenter {
     chain: Option<Chain>,
     slots: Vec<Slot>,
     next_slot: usize,
+    /// The image `acquire` handed out whose fence it reset, until `present` or `abandon`: a
+    /// submission with that fence is owed, so the next `acquire` must not wait on it.
+    outstanding: Option<Acquired>,
     stale: bool,
     recreations: u32,
 }
@@ -119,6 +122,7 @@ impl Presenter {
             chain: None,
             slots: Vec::new(),
             next_slot: 0,
+            outstanding: None,
             stale: true,
             recreations: 0,
             config,
@@ -152,6 +156,17 @@ impl Presenter {
 
     /// Acquires the next image (see the module docs). `window` is the window's inner size in pixels.
     pub fn acquire(&mut self, window: (u32, u32)) -> GpuResult<Option<Acquired>> {
+        if let Some(prev) = &self.outstanding {
+            // Its fence was reset and never submitted (or the caller lost track): waiting on the
+            // slot's fence, now or n frames later, would never return.
+            return Err(crate::GpuError::FrameNotFinished {
+                index: prev.index,
+                slot: prev.slot,
+                message: "acquired but neither presented nor given back: after a failed recording \
+                          or submission call Presenter::abandon before the next acquire"
+                    .into(),
+            });
+        }
         if window.0 == 0 || window.1 == 0 {
             return Ok(None); // minimized: nothing to draw, nothing to recreate yet
         }
@@ -186,7 +201,7 @@ impl Presenter {
         // SAFETY: the fence is this presenter's and signalled (waited above), so no submission uses it.
         unsafe { self.device.reset_fences(&[fence]) }.vk("vkResetFences")?;
         let i = index as usize;
-        Ok(Some(Acquired {
+        let acquired = Acquired {
             index,
             image: chain.images[i],
             view: chain.views[i],
@@ -196,11 +211,36 @@ impl Presenter {
             signal: chain.rendered[i],
             fence,
             slot,
-        }))
+        };
+        self.outstanding = Some(acquired);
+        Ok(Some(acquired))
+    }
+
+    /// Gives back an image whose frame was not submitted (its recording, or `vkQueueSubmit`
+    /// itself, failed): submits an empty batch on `queue` that waits on [`Acquired::wait`] and
+    /// signals [`Acquired::fence`], so the slot's fence and semaphore are ready for the next
+    /// `acquire`, and recreates the swapchain before the next image (which releases this one,
+    /// never presented: it holds no picture). Call it instead of `present`, only when no
+    /// submission with `acquired.fence` was made.
+    pub fn abandon(&mut self, queue: vk::Queue, acquired: &Acquired) -> GpuResult<()> {
+        let waits = [vk::SemaphoreSubmitInfo::default()
+            .semaphore(acquired.wait)
+            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        let submit = [vk::SubmitInfo2::default().wait_semaphore_infos(&waits)];
+        // SAFETY: `wait` has a pending signal from this presenter's acquire that nothing waits on,
+        // and `fence` was reset by it and not submitted (this function's contract); both are this
+        // presenter's, on `queue`'s device.
+        unsafe { self.device.queue_submit2(queue, &submit, acquired.fence) }.vk("vkQueueSubmit2")?;
+        // Only now: if the submission failed, the fence is still unsignalled and `acquire` refuses.
+        self.outstanding = None;
+        self.stale = true;
+        self.next_slot = (self.next_slot + 1) % self.slots.len();
+        Ok(())
     }
 
     /// Queues `acquired` for presentation on `queue` (after the caller's submission).
     pub fn present(&mut self, queue: vk::Queue, acquired: &Acquired) -> GpuResult<()> {
+        self.outstanding = None;
         self.next_slot = (self.next_slot + 1) % self.slots.len();
         let Some(chain) = &self.chain else { return Ok(()) };
         let swapchains = [chain.swapchain];
