@@ -549,3 +549,138 @@ fn translucent_material_under_a_point_light() {
     let shot = shoot(&scene);
     assert!(shot.hdr.iter().flatten().all(|v| v.is_finite()));
 }
+
+/// Metaballs under a point and a spot light (shaders/metaballs.comp calls the same
+/// `light_arriving` at its hit point camera + t·u): per pixel against `Lighting::metaball_at`.
+///
+/// The GPU shades its own f32 hit, read back exactly (the distance AOV is R32F: t) and its normal
+/// (the normal AOV, RGBA16F: within 1.01·2⁻¹⁰ rad of the f32 normal by its encoding). So the GPU's
+/// point is within δ = |t_gpu − t| + t·2⁻²² of the f64 cast's (the f32 ray direction adds ~2⁻²³
+/// rad) and its normal within θ = ∠(n_aov, n) + 1.01·2⁻¹⁰ of the f64 normal; the twin's variation
+/// over that neighbourhood — V_p = max |twin(q ± δ·e_k) − twin(q)| over the three axes and V_n =
+/// max |twin(n tilted by ±θ about two axes) − twin(n)| — bounds the shading's change to first
+/// order, doubled for the second order. On top the f32 arithmetic (the pow of the highlight:
+/// 3 + 2·48·|log₂ x| ulps, ≤ 2⁻¹⁶ relative with the rest) and the f16 store (2⁻¹⁰, 2⁻²⁴ below
+/// 2⁻¹⁴). Pixels in a group's tangency band or on the outline (a 4-neighbour's hit differs) are
+/// left out: f32 may hit or miss there. This checks the shading given the geometry; the geometry
+/// itself is tests/gpu_shading.rs's.
+#[test]
+fn metaballs_under_point_and_spot_lights_match_the_twin() {
+    use hadou::effects::metaballs::cast;
+    use hadou::effects::metaballs_f32::tangency;
+    let scene = parse(
+        r#"
+        [render]
+        ambient = [0.03, 0.03, 0.04]
+        [camera]
+        position = [2.5, 3, 6]
+        look_at = [0, 1, 0]
+        fov_y_deg = 40
+        [[light]]
+        kind = "point"
+        position = [1.2, 2.6, 1.6]
+        color = [1.0, 0.85, 0.7]
+        intensity = 6
+        range = 8
+        [[light]]
+        kind = "spot"
+        position = [-2.5, 3.5, 1.0]
+        direction = [0.8, -1, -0.3]
+        color = [0.5, 0.7, 1.0]
+        intensity = 25
+        inner_cone_deg = 8
+        outer_cone_deg = 16
+        [[material]]
+        name = "green"
+        albedo = [0.3, 0.75, 0.35]
+        [[metaballs]]
+        name = "blob"
+        material = "green"
+        transform = [{ scale = [1.3, 0.8, 1.0] }, { translate = [0, 1.2, 0] }]
+        balls = [
+          { centre = [-0.6, 0, 0], radius = 1.6 },
+          { centre = [0.6, 0.1, 0], radius = 1.5 },
+        ]
+        "#,
+    );
+    let (w, h) = (128u32, 96u32);
+    let mut rt = common::runtime();
+    rt.load_scene(scene.clone()).unwrap();
+    let mut request = FrameRequest::new(w, h);
+    request.aovs = vec![Aov::Hdr, Aov::Depth, Aov::Normal];
+    let frame = rt.render(&request).unwrap();
+    rt.finish();
+    let hdr = &frame.aov(Aov::Hdr).unwrap().data;
+    let depth = &frame.aov(Aov::Depth).unwrap().data;
+    let normal = &frame.aov(Aov::Normal).unwrap().data;
+    let lighting = Lighting::new(&scene);
+    let p = pre_exposure(&scene);
+    let group = scene.metaballs()[0].at(0.0);
+    let albedo = scene.materials[scene.metaballs()[0].material].albedo;
+    let forward = scene.camera.basis().forward;
+    let hits: Vec<Option<(DVec3, DVec3, f64)>> = (0..w * h)
+        .map(|i| {
+            let (o, u) = scene.camera.pixel_ray(i % w, i / w, w, h);
+            let along = u.dot(forward);
+            let (t0, t1) = (scene.camera.near / along, scene.camera.far / along);
+            if tangency(&group, o, u, t0, t1).in_band() {
+                return None;
+            }
+            cast(&group, o, u, t0, t1).map(|hit| {
+                let n = if hit.normal.dot(u) > 0.0 { -hit.normal } else { hit.normal };
+                (o + u * hit.t, n, hit.t)
+            })
+        })
+        .collect();
+    let (mut compared, mut lit_by_spot, mut worst) = (0usize, 0usize, 0.0f64);
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let i = (y * w + x) as usize;
+            let Some((q, n, t)) = hits[i] else { continue };
+            let neighbours = [i - 1, i + 1, i - w as usize, i + w as usize];
+            if neighbours.iter().any(|&j| hits[j].is_none()) {
+                continue; // the outline (or a band pixel beside it)
+            }
+            let (_, u) = scene.camera.pixel_ray(x, y, w, h);
+            let v = -u;
+            let twin = |q: DVec3, n: DVec3| lighting.metaball_at(albedo, q, n, v) * p;
+            let n_gpu = DVec3::new(normal[i * 4] as f64, normal[i * 4 + 1] as f64, normal[i * 4 + 2] as f64);
+            let theta = n_gpu.normalize().dot(n).clamp(-1.0, 1.0).acos() + 1.01 / 1024.0;
+            let delta = (depth[i] as f64 - t).abs() + t * 2f64.powi(-22);
+            let base = twin(q, n);
+            let mut vp = DVec3::ZERO;
+            for e in [DVec3::X, DVec3::Y, DVec3::Z] {
+                for s in [-1.0, 1.0] {
+                    vp = vp.max((twin(q + e * (s * delta), n) - base).abs());
+                }
+            }
+            let (a, b) = n.any_orthonormal_pair();
+            let mut vn = DVec3::ZERO;
+            for axis in [a, b] {
+                for s in [-1.0, 1.0] {
+                    let turned = glam::DQuat::from_axis_angle(axis, s * theta) * n;
+                    vn = vn.max((twin(q, turned) - base).abs());
+                }
+            }
+            let bound =
+                (vp + vn) * 2.0 + base * (2f64.powi(-10) + 2f64.powi(-16)) + DVec3::splat(2f64.powi(-24));
+            for k in 0..3 {
+                let e = (hdr[i * 4 + k] as f64 - base[k]).abs();
+                worst = worst.max(e / bound[k]);
+                assert!(
+                    e <= bound[k],
+                    "({x}, {y}) channel {k}: gpu {}, twin {}, bound {}",
+                    hdr[i * 4 + k],
+                    base[k],
+                    bound[k]
+                );
+            }
+            compared += 1;
+            let spot = &lighting.local[1];
+            lit_by_spot +=
+                usize::from(spot.arriving(q).1.max_element() > 0.0 && n.dot(spot.arriving(q).0) > 0.0);
+        }
+    }
+    println!("metaballs: {compared} pixels, {lit_by_spot} lit by the spot; max error / bound {worst:.3}");
+    assert!(compared > 1000 && lit_by_spot > 50, "{compared} pixels, {lit_by_spot} lit by the spot");
+}
