@@ -153,8 +153,8 @@ pub(crate) fn record_passes(
             views: &mut views,
         };
         let bindings = pass.prepare(&mut frame)?;
-        let uses = pass.images();
-        crate::effect::check_bindings(&**pass, &uses, &bindings)?;
+        // Each image is declared once: by its binding, or in images() when no binding shows it.
+        let uses = crate::effect::declared_images(&**pass, pass.images(), &bindings)?;
         // After prepare: a pass may size its images from this frame (the light maps).
         for image in &uses {
             f.targets.ensure(f.ctx, f.memory, image.target, image.extent)?;
@@ -163,8 +163,8 @@ pub(crate) fn record_passes(
         let bound: Vec<Bound> = bindings
             .iter()
             .map(|b| match *b {
-                Binding::Image(t) => Bound::StorageImage(f.targets.image(t).view),
-                Binding::SampledImage(t, sampler) => Bound::Sampled(f.targets.image(t).view, sampler),
+                Binding::Image(u) => Bound::StorageImage(f.targets.image(u.target).view),
+                Binding::SampledImage(u, sampler) => Bound::Sampled(f.targets.image(u.target).view, sampler),
                 Binding::Bound(b) => b,
                 Binding::Written(range, reader) => {
                     written.push((range, reader));

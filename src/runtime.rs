@@ -262,13 +262,8 @@ impl Runtime {
         if request.color {
             wanted.push(Target::Ldr);
         }
-        if let Some(missing) = wanted.iter().find(|t| !self.renderer.produces(**t)) {
-            return Err(Error::NotProduced {
-                target: missing.name(),
-                passes: self.renderer.pass_names().join(", "),
-                needs: missing.needs(),
-            });
-        }
+        // What the frame's passes do not write is refused by `record_readback` once the frame is
+        // recorded (they declare their images as they prepare it); nothing is submitted then.
         let slot = self.next_slot();
         // The slot's previous frame must have finished before it is recorded again.
         self.commands[slot].begin(self.renderer.context())?;

@@ -497,8 +497,8 @@ static NOBODY_WRITES: ImageDesc = ImageDesc {
     needs: "a pass that writes it",
 };
 
-/// A pass that gets its declaration wrong: reads an image no pass writes, or binds one it did
-/// not declare.
+/// A pass that gets its declaration wrong: reads an image no pass writes, or declares one image
+/// with two uses (bound as a storage image, and sampled in `images()`).
 struct Wrong {
     reads_unwritten: bool,
 }
@@ -510,15 +510,15 @@ impl Pass for Wrong {
 
     fn images(&self) -> Vec<ImageUse> {
         match self.reads_unwritten {
-            true => vec![ImageUse::new(Target::Custom(&NOBODY_WRITES), ImageAccess::COMPUTE_READ)],
+            true => Vec::new(),
             false => vec![ImageUse::new(Target::Hdr, ImageAccess::COMPUTE_SAMPLED)],
         }
     }
 
     fn prepare(&mut self, _frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         match self.reads_unwritten {
-            true => Ok(Vec::new()),
-            false => Ok(vec![Binding::Image(Target::Hdr), Binding::Image(Target::Distance)]),
+            true => Ok(vec![Binding::read(Target::Custom(&NOBODY_WRITES))]),
+            false => Ok(vec![Binding::read_write(Target::Hdr), Binding::read(Target::Distance)]),
         }
     }
 
@@ -562,8 +562,8 @@ fn frames_with_wrong_declarations_are_errors_not_panics() {
     );
     rt.renderer().update_effect(|reads: &mut bool| *reads = false).unwrap();
     let e = rt.render(&request).unwrap_err();
-    assert!(matches!(e, Error::Effect(EffectError::Undeclared { pass: "wrong", .. })), "{e}");
-    assert!(e.to_string().contains("binds image hdr as a storage image"), "{e}");
+    assert!(matches!(e, Error::Effect(EffectError::Declaration { pass: "wrong", image: "hdr", .. })), "{e}");
+    assert!(e.to_string().contains("one use per image"), "{e}");
     // Taken out again, the frame renders (nothing was half-recorded).
     assert!(rt.renderer().remove_effect("wrong").unwrap());
     rt.render(&request).unwrap();

@@ -13,6 +13,17 @@ use std::process::{Command, Output, Stdio};
 
 use common::xvfb::Xvfb;
 
+/// Held for writing while a test copies the binary and for reading while one runs a process: a
+/// process forked while another thread still has the copy open for writing holds that file
+/// descriptor until it execs, and exec of the copy then fails with ETXTBSY ("Text file busy").
+static SPAWN: std::sync::RwLock<()> = std::sync::RwLock::new(());
+
+/// Runs `cmd` to completion, never while a copy of the binary is being written.
+fn output_of(cmd: &mut Command) -> std::io::Result<Output> {
+    let _running = SPAWN.read().unwrap_or_else(|e| e.into_inner());
+    cmd.output()
+}
+
 /// A folder with `bin/hadou` in it, removed when dropped.
 struct Installed {
     dir: PathBuf,
@@ -25,7 +36,10 @@ impl Installed {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(dir.join("bin")).unwrap();
         let exe = dir.join("bin/hadou");
-        std::fs::copy(env!("CARGO_BIN_EXE_hadou"), &exe).unwrap();
+        {
+            let _copying = SPAWN.write().unwrap_or_else(|e| e.into_inner());
+            std::fs::copy(env!("CARGO_BIN_EXE_hadou"), &exe).unwrap();
+        }
         Installed { dir, exe }
     }
 
@@ -44,7 +58,7 @@ impl Installed {
     }
 
     fn run(&self, args: &[&str]) -> Output {
-        let out = self.command(args).output().expect("run the installed hadou");
+        let out = output_of(&mut self.command(args)).expect("run the installed hadou");
         assert!(out.status.success(), "hadou {args:?}:\n{}", text(&out));
         out
     }
@@ -109,7 +123,7 @@ fn every_command_runs_outside_the_source_tree() {
         serde_json::from_str(&std::fs::read_to_string(hadou.path("p.json")).unwrap()).unwrap();
     assert!(json.is_object());
     // The CI commands: compare two images, golden-test a folder, gate two profiles.
-    let out = hadou.command(&["compare", "s.png", "s.png"]).output().unwrap();
+    let out = output_of(&mut hadou.command(&["compare", "s.png", "s.png"])).unwrap();
     assert!(out.status.success(), "compare: {}", text(&out));
     std::fs::create_dir_all(hadou.path("scenes")).unwrap();
     let cube = "[camera]\nposition = [0, 1, 4]\nlook_at = [0, 0, 0]\n[render]\nsize = [32, 24]\n\
@@ -117,32 +131,29 @@ fn every_command_runs_outside_the_source_tree() {
     std::fs::write(hadou.path("scenes/cube.toml"), cube).unwrap();
     for args in [&["test", "scenes", "--refs", "refs", "--bless"][..], &["test", "scenes", "--refs", "refs"]]
     {
-        let out = hadou.command(args).output().unwrap();
+        let out = output_of(&mut hadou.command(args)).unwrap();
         assert!(out.status.success(), "{args:?}: {}", text(&out));
     }
-    let out = hadou.command(&["profile-diff", "p.json", "p.json"]).output().unwrap();
+    let out = output_of(&mut hadou.command(&["profile-diff", "p.json", "p.json"])).unwrap();
     assert!(out.status.success(), "profile-diff: {}", text(&out));
     let out = hadou.run(&["bake", "builtin:translucency", "--res", "8"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("res 8"), "{}", text(&out));
     assert!(!text(&out).contains('%'), "bake into a pipe prints no progress:\n{}", text(&out));
     // An unknown built-in is an error that lists the names.
-    let out = hadou.command(&["render", "builtin:nope", "-o", "n.png"]).output().unwrap();
+    let out = output_of(&mut hadou.command(&["render", "builtin:nope", "-o", "n.png"])).unwrap();
     assert!(!out.status.success() && text(&out).contains("builtin:nope: no such built-in scene"));
     assert!(text(&out).contains("showcase"), "{}", text(&out));
 
     let x = Xvfb::start();
-    let out = hadou
-        .command(&[
-            "view",
-            "builtin:single_cube",
-            "--size",
-            "48x32",
-            "--script",
-            "frames=2;screenshot=v.png;quit",
-        ])
-        .env("DISPLAY", &x.display)
-        .output()
-        .unwrap();
+    let mut view = hadou.command(&[
+        "view",
+        "builtin:single_cube",
+        "--size",
+        "48x32",
+        "--script",
+        "frames=2;screenshot=v.png;quit",
+    ]);
+    let out = output_of(view.env("DISPLAY", &x.display)).unwrap();
     drop(x);
     assert!(out.status.success(), "{}", text(&out));
     assert_eq!(png_size(&hadou.path("v.png")), (48, 32));
@@ -155,13 +166,13 @@ fn progress_is_drawn_on_a_terminal() {
     let hadou = Installed::new("tty");
     let line = format!("{} bake builtin:translucency --res 9 --force", hadou.exe.display());
     // `script` runs the command on a new pseudo-terminal and copies what it wrote to stdout.
-    let out = Command::new("script")
+    let mut script = Command::new("script");
+    script
         .args(["-qec", &line, "/dev/null"])
         .current_dir(&hadou.dir)
         .env("HADOU_CACHE_DIR", hadou.dir.join("cache"))
-        .stdin(Stdio::null())
-        .output()
-        .expect("util-linux `script`");
+        .stdin(Stdio::null());
+    let out = output_of(&mut script).expect("util-linux `script`");
     let tty = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{tty}");
     assert!(tty.contains("baking mesh") && tty.contains("100%"), "no progress bar on a terminal:\n{tty}");

@@ -85,27 +85,20 @@ impl Pass for TrailPass {
         "trail"
     }
 
-    fn images(&self) -> Vec<ImageUse> {
-        let (previous, current) = match self.declare {
-            Declare::Right => (ImageAccess::COMPUTE_READ, ImageAccess::COMPUTE_WRITE),
-            Declare::WritesHistory => (ImageAccess::COMPUTE_WRITE, ImageAccess::COMPUTE_WRITE),
-            Declare::NoWriter => (ImageAccess::COMPUTE_READ, ImageAccess::COMPUTE_READ),
-        };
-        vec![
-            ImageUse::new(Target::Previous(&TRAIL), previous),
-            ImageUse::new(Target::Custom(&TRAIL), current),
-        ]
-    }
-
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         if let Some(t) = frame.scene.effects.get::<Trail>() {
             self.params = TrailParams { p: [t.weight, t.level, 0.0, 0.0] };
             self.declare = t.declare;
         }
         self.extent = frame.extent;
+        let (previous, current) = match self.declare {
+            Declare::Right => (ImageAccess::COMPUTE_READ, ImageAccess::COMPUTE_WRITE),
+            Declare::WritesHistory => (ImageAccess::COMPUTE_WRITE, ImageAccess::COMPUTE_WRITE),
+            Declare::NoWriter => (ImageAccess::COMPUTE_READ, ImageAccess::COMPUTE_READ),
+        };
         Ok(vec![
-            Binding::Image(Target::Previous(&TRAIL)),
-            Binding::Image(Target::Custom(&TRAIL)),
+            Binding::Image(ImageUse::new(Target::Previous(&TRAIL), previous)),
+            Binding::Image(ImageUse::new(Target::Custom(&TRAIL), current)),
             Binding::Bound(Bound::Uniform(frame.uniforms)),
         ])
     }

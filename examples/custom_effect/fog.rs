@@ -10,8 +10,8 @@
 
 use glam::DVec3;
 use hadou::effect::{
-    Binding, Bound, Effect, EffectPass, EffectState, FrameContext, GpuResult, ImageAccess, ImageDesc,
-    ImageUse, Pass, PassBuilder, PassRecording, Pipeline, SceneFile, Target,
+    Binding, Bound, Effect, EffectPass, EffectState, FrameContext, GpuResult, ImageDesc, Pass, PassBuilder,
+    PassRecording, Pipeline, SceneFile, Target,
 };
 use hadou::gpu::vk;
 use hadou::scene::{Scene, SceneError};
@@ -208,14 +208,6 @@ impl Pass for FogPass {
         "fog"
     }
 
-    fn images(&self) -> Vec<ImageUse> {
-        vec![
-            ImageUse::new(Target::Distance, ImageAccess::COMPUTE_READ),
-            ImageUse::new(Target::Hdr, ImageAccess::COMPUTE_READ_WRITE),
-            ImageUse::new(Target::Custom(&FOG_TRANSMITTANCE), ImageAccess::COMPUTE_WRITE),
-        ]
-    }
-
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         // `needed` ran this pass only with a fog of density > 0.
         if let Some(fog) = frame.scene.effects.get::<Fog>() {
@@ -223,9 +215,9 @@ impl Pass for FogPass {
         }
         self.extent = frame.extent;
         Ok(vec![
-            Binding::Image(Target::Distance),
-            Binding::Image(Target::Hdr),
-            Binding::Image(Target::Custom(&FOG_TRANSMITTANCE)),
+            Binding::read(Target::Distance),
+            Binding::read_write(Target::Hdr),
+            Binding::write(Target::Custom(&FOG_TRANSMITTANCE)),
             Binding::Bound(Bound::Uniform(frame.uniforms)),
         ])
     }

@@ -102,18 +102,17 @@ impl Pass for GlowPass {
         "sky_glow"
     }
 
+    // The render target is no binding: declared here. The distance is declared by its binding.
     fn images(&self) -> Vec<ImageUse> {
-        vec![
-            ImageUse::new(Target::Distance, ImageAccess::FRAGMENT_READ),
-            ImageUse::new(Target::Hdr, ImageAccess::COLOR_ATTACHMENT),
-        ]
+        vec![ImageUse::new(Target::Hdr, ImageAccess::COLOR_ATTACHMENT)]
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         if let Some(glow) = frame.scene.effects.get::<Glow>() {
             self.params = GlowParams::new(glow, frame.pre_exposure);
         }
-        Ok(vec![Binding::Image(Target::Distance), Binding::Bound(Bound::Uniform(frame.uniforms))])
+        let distance = ImageUse::new(Target::Distance, ImageAccess::FRAGMENT_READ);
+        Ok(vec![Binding::Image(distance), Binding::Bound(Bound::Uniform(frame.uniforms))])
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {

@@ -37,18 +37,16 @@ pub enum EffectError {
     /// `update_effect` / `effect` asked for data the loaded scene does not hold.
     #[error("the loaded scene holds no {0} (no effect loaded data of that type)")]
     NoData(&'static str),
-    /// A pass binds an image it did not declare in `Pass::images()`, or binds it in a way its
-    /// declared access does not allow.
-    #[error("pass {pass} binds image {image} as {binding}, but {declared}")]
-    Undeclared {
+    /// A pass declares an image in a way that cannot work: a storage binding outside the GENERAL
+    /// layout, or one image with two different uses.
+    #[error("pass {pass} declares image {image} wrongly: expected {expected}")]
+    Declaration {
         /// The pass.
         pass: &'static str,
         /// The image.
         image: &'static str,
-        /// How it binds it: "a storage image" or "a sampled image".
-        binding: &'static str,
-        /// What `images()` says instead.
-        declared: String,
+        /// What was expected, and what the pass declared.
+        expected: String,
     },
     /// A pass reads an image that no pass of the frame writes before it.
     #[error(

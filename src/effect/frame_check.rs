@@ -45,36 +45,46 @@ pub(crate) fn check_reads<'a>(
     Ok(())
 }
 
-/// Refuses an image binding of `pass` that its `images()` does not declare, or declares for
-/// another kind of access (a storage image is used in the GENERAL layout).
-pub(crate) fn check_bindings(
+/// The images `pass` touches this frame: those its bindings declare and those `images()` adds
+/// (attachments, copies). An image may appear more than once only with the same use (a pass
+/// binding one image to two of its pipelines); a storage image is bound in the GENERAL layout.
+pub(crate) fn declared_images(
     pass: &dyn Pass,
-    uses: &[ImageUse],
+    images: Vec<ImageUse>,
     bindings: &[Binding],
-) -> Result<(), EffectError> {
-    for b in bindings {
-        let (target, binding) = match *b {
-            Binding::Image(t) => (t, "a storage image"),
-            Binding::SampledImage(t, _) => (t, "a sampled image"),
-            _ => continue,
-        };
-        let declared: Vec<&ImageUse> = uses.iter().filter(|u| u.target == target).collect();
-        let fits = |u: &&ImageUse| match b {
-            Binding::Image(_) => u.access.layout == vk::ImageLayout::GENERAL,
-            _ => true,
-        };
-        if !declared.iter().any(fits) {
-            let declared = match declared.first() {
-                None => "images() does not declare it".to_string(),
-                Some(u) => format!("images() declares it in layout {:?}", u.access.layout),
-            };
-            return Err(EffectError::Undeclared {
-                pass: pass.name(),
-                image: target.name(),
-                binding,
-                declared,
-            });
+) -> Result<Vec<ImageUse>, EffectError> {
+    let mut uses: Vec<ImageUse> = Vec::with_capacity(images.len() + bindings.len());
+    let declared = bindings
+        .iter()
+        .filter_map(|b| b.image_use().map(|u| (u, Some(b))))
+        .chain(images.into_iter().map(|u| (u, None)));
+    for (u, binding) in declared {
+        if let Some(Binding::Image(_)) = binding {
+            if u.access.layout != vk::ImageLayout::GENERAL {
+                return Err(EffectError::Declaration {
+                    pass: pass.name(),
+                    image: u.target.name(),
+                    expected: format!(
+                        "a storage image binding in the GENERAL layout (it declares {:?})",
+                        u.access.layout
+                    ),
+                });
+            }
+        }
+        match uses.iter().find(|d| d.target == u.target) {
+            Some(d) if *d == u => {}
+            Some(d) => {
+                return Err(EffectError::Declaration {
+                    pass: pass.name(),
+                    image: u.target.name(),
+                    expected: format!(
+                        "one use per image in a pass (it is declared with {:?} and with {:?})",
+                        d.access, u.access
+                    ),
+                });
+            }
+            None => uses.push(u),
         }
     }
-    Ok(())
+    Ok(uses)
 }

@@ -32,7 +32,7 @@ pub use crate::effects::energy_wave::{EnergyWave, Waves};
 pub use crate::effects::metaballs::{MetaballGroups, Metaballs};
 pub use builtin::Translucency;
 pub use error::EffectError;
-pub(crate) use frame_check::{check_bindings, check_reads};
+pub(crate) use frame_check::{check_reads, declared_images};
 pub use registry::Effects;
 pub(crate) use registry::{ScenePasses, SharedData};
 pub(crate) use scene_file::top_level_keys;

@@ -132,17 +132,7 @@ impl Pass for CompositePass {
     }
 
     fn images(&self) -> Vec<ImageUse> {
-        if self.auto_frame {
-            return vec![
-                ImageUse::new(Target::Hdr, MEASURED_FRAGMENT_STORAGE_READ),
-                ImageUse::new(Target::Ids, ImageAccess::COMPUTE_READ),
-                ImageUse::new(Target::GameColor, ImageAccess::COLOR_ATTACHMENT),
-            ];
-        }
-        vec![
-            ImageUse::new(Target::Hdr, FRAGMENT_STORAGE_READ),
-            ImageUse::new(Target::GameColor, ImageAccess::COLOR_ATTACHMENT),
-        ]
+        vec![ImageUse::new(Target::GameColor, ImageAccess::COLOR_ATTACHMENT)]
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
@@ -153,7 +143,7 @@ impl Pass for CompositePass {
             // exposure / pre-exposure: the HDR target is pre-exposed (`effects::tonemap::pre_exposure`).
             let exposure = crate::effects::tonemap::tonemap_factor(frame.scene, frame.pre_exposure) as f32;
             self.params = Params { exposure, mode, ..Params::default() };
-            return Ok(vec![Binding::Image(Target::Hdr)]);
+            return Ok(vec![Binding::Image(ImageUse::new(Target::Hdr, FRAGMENT_STORAGE_READ))]);
         }
         let (auto, buffer) = self.state.prepare(frame)?;
         let (pre_log2, history, weight) = auto;
@@ -161,12 +151,8 @@ impl Pass for CompositePass {
         self.measure_params =
             super::tonemap::Params::measurement(frame.extent.width, frame.extent.height, auto);
         // Binding 1 is exposure.comp's and tonemap.comp's `ldr`, unused here: the HDR again.
-        Ok(vec![
-            Binding::Image(Target::Hdr),
-            Binding::Image(Target::Hdr),
-            Binding::Image(Target::Ids),
-            Binding::Written(buffer, Reader::Host),
-        ])
+        let hdr = Binding::Image(ImageUse::new(Target::Hdr, MEASURED_FRAGMENT_STORAGE_READ));
+        Ok(vec![hdr, hdr, Binding::read(Target::Ids), Binding::Written(buffer, Reader::Host)])
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {

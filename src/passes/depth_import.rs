@@ -93,11 +93,7 @@ impl Pass for DepthImportPass {
     }
 
     fn images(&self) -> Vec<ImageUse> {
-        vec![
-            ImageUse::new(Target::GameDepth, ImageAccess::COMPUTE_SAMPLED),
-            ImageUse::new(Target::Distance, ImageAccess::COMPUTE_WRITE),
-            ImageUse::new(Target::Depth, ImageAccess::TRANSFER_DST),
-        ]
+        vec![ImageUse::new(Target::Depth, ImageAccess::TRANSFER_DST)]
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
@@ -123,8 +119,8 @@ impl Pass for DepthImportPass {
             .as_ref()
             .map_or(BufferRange::whole(vk::Buffer::null()), |b| BufferRange::whole(b.raw));
         Ok(vec![
-            Binding::SampledImage(Target::GameDepth, self.sampler.raw),
-            Binding::Image(Target::Distance),
+            Binding::sampled(Target::GameDepth, self.sampler.raw),
+            Binding::write(Target::Distance),
             Binding::Written(staging, Reader::Copy),
             Binding::Bound(Bound::Uniform(frame.uniforms)),
         ])

@@ -101,19 +101,15 @@ impl Pass for DepthOutPass {
     }
 
     fn images(&self) -> Vec<ImageUse> {
-        vec![
-            ImageUse::new(Target::Ids, FRAGMENT_STORAGE_READ),
-            ImageUse::new(Target::Distance, FRAGMENT_STORAGE_READ),
-            ImageUse::new(Target::GameDepth, ImageAccess::DEPTH_ATTACHMENT),
-        ]
+        vec![ImageUse::new(Target::GameDepth, ImageAccess::DEPTH_ATTACHMENT)]
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let (a, b) = self.convention.map_or((0.0, 1.0), |c| c.coefficients());
         self.params = Params { planes: [a as f32, b as f32, 0.0, 0.0] };
         Ok(vec![
-            Binding::Image(Target::Ids),
-            Binding::Image(Target::Distance),
+            Binding::Image(ImageUse::new(Target::Ids, FRAGMENT_STORAGE_READ)),
+            Binding::Image(ImageUse::new(Target::Distance, FRAGMENT_STORAGE_READ)),
             Binding::Bound(Bound::Uniform(frame.uniforms)),
         ])
     }

@@ -5,7 +5,7 @@
 
 use crate::gpu::memory::MemoryLocation;
 
-use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
+use super::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::effects::energy_wave_f32::GpuWave;
 use crate::gpu::memory::Buffer;
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
@@ -87,10 +87,6 @@ impl ProbePass {
 impl Pass for ProbePass {
     fn name(&self) -> &'static str {
         "energy_probe"
-    }
-
-    fn images(&self) -> Vec<ImageUse> {
-        Vec::new()
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {

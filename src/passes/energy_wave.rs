@@ -4,10 +4,9 @@
 //! `method = "raymarch"` waves are sampled instead (the baseline). CPU twins:
 //! `effects::energy_wave` (f64) and `effects::energy_wave_f32` (the shader's arithmetic).
 
-use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
+use super::{Binding, FrameContext, Pass, PassRecording};
 use crate::effects::energy_wave::WaveParams;
 use crate::effects::energy_wave_f32::{gpu_wave, GpuWave};
-use crate::gpu::barriers::ImageAccess;
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
@@ -86,14 +85,6 @@ impl Pass for EnergyWavePass {
         "energy_wave"
     }
 
-    fn images(&self) -> Vec<ImageUse> {
-        vec![
-            ImageUse::new(Target::Distance, ImageAccess::COMPUTE_READ),
-            ImageUse::new(Target::Hdr, ImageAccess::COMPUTE_READ_WRITE),
-            ImageUse::new(Target::Energy, ImageAccess::COMPUTE_WRITE),
-        ]
-    }
-
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let scene = frame.scene;
         let camera = scene.camera.position;
@@ -118,9 +109,9 @@ impl Pass for EnergyWavePass {
             (waves, styles)
         };
         Ok(vec![
-            Binding::Image(Target::Distance),
-            Binding::Image(Target::Hdr),
-            Binding::Image(Target::Energy),
+            Binding::read(Target::Distance),
+            Binding::read_write(Target::Hdr),
+            Binding::write(Target::Energy),
             Binding::Bound(Bound::Storage(frame.upload(&waves)?)),
             Binding::Bound(Bound::Storage(frame.upload(&styles)?)),
             Binding::Bound(Bound::Uniform(frame.uniforms)),

@@ -47,11 +47,10 @@
 use crate::gpu::memory::MemoryLocation;
 use glam::DVec3;
 
-use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
+use super::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::effects::metaballs::{CastMethod, MetaballGroupParams};
 use crate::effects::metaballs_f32::{gpu_balls, gpu_group, world_bound, GpuMetaBall, GpuMetaGroup};
 use crate::frame::FrameStats;
-use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::Buffer;
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
@@ -409,13 +408,6 @@ impl Pass for MetaballsPass {
         "metaballs"
     }
 
-    fn images(&self) -> Vec<ImageUse> {
-        [Target::Distance, Target::Hdr, Target::Normal, Target::Ids]
-            .into_iter()
-            .map(|t| ImageUse::new(t, ImageAccess::COMPUTE_READ_WRITE))
-            .collect()
-    }
-
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let scene = frame.scene;
         let extent = frame.extent;
@@ -476,10 +468,10 @@ impl Pass for MetaballsPass {
         let dispatch = BufferRange::whole(self.frame_dispatch);
         let (quad, word) = (Texels::U32x4, Texels::U32);
         Ok(vec![
-            Binding::Image(Target::Distance),
-            Binding::Image(Target::Hdr),
-            Binding::Image(Target::Normal),
-            Binding::Image(Target::Ids),
+            Binding::read_write(Target::Distance),
+            Binding::read_write(Target::Hdr),
+            Binding::read_write(Target::Normal),
+            Binding::read_write(Target::Ids),
             Binding::Bound(Bound::Uniform(frame.uniforms)),
             Binding::Bound(Bound::Storage(frame.materials)),
             Binding::Bound(frame.texels("metaballs groups", &gpu_groups, quad)?),

@@ -36,15 +36,47 @@ use crate::targets::{Target, Targets};
 /// One resource of a pass's descriptor set, in binding order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Binding {
-    /// A frame image the pass declared in `images()`, bound as a storage image.
-    Image(Target),
-    /// A frame image the pass declared in `images()`, sampled (NEAREST) with `sampler`.
-    SampledImage(Target, vk::Sampler),
+    /// A frame image bound as a storage image (its access in the GENERAL layout). This one
+    /// declaration makes the runner create the image, place its barrier and bind it; it is not
+    /// repeated in `Pass::images()`. `Binding::read` / `write` / `read_write` for a compute pass.
+    Image(ImageUse),
+    /// A frame image sampled with `sampler` (`Binding::sampled` for a compute pass).
+    SampledImage(ImageUse, vk::Sampler),
     /// Anything else the pass owns or the frame's ring holds (read by the GPU, written by the host).
     Bound(Bound),
     /// A storage buffer the pass writes, and who reads it afterwards: the runner places the
     /// barriers before (after that reader's previous-frame use) and after the pass.
     Written(BufferRange, Reader),
+}
+
+impl Binding {
+    /// `target` read by a compute shader as a storage image.
+    pub fn read(target: Target) -> Binding {
+        Binding::Image(ImageUse::new(target, ImageAccess::COMPUTE_READ))
+    }
+
+    /// `target` written by a compute shader as a storage image.
+    pub fn write(target: Target) -> Binding {
+        Binding::Image(ImageUse::new(target, ImageAccess::COMPUTE_WRITE))
+    }
+
+    /// `target` read and written by a compute shader as a storage image.
+    pub fn read_write(target: Target) -> Binding {
+        Binding::Image(ImageUse::new(target, ImageAccess::COMPUTE_READ_WRITE))
+    }
+
+    /// `target` sampled by a compute shader with `sampler`.
+    pub fn sampled(target: Target, sampler: vk::Sampler) -> Binding {
+        Binding::SampledImage(ImageUse::new(target, ImageAccess::COMPUTE_SAMPLED), sampler)
+    }
+
+    /// The frame image this binding declares, if it is one.
+    pub fn image_use(&self) -> Option<ImageUse> {
+        match *self {
+            Binding::Image(u) | Binding::SampledImage(u, _) => Some(u),
+            _ => None,
+        }
+    }
 }
 
 /// Who reads a buffer a pass wrote.
@@ -184,8 +216,12 @@ pub fn plan(scene: &Scene) -> Vec<&'static str> {
 pub trait Pass: Send {
     /// The pass's one name: file, shader, debug label, timestamp scope, test.
     fn name(&self) -> &'static str;
-    /// The frame images this pass reads or writes, and how.
-    fn images(&self) -> Vec<ImageUse>;
+    /// The frame images this pass touches other than through its bindings — render attachments,
+    /// copies, clears — and how (called after `prepare`). An image a `Binding` declares is not
+    /// repeated here: each image is declared once.
+    fn images(&self) -> Vec<ImageUse> {
+        Vec::new()
+    }
     /// This frame's host work (uploads through the slot's ring) and the resources of descriptor
     /// set 0, in binding order; each pipeline's set holds those its shaders use.
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>>;

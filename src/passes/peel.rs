@@ -219,18 +219,6 @@ impl Pass for PeelPass {
         "peel"
     }
 
-    fn images(&self) -> Vec<ImageUse> {
-        let map = Some(vk::Extent2D { width: self.size, height: self.size });
-        vec![
-            ImageUse { target: Target::PeelCounts, access: COUNTS_ACCESS, extent: map },
-            ImageUse {
-                target: Target::PeelLists,
-                access: LISTS_ACCESS,
-                extent: Some(lists_extent(self.size)),
-            },
-        ]
-    }
-
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let scene = frame.scene;
         let view = LightView::fit(scene);
@@ -266,10 +254,15 @@ impl Pass for PeelPass {
         }
         let stats = &mut self.stats[frame.slot];
         stats.write(0, &[0u8; 4 * STAT_COUNT])?;
+        let map = Some(vk::Extent2D { width: self.size, height: self.size });
         Ok(vec![
             Binding::Bound(Bound::Storage(frame.instances)),
-            Binding::Image(Target::PeelCounts),
-            Binding::Image(Target::PeelLists),
+            Binding::Image(ImageUse { target: Target::PeelCounts, access: COUNTS_ACCESS, extent: map }),
+            Binding::Image(ImageUse {
+                target: Target::PeelLists,
+                access: LISTS_ACCESS,
+                extent: Some(lists_extent(self.size)),
+            }),
             Binding::Written(BufferRange::whole(stats.raw), Reader::Host),
         ])
     }

@@ -10,9 +10,8 @@
 //! and folded into the adapted luminance (`effects::tonemap::adapt`, over the frames' scene time), which
 //! later frames start from; a first frame (a headless render) uses its own measurement alone.
 
-use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
+use super::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::effects::tonemap::{adapt, adaptation_weight, tonemap_factor};
-use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::{Buffer, MemoryLocation};
 use crate::gpu::pipeline::{create_compute_pipeline, BufferRange, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
@@ -169,17 +168,6 @@ impl Pass for TonemapPass {
         "tonemap"
     }
 
-    fn images(&self) -> Vec<ImageUse> {
-        let mut images = vec![
-            ImageUse::new(Target::Hdr, ImageAccess::COMPUTE_READ),
-            ImageUse::new(Target::Ldr, ImageAccess::COMPUTE_WRITE),
-        ];
-        if self.auto_frame {
-            images.push(ImageUse::new(Target::Ids, ImageAccess::COMPUTE_READ));
-        }
-        images
-    }
-
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let e = frame.extent;
         self.auto_frame = frame.scene.render.exposure_mode == ExposureMode::Auto;
@@ -187,14 +175,14 @@ impl Pass for TonemapPass {
             self.state.reset();
             let exposure = tonemap_factor(frame.scene, frame.pre_exposure) as f32;
             self.params = Params { exposure, width: e.width, height: e.height, ..Params::default() };
-            return Ok(vec![Binding::Image(Target::Hdr), Binding::Image(Target::Ldr)]);
+            return Ok(vec![Binding::read(Target::Hdr), Binding::write(Target::Ldr)]);
         }
         let (auto, buffer) = self.state.prepare(frame)?;
         self.params = Params::measurement(e.width, e.height, auto);
         Ok(vec![
-            Binding::Image(Target::Hdr),
-            Binding::Image(Target::Ldr),
-            Binding::Image(Target::Ids),
+            Binding::read(Target::Hdr),
+            Binding::write(Target::Ldr),
+            Binding::read(Target::Ids),
             Binding::Written(buffer, Reader::Host),
         ])
     }

@@ -66,12 +66,11 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
-use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
+use super::{Binding, FrameContext, Pass, PassRecording};
 use crate::effects::bake_cache::BakeCache;
 use crate::effects::thickness_lut::{bake, BakeOptions, ThicknessLut, TAU_STEPS};
 use crate::effects::thickness_pairs::{self, PairOptions, PairTable};
 use crate::effects::translucency::{light_map_size, LightView};
-use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::{Image, Memory};
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, Pipeline};
 use crate::gpu::sampler::Sampler;
@@ -722,24 +721,6 @@ impl Pass for TranslucencyPass {
         "translucency"
     }
 
-    fn images(&self) -> Vec<ImageUse> {
-        let peel =
-            [Target::PeelCounts, Target::PeelLists].map(|t| ImageUse::new(t, ImageAccess::COMPUTE_READ));
-        let peel = peel.into_iter().filter(|_| self.peel);
-        vec![
-            ImageUse::new(Target::Ids, ImageAccess::COMPUTE_READ),
-            ImageUse::new(Target::Distance, ImageAccess::COMPUTE_READ),
-            ImageUse::new(Target::Normal, ImageAccess::COMPUTE_READ),
-            ImageUse::new(Target::Hdr, ImageAccess::COMPUTE_READ_WRITE),
-            ImageUse::new(Target::LightIds, ImageAccess::COMPUTE_READ),
-            ImageUse::new(Target::LightZ, ImageAccess::COMPUTE_READ),
-            ImageUse::new(Target::Thickness, ImageAccess::COMPUTE_WRITE),
-        ]
-        .into_iter()
-        .chain(peel)
-        .collect()
-    }
-
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let (scene, extent) = (frame.scene, frame.extent);
         let data = &self.data;
@@ -757,21 +738,21 @@ impl Pass for TranslucencyPass {
         };
         let mut bindings = vec![
             Binding::Bound(Bound::Uniform(frame.upload(&[params])?)),
-            Binding::Image(Target::Ids),
-            Binding::Image(Target::Distance),
-            Binding::Image(Target::Hdr),
-            Binding::Image(Target::LightIds),
-            Binding::Image(Target::LightZ),
-            Binding::Image(Target::Thickness),
+            Binding::read(Target::Ids),
+            Binding::read(Target::Distance),
+            Binding::read_write(Target::Hdr),
+            Binding::read(Target::LightIds),
+            Binding::read(Target::LightZ),
+            Binding::write(Target::Thickness),
             Binding::Bound(Bound::UniformTexel(data.fields.view)),
             Binding::Bound(Bound::UniformTexel(data.records.view)),
             Binding::Bound(frame.texels("translucency instances", &now.instances, Texels::U32x4)?),
             Binding::Bound(Bound::Storage(frame.materials)),
-            Binding::Image(Target::Normal),
+            Binding::read(Target::Normal),
             Binding::Bound(Bound::Uniform(frame.uniforms)),
         ];
         if self.peel {
-            bindings.extend([Binding::Image(Target::PeelCounts), Binding::Image(Target::PeelLists)]);
+            bindings.extend([Binding::read(Target::PeelCounts), Binding::read(Target::PeelLists)]);
         }
         if let Some((image, sampler)) = &data.pairs {
             // Bindings are by position: without the peel lists, 13 and 14 are placeholders the

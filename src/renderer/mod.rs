@@ -212,13 +212,11 @@ impl Renderer {
         l.pass_list().map(|p| p.name()).chain(["tonemap"]).collect()
     }
 
-    /// Whether a headless frame of the loaded scene writes `target` (so it can be read back).
+    /// Whether the frame recorded last holds `target` — one of its passes declared it — so
+    /// `record_aov_readback` after it can copy it (the headless colour always can). Before any
+    /// frame, nothing else: a pass declares the images it binds when it prepares a frame.
     pub fn produces(&self, target: Target) -> bool {
-        target == Target::Ldr
-            || self
-                .loaded
-                .as_ref()
-                .is_some_and(|l| l.pass_list().any(|p| p.images().iter().any(|u| u.target == target)))
+        target == Target::Ldr || self.targets.as_ref().is_some_and(|t| t.contains(target))
     }
 
     /// Uploads the scene and builds the passes it needs (pipelines are built here, through the
