@@ -148,3 +148,48 @@ fn sigterm_during_report_removes_its_staging_folder() {
     assert!(!out.exists(), "a report appeared");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The pipeline cache is saved through a registered temporary when the renderer is dropped:
+/// SIGTERM while that temporary exists removes it, leaves no cache file, and exits 143. The stage
+/// pause (4 s here) holds each temporary; the signal is sent once the cache's appears.
+#[test]
+fn sigterm_during_the_pipeline_cache_save_removes_its_temporary() {
+    let dir = scratch("interrupt-pipeline-cache");
+    let cache = dir.join("cache");
+    let log = dir.join("stderr.txt");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hadou"))
+        .args(["render", "assets/scenes/single_cube.toml", "--size", "16x16", "-o", s(&dir.join("out.png"))])
+        .current_dir(common::root())
+        .env("HADOU_CACHE_DIR", &cache)
+        .env("HADOU_TEST_STAGE_PAUSE_MS", "4000")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .expect("run hadou");
+    let deadline = Instant::now() + Duration::from_secs(300);
+    let first = loop {
+        if let Some(t) = cache.is_dir().then(|| temporaries(&cache)).and_then(|t| t.first().cloned()) {
+            break t;
+        }
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("render ended ({status}) before the pipeline cache's temporary appeared:\n{}", read(&log));
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("no pipeline cache temporary within 300 s:\n{}", read(&log));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    assert!(first.file_name().unwrap().to_string_lossy().starts_with("pipelines-"), "{first:?}");
+    let sent = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap();
+    assert!(sent.success(), "kill -TERM");
+    let status = exit_within(&mut child, Duration::from_secs(20), "SIGTERM", &log);
+    let err = read(&log);
+    assert_eq!(temporaries(&cache), Vec::<PathBuf>::new(), "temporaries left after SIGTERM:\n{err}");
+    assert_eq!(status.code(), Some(143), "{status} after SIGTERM:\n{err}");
+    let files: Vec<_> = std::fs::read_dir(&cache).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(files.is_empty(), "the interrupted save left {files:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

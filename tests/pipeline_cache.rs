@@ -67,5 +67,17 @@ fn the_cache_is_saved_reused_and_a_foreign_file_is_replaced() {
     run_once(&dir);
     let replaced = std::fs::read(&files[0]).unwrap();
     assert!(replaced.len() >= 32 && replaced[..32] == saved[..32], "a valid cache again");
+
+    // A link where the cache file goes is not a file of ours: neither it nor what it points at is
+    // replaced, and no temporary is left beside it.
+    let target = dir.join("elsewhere.txt");
+    std::fs::write(&target, b"someone else's").unwrap();
+    std::fs::remove_file(&files[0]).unwrap();
+    std::os::unix::fs::symlink(&target, &files[0]).unwrap();
+    run_once(&dir);
+    assert!(std::fs::symlink_metadata(&files[0]).unwrap().file_type().is_symlink(), "the link was replaced");
+    assert_eq!(std::fs::read(&target).unwrap(), b"someone else's");
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().flatten().map(|e| e.file_name()).collect();
+    assert_eq!(left.len(), 2, "only the link and its target: {left:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

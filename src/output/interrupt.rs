@@ -87,10 +87,14 @@ fn remove_path(path: &Path) -> bool {
 
 /// Writes `bytes` to the registered temporary `tmp`, then renames it to `dest` under the
 /// registry's lock (so an interrupt removes the temporary or finds it renamed, never half of
-/// each); on failure the temporary is removed. For files outside an `OutputSet` (cache files).
+/// each); on failure the temporary is removed. For files outside an `OutputSet` (cache files:
+/// bakes, the pipeline cache).
 pub(crate) fn write_through_temporary(tmp: &Path, bytes: &[u8], dest: &Path) -> std::io::Result<()> {
     use std::io::Write;
     let written = create_temporary(tmp).and_then(|mut f| f.write_all(bytes));
+    if written.is_ok() {
+        super::test_pause_after_stage();
+    }
     let renamed = written.and_then(|()| {
         let mut list = registry();
         let renamed = std::fs::rename(tmp, dest);

@@ -338,7 +338,8 @@ impl Drop for Renderer {
         // Teardown: the only device wait. Everything hadou made is retired, then freed.
         let _ = self.ctx.wait_idle();
         if let Some(cache) = &self.pipeline_cache {
-            cache.save();
+            // Registered: SIGINT/SIGTERM during the save removes its temporary.
+            cache.save(&crate::output::interrupt::write_through_temporary);
         }
         self.loaded = None;
         self.targets = None;

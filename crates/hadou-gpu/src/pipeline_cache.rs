@@ -12,6 +12,9 @@ use ash::vk;
 use super::context::GpuContext;
 use super::error::{GpuResult, VkResultExt};
 
+/// Writes bytes to a temporary (the first path) and renames it over the file (the second).
+pub type CacheWriter = dyn Fn(&Path, &[u8], &Path) -> std::io::Result<()>;
+
 pub struct PipelineCache {
     device: ash::Device,
     pub raw: vk::PipelineCache,
@@ -59,9 +62,16 @@ impl PipelineCache {
         Ok(PipelineCache { device: ctx.device.clone(), raw, path })
     }
 
-    /// Writes the cache's current contents to its file (atomically; failures are logged).
-    pub fn save(&self) {
+    /// Writes the cache's current contents to its file (atomically; failures are logged) with
+    /// `write(tmp, bytes, file)`, which writes `bytes` to the temporary `tmp` beside the file and
+    /// renames it over the file, removing the temporary on failure. hadou's renderer passes its
+    /// interrupt registry's writer, so SIGINT/SIGTERM during the save removes the temporary. A
+    /// file that is there and is not a regular file (a folder, a link) is left alone.
+    pub fn save(&self, write: &CacheWriter) {
         let Some(path) = &self.path else { return };
+        if std::fs::symlink_metadata(path).is_ok_and(|m| !m.is_file()) {
+            return log::warn!("pipeline cache: {} is not a regular file; not replacing it", path.display());
+        }
         // SAFETY: valid cache of this device.
         let data = match unsafe { self.device.get_pipeline_cache_data(self.raw) } {
             Ok(d) => d,
@@ -71,16 +81,22 @@ impl PipelineCache {
         static SAVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let n = SAVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let tmp = path.with_extension(format!("{}.{n}.tmp", std::process::id()));
-        let written = path
-            .parent()
-            .map_or(Ok(()), std::fs::create_dir_all)
-            .and_then(|_| std::fs::write(&tmp, &data))
-            .and_then(|_| std::fs::rename(&tmp, path));
+        let written =
+            path.parent().map_or(Ok(()), std::fs::create_dir_all).and_then(|_| write(&tmp, &data, path));
         if let Err(e) = written {
-            let _ = std::fs::remove_file(&tmp);
             log::warn!("pipeline cache: cannot write {}: {e}", path.display());
         }
     }
+}
+
+/// The plain writer for [`PipelineCache::save`] (no interrupt registry): write, rename, and
+/// remove the temporary on failure.
+pub fn write_then_rename(tmp: &Path, bytes: &[u8], path: &Path) -> std::io::Result<()> {
+    let written = std::fs::write(tmp, bytes).and_then(|_| std::fs::rename(tmp, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(tmp);
+    }
+    written
 }
 
 impl Drop for PipelineCache {
