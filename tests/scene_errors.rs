@@ -191,6 +191,13 @@ const BAD: &[(&str, usize, usize, &str)] = &[
     ),
     ("wave_emission_f32_overflow.toml", 10, 13, "`intensity`: expected colour × intensity <= 3.4028235e38"),
     ("gltf_missing_file.toml", 7, 8, "gltf 1 `path`: "),
+    (
+        "framing_past_2_44.toml",
+        11,
+        13,
+        "instance \"far\" `transform`: its world box reaches 1.4074e14, past ±1.7592e13 (2^44), the farthest a \
+         scene without a camera can frame",
+    ),
 ];
 
 /// The OBJ rows also carry the OBJ file's own position, checked here so the table stays short.
@@ -595,4 +602,38 @@ fn instance_records_group_by_mesh_in_scene_order() {
     assert_eq!(ranges, vec![(0, 2), (2, 3), (5, 0)]);
     let ids: Vec<u32> = records.iter().map(|r| r.ids[0]).collect();
     assert_eq!(ids, vec![1, 4, 0, 2, 3]);
+}
+
+/// Framing near the limit: cubes within ±2⁴⁴ (one at the origin, one at 2⁴⁴ − 1 on each axis, and
+/// one at −2⁴⁴ + 1) get a framing camera whose position, look-at and `far` are within 2⁴⁸ and whose
+/// `far` reaches every corner; the same scene with a [camera] keeps its far cube (the check is
+/// the framing's, not the instances').
+#[test]
+fn framing_near_the_limit_stays_within_2_48() {
+    let path = root().join("tests/bad_scenes/framing_near_the_limit.toml");
+    let edge = 2f64.powi(44) - 1.0;
+    let cubes =
+        |t: [f64; 3]| format!("[[instance]]\nmesh = \"box\"\ntransform = [{{ translate = {t:?} }}]\n");
+    let text = format!(
+        "[[mesh]]\nname = \"box\"\nkind = \"cube\"\n{}{}{}[[gltf]]\npath = \"one_triangle.gltf\"\n",
+        cubes([0.0; 3]),
+        cubes([edge - 1.0; 3]),
+        cubes([-edge + 1.0, 0.0, 0.0]),
+    );
+    let scene = parse_scene(&text, &path).unwrap();
+    let c = scene.camera;
+    let limit = 2f64.powi(48);
+    assert!(c.position.abs().max_element() <= limit, "{c:?}");
+    assert!(c.look_at.abs().max_element() <= limit, "{c:?}");
+    assert!(c.far <= limit && c.near > 0.0 && c.near < c.far, "{c:?}");
+    for corner in [DVec3::splat(edge), DVec3::new(-edge, -0.5, -0.5)] {
+        assert!((corner - c.position).length() < c.far, "{corner} beyond far from {c:?}");
+    }
+    // One past 2^44 is refused; with a camera the same cube is a plain (invisible) instance.
+    let past = format!("[[mesh]]\nname = \"box\"\nkind = \"cube\"\n{}", cubes([2f64.powi(44), 0.0, 0.0]));
+    let err = parse_scene(&format!("{past}[[gltf]]\npath = \"one_triangle.gltf\"\n"), &path).unwrap_err();
+    assert_eq!((err.line, err.column), (6, 13), "{err}");
+    assert!(err.message.contains("past ±1.7592e13 (2^44)"), "{err}");
+    let camera = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n";
+    parse_scene(&format!("{camera}{past}[[gltf]]\npath = \"one_triangle.gltf\"\n"), &path).unwrap();
 }

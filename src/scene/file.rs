@@ -109,7 +109,10 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
     let camera = match (toml_camera, placed.camera) {
         (Some(c), _) => c,
         (None, Some(g)) => g.camera,
-        (None, None) => super::gltf::framing(super::gltf::scene_bounds(&meshes, &instances)),
+        (None, None) => {
+            check_framable(ctx, &def.instance, &meshes, &instances)?;
+            super::gltf::framing(super::gltf::scene_bounds(&meshes, &instances))
+        }
     };
     if !def.gltf.0.is_empty() && lights.is_empty() {
         lights = placed.lights;
@@ -130,6 +133,43 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
         );
     }
     Ok(Scene { source: path.to_path_buf(), render, camera, lights, meshes, materials, instances, effects })
+}
+
+/// A scene framed by a camera hadou places (no `[camera]`, no glTF camera): its `[[instance]]`s
+/// (the first of `instances`, in file order) must lie within ±`MAX_WORLD` = 2⁴⁴, as glTF instances
+/// must (`gltf::limits`), so the framing camera stands and sees within 2⁴⁸ (`MAX_EXTENT`). One past
+/// it is refused at its `transform`: hadou would otherwise place a camera the raster cannot resolve.
+fn check_framable(
+    ctx: Ctx,
+    defs: &Tables<InstanceDef>,
+    meshes: &[SceneMesh],
+    instances: &[Instance],
+) -> Result<(), SceneError> {
+    let limit = super::gltf::MAX_WORLD;
+    for (i, (def, instance)) in defs.0.iter().zip(instances).enumerate() {
+        let Some(bounds) = super::gltf::scene_bounds(meshes, std::slice::from_ref(instance)) else {
+            continue;
+        };
+        let far = bounds.all.0.abs().max(bounds.all.1.abs()).max_element();
+        if far.is_nan() || far > limit {
+            let d = def.get_ref();
+            let label = match &d.name {
+                Some(name) => format!("instance \"{}\"", name.get_ref()),
+                None => format!("instance {}", i + 1),
+            };
+            let span = d.transform.as_ref().map_or(def.span(), Spanned::span);
+            let message = format!(
+                "{label} `transform`: its world box reaches {}, past ±{} (2^44), the farthest a scene \
+                 without a camera can frame (the framing camera stands and sees within 2^48, \
+                 docs/scene-format.md \"Numeric limits\"): give the scene a [camera], or move the \
+                 instance nearer the origin",
+                super::gltf::show_computed(far),
+                super::gltf::show_computed(limit)
+            );
+            return Err(ctx.err(span, message));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses a top-level table that neither hadou's format nor a registered effect reads.

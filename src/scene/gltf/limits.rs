@@ -27,7 +27,7 @@ use crate::scene::transform::{Transform, TransformOp};
 pub const MAX_WORLD: f64 = MAX_EXTENT / 16.0;
 
 /// A computed number (not one the file wrote) to 5 digits, in exponent form: `1.7592e13`, `1e-8`.
-fn show_computed(v: f64) -> String {
+pub(crate) fn show_computed(v: f64) -> String {
     let s = format!("{v:.4e}");
     match s.split_once('e') {
         Some((m, e)) if m.contains('.') => {

@@ -29,6 +29,7 @@ pub use error::GltfError;
 pub use ignored::Ignored;
 pub use lights::lux_to_intensity;
 pub(crate) use limits::placed_by_transform;
+pub(crate) use limits::show_computed;
 pub use limits::MAX_WORLD;
 pub use material::{sigma, MIN_ATTENUATION_COLOR, MIN_SIGMA};
 pub use nodes::MAX_DEPTH;
