@@ -1,6 +1,7 @@
 //! A fuzzing harness for the inputs added after tests/fuzz_scenes.rs (issue 24, item 6): glTF
 //! JSON and GLB files (JSON chunk and BIN chunk), PNG and OpenEXR headers fed to `hadou compare`,
-//! and `hadou profile --json` files fed to `hadou profile-diff`. Every case runs the real binary
+//! `hadou profile --json` files fed to `hadou profile-diff`, and `hadou test` sidecars
+//! (`NAME.test.toml`) fed to `hadou test`. Every case runs the real binary
 //! in its own process under a memory cap and a time limit (see `MEMORY_CAP`, `CASE_LIMIT`), so a
 //! decoder that believes a header's 10¹⁰ pixels fails the case instead of taking the machine down.
 //!
@@ -727,7 +728,12 @@ fn mutated_images_are_compared_or_refused_cleanly() {
     }
     for i in 0..n {
         let mut rng = case_rng(0x1a46_e002, i);
-        let seed = &seeds[below(&mut rng, seeds.len())];
+        // Three cases in four start from a sidecar that matches, so mutations reach the render
+        // and the comparison, not only the refusals.
+        let seed = match below(&mut rng, 4) {
+            0 => &seeds[below(&mut rng, seeds.len())],
+            _ => &seeds[below(&mut rng, MATCHING_SIDECAR_SEEDS)],
+        };
         let bytes = std::fs::read(seed).unwrap();
         let mut mutated = if seed.extension().is_some_and(|e| e == "png") {
             mutate::mutate_png(&bytes, &mut rng)
@@ -1018,6 +1024,129 @@ fn profile_check(
     let _ = std::fs::remove_dir_all(dir);
 }
 
+// ------------------------------------------------------------------------------- test sidecars
+
+/// The sidecar seeds: first those that match the case's scene and references (16x16, the depth
+/// AOV; one with every key, one skipped), then every sidecar of tests/golden (other sizes and
+/// AOVs: errors and failures to start from).
+fn sidecar_seeds() -> Vec<Vec<u8>> {
+    let mut seeds: Vec<Vec<u8>> = vec![
+        b"# every key\nsize = \"16x16\"\ntime = 0.5\naovs = [\"depth\"]\n\n[tolerance]\nflip = 0.01\n\
+          abs = 0.001\nrel = 0.001\npixels = 0.5\n"
+            .to_vec(),
+        b"size = \"16x16\"\naovs = [\"depth\"]\n".to_vec(),
+        b"size = \"16x16\"\ntime = 2.0\n\n[tolerance]\npixels = 1.0\n".to_vec(),
+        b"size = \"16x16\"\nskip = \"not today\"\n".to_vec(),
+    ];
+    let dir = common::root().join("tests/golden");
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.to_string_lossy().ends_with(".test.toml"))
+        .collect();
+    paths.sort();
+    seeds.extend(paths.iter().map(|p| std::fs::read(p).unwrap()));
+    seeds
+}
+
+/// How many of `sidecar_seeds` match the case's scene and references.
+const MATCHING_SIDECAR_SEEDS: usize = 4;
+
+/// A scene folder for `hadou test`: `case.toml` (assets/scenes/single_cube.toml) and, in
+/// `refs`, its references `case.png` and `case.depth.exr` at 16x16 (blessed once, in `template`).
+fn sidecar_folder(template: &Path, dir: &Path, refs: &Path) {
+    std::fs::create_dir_all(refs).unwrap();
+    std::fs::copy(template.join("case.toml"), dir.join("case.toml")).unwrap();
+    for name in ["case.png", "case.depth.exr"] {
+        std::fs::copy(template.join("refs").join(name), refs.join(name)).unwrap();
+    }
+}
+
+/// Runs `hadou test` on `dir` with the sidecar `refs/case.test.toml` (the case's input): exit 0
+/// (passed or skipped), 1 (differs, or a reference it asks for is missing) or 2 with an error
+/// naming the sidecar (or the scene's `[render] size`, which a sidecar without `size` keeps), on
+/// stderr (`error:`) or in the scene's ERROR row, within the limits. The pixel budget is the
+/// scene's 512x512: a larger sidecar `size` is refused before it is rendered.
+fn sidecar_check(case: &str, dir: &Path, refs: &Path, findings: &mut Findings) {
+    let sidecar = refs.join("case.test.toml");
+    let args = os(&[&"test", &dir, &"--refs", &refs, &"--max-pixels", &"262144"]);
+    let run = hadou_capped(&args, RENDER_LIMIT);
+    findings.count(&run);
+    // Errors are checked below: on stderr or in the table.
+    let mut verdict = check_run(&run, &[0, 1, 2], -1, &[]);
+    if verdict.is_ok() && run.code == Some(2) {
+        // The sidecar, or the scene when the error is about its own [render] size (a sidecar
+        // without `size` renders at the scene's).
+        let named = |l: &&str| l.contains("case.test.toml") || l.contains("case.toml: [render] size");
+        let on_stderr = run.stderr.lines().filter(|l| l.starts_with("error:")).find(named);
+        let in_row = run.stdout.lines().filter(|l| l.starts_with("case") && l.contains("ERROR")).find(named);
+        if on_stderr.is_none() && in_row.is_none() {
+            verdict =
+                Err("exit 2 without an error naming the sidecar (on stderr or in the ERROR row)".into());
+        }
+    }
+    if let Err(why) = verdict {
+        findings.record(case, &[&sidecar], Some(&run), &why);
+    }
+}
+
+/// Mutated `hadou test` sidecars (`REFS/NAME.test.toml`: size, time, aovs, skip, [tolerance]),
+/// after sidecars that are no regular file and the corpus of tests/data/fuzz/sidecar: `hadou test`
+/// ends within the limits with exit 0, 1, or 2 and an error naming the sidecar; no panic, no
+/// abort. The scene is single_cube, its references blessed once at 16x16.
+#[test]
+fn mutated_test_sidecars_are_run_or_refused_cleanly() {
+    let n = cases();
+    let mut findings = Findings::new("sidecar");
+    let template = common::cli::scratch("fuzz-sidecar-template");
+    std::fs::copy(common::root().join("assets/scenes/single_cube.toml"), template.join("case.toml")).unwrap();
+    std::fs::create_dir_all(template.join("refs")).unwrap();
+    std::fs::write(template.join("refs/case.test.toml"), "size = \"16x16\"\naovs = [\"depth\"]\n").unwrap();
+    let bless = os(&[&"test", &template, &"--refs", &template.join("refs"), &"--bless"]);
+    let run = hadou_capped(&bless, RENDER_LIMIT);
+    assert_eq!(run.code, Some(0), "blessing the template: {}", run.text());
+    // Sidecars that are no regular file (a FIFO nobody writes, a folder, an empty file), and a
+    // link to /dev/zero (endless).
+    let special_root = common::cli::scratch("fuzz-sidecar-special");
+    let mut specials = special_inputs(&special_root, "case.test.toml", false);
+    let zero = special_root.join("special-dev-zero");
+    std::fs::create_dir_all(&zero).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", zero.join("case.test.toml")).unwrap();
+    specials.push(("special-dev-zero".into(), zero.join("case.test.toml")));
+    for (label, sidecar) in &specials {
+        let refs = sidecar.parent().unwrap().to_path_buf();
+        let dir = special_root.join(format!("{label}-scene"));
+        std::fs::create_dir_all(&dir).unwrap();
+        sidecar_folder(&template, &dir, &refs);
+        sidecar_check(label, &dir, &refs, &mut findings);
+    }
+    let corpus = corpus("sidecar");
+    for file in &corpus {
+        let name = file.file_name().unwrap().to_string_lossy().into_owned();
+        let dir = common::cli::scratch(&format!("fuzz-sidecar-{name}"));
+        let refs = dir.join("refs");
+        sidecar_folder(&template, &dir, &refs);
+        std::fs::copy(file, refs.join("case.test.toml")).unwrap();
+        sidecar_check(&name, &dir, &refs, &mut findings);
+    }
+    let seeds = sidecar_seeds();
+    for i in 0..n {
+        let mut rng = case_rng(0x51de_ca25, i);
+        let dir = common::cli::scratch(&format!("fuzz-sidecar-{i}"));
+        let refs = dir.join("refs");
+        sidecar_folder(&template, &dir, &refs);
+        // Three cases in four start from a sidecar that matches, so mutations reach the render
+        // and the comparison, not only the refusals.
+        let seed = match below(&mut rng, 4) {
+            0 => &seeds[below(&mut rng, seeds.len())],
+            _ => &seeds[below(&mut rng, MATCHING_SIDECAR_SEEDS)],
+        };
+        std::fs::write(refs.join("case.test.toml"), mutate::mutate_sidecar(seed, &mut rng)).unwrap();
+        sidecar_check(&format!("case-{i}"), &dir, &refs, &mut findings);
+    }
+    findings.assert_none(specials.len() + corpus.len() + n);
+}
+
 // ------------------------------------------------------------------------------- the mutators
 
 #[test]
@@ -1055,16 +1184,26 @@ fn mutators_change_what_they_are_meant_to() {
     let glb = w.glb();
     let changed = (0..50).filter(|_| mutate::mutate_glb(&glb, &mut rng) != glb).count();
     assert!(changed >= 40, "{changed} of 50 GLB mutations changed the file");
+    for seed in sidecar_seeds() {
+        let changed = (0..50).filter(|_| mutate::mutate_sidecar(&seed, &mut rng) != seed).count();
+        assert!(
+            changed >= 40,
+            "{changed} of 50 sidecar mutations changed {:?}",
+            String::from_utf8_lossy(&seed)
+        );
+    }
     // Mutators take their own output (cut short, lengths wrong, grown) without panicking or
     // growing without bound: 20 chains of 20.
     let text = serde_json::to_string(&w.json(None)).unwrap();
     for _ in 0..20 {
         let (mut e, mut p, mut g, mut t) = (exr.clone(), png.clone(), w.glb(), text.clone());
+        let mut sc = sidecar_seeds().remove(0);
         for _ in 0..20 {
             e = mutate::mutate_exr(&e, &mut rng);
             p = mutate::mutate_png(&p, &mut rng);
             g = mutate::mutate_glb(&g, &mut rng);
             t = mutate::mutate_json(&t, &mut rng);
+            sc = mutate::mutate_sidecar(&sc, &mut rng);
         }
     }
 }

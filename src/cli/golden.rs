@@ -301,19 +301,22 @@ fn run_case(
         }
         None => (scene.render.width, scene.render.height),
     };
+    // Where the size came from, for errors it causes.
+    let size_from = match case.sidecar.size {
+        Some(_) => format!("{}: size", case.sidecar_path.display()),
+        None => format!("{}: [render] size", case.scene.display()),
+    };
     // A render the comparison could not decode is refused before it is made.
-    ctx.budget.check(width as u64, height as u64).map_err(|e| {
-        let from = match case.sidecar.size {
-            Some(_) => format!("{}: size", case.sidecar_path.display()),
-            None => format!("{}: [render] size", case.scene.display()),
-        };
-        anyhow::anyhow!("{from}: {e}")
-    })?;
+    ctx.budget.check(width as u64, height as u64).map_err(|e| anyhow::anyhow!("{size_from}: {e}"))?;
     let aovs = case.sidecar.aovs()?;
     let before = rt.validation_counts();
     rt.load_scene(scene)?;
     let request = FrameRequest { width, height, time: case.sidecar.time, color: true, aovs: aovs.clone() };
-    let frame = rt.render(&request)?;
+    let frame = rt.render(&request).map_err(|e| match e {
+        // The sidecar asked for it: name the sidecar's key.
+        hadou::Error::NotProduced { .. } => anyhow::anyhow!("{}: aovs: {e}", case.sidecar_path.display()),
+        e => anyhow::Error::from(e),
+    })?;
     let after = rt.validation_counts();
     if after.errors > before.errors || after.warnings > before.warnings {
         let messages = rt.validation_messages();
@@ -351,7 +354,8 @@ fn run_case(
         let label = PathBuf::from(format!("{} (render of {})", reference.display(), case.name));
         let want = load_with(reference, ctx.budget)?;
         let got = decode_with(&label, bytes, ctx.budget)?;
-        let c = compare_loaded((reference, &want), (&label, &got), &case.sidecar.tolerance)?;
+        let c = compare_loaded((reference, &want), (&label, &got), &case.sidecar.tolerance)
+            .with_context(|| format!("{size_from} {width}x{height} against {}", reference.display()))?;
         let file = reference.file_name().unwrap_or_default().to_string_lossy().to_string();
         details.push(format!("{file}: {}", short(&c)));
         if !c.same {

@@ -1,8 +1,9 @@
 //! Mutators for the fuzz harness of tests/fuzz_formats.rs: glTF JSON (numbers replaced by extreme
 //! or non-JSON tokens, members deleted or duplicated, values of the wrong type, URIs leaving the
 //! folder), GLB containers (header and chunk lengths, bytes of the BIN chunk), PNG chunks (IHDR
-//! dimensions with a valid CRC), OpenEXR headers (data and display windows, channel lists) and,
-//! through the JSON mutator, `hadou profile --json` files. Deterministic: every choice comes from
+//! dimensions with a valid CRC), OpenEXR headers (data and display windows, channel lists),
+//! `hadou test` sidecars (TOML values, lines and bytes) and, through the JSON mutator,
+//! `hadou profile --json` files. Deterministic: every choice comes from
 //! `hadou::testing::Rng`, so a case number replays the same bytes on every machine.
 #![allow(dead_code)]
 
@@ -750,4 +751,172 @@ pub fn mutate_exr(bytes: &[u8], rng: &mut Rng) -> Vec<u8> {
         }
     }
     b
+}
+
+// ------------------------------------------------------------------------------- `hadou test` sidecars
+
+/// Values put in place of a sidecar value (`size`, `time`, `aovs`, `skip`, the tolerances): sizes
+/// without a side, of 0, past 16384 and past u32, an endless time, numbers past f64 and f32,
+/// negative and non-finite tolerances, AOV lists of unknown, repeated or wrongly typed names,
+/// values of another TOML type, and an escape sequence for the terminal.
+pub const SIDECAR_VALUES: &[&str] = &[
+    "\"16x16\"",
+    "\"0x16\"",
+    "\"16x0\"",
+    "\"16384x16384\"",
+    "\"16385x1\"",
+    "\"4294967296x1\"",
+    "\"x16\"",
+    "\"16x\"",
+    "\"16 x 16\"",
+    "\"-16x16\"",
+    "\"\"",
+    "\"\u{1b}[31mred\"",
+    "16",
+    "1e308",
+    "1.7976931348623157e308",
+    "-1.7976931348623157e308",
+    "3.4e38",
+    "1e39",
+    "-1",
+    "-0.0",
+    "0",
+    "0.5",
+    "nan",
+    "inf",
+    "-inf",
+    "9223372036854775807",
+    "true",
+    "[\"depth\"]",
+    "[\"depth\", \"depth\"]",
+    "[\"energy\", \"thickness\", \"normal\"]",
+    "[\"nope\"]",
+    "[1]",
+    "[]",
+    "{ flip = 1 }",
+    "1979-05-27T07:32:00Z",
+];
+
+/// Lines put into a sidecar: every key (in the wrong place too), a second `[tolerance]`, unknown
+/// keys and tables, a dotted key, and lines that are no TOML.
+pub const SIDECAR_LINES: &[&str] = &[
+    "size = \"8x8\"",
+    "time = 1e300",
+    "aovs = [\"depth\", \"energy\"]",
+    "skip = \"later\"",
+    "[tolerance]",
+    "flip = 0.5",
+    "abs = -1",
+    "rel = nan",
+    "pixels = 2",
+    "pixels = 1e39",
+    "unknown = 1",
+    "[tolerance.nested]",
+    "[[tolerance]]",
+    "tolerance.abs = 1",
+    "size = ",
+    "= 1",
+    "[",
+    "\"unterminated",
+];
+
+/// The values of `text`'s `key = value` lines (what follows `=` up to a comment), as byte ranges;
+/// comment lines are passed over.
+fn toml_values(text: &str) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for (start, line) in text.split_inclusive('\n').scan(0, |at, l| {
+        let s = *at;
+        *at += l.len();
+        Some((s, l))
+    }) {
+        let Some(eq) = line.find('=') else { continue };
+        if line.trim_start().starts_with('#') {
+            continue;
+        }
+        let value = &line[eq + 1..];
+        let lead = value.len() - value.trim_start().len();
+        let end = value.find('#').unwrap_or(value.len());
+        let value_text = value[lead..end].trim_end();
+        if !value_text.is_empty() {
+            out.push((start + eq + 1 + lead, start + eq + 1 + lead + value_text.len()));
+        }
+    }
+    out
+}
+
+/// One mutation of a sidecar: a value replaced (`SIDECAR_VALUES`), a line inserted
+/// (`SIDECAR_LINES`), deleted, duplicated or swapped, the text cut short, or a few bytes flipped
+/// (which may leave it no UTF-8).
+pub fn mutate_sidecar_once(text: &[u8], rng: &mut Rng) -> Vec<u8> {
+    let Ok(s) = std::str::from_utf8(text) else {
+        let mut b = text.to_vec();
+        if !b.is_empty() {
+            let at = below(rng, b.len());
+            b[at] = (rng.next() * 256.0) as u8;
+        }
+        return b;
+    };
+    let lines: Vec<&str> = s.lines().collect();
+    let joined = |lines: &[&str]| {
+        let mut t = lines.join("\n");
+        t.push('\n');
+        t.into_bytes()
+    };
+    match below(rng, 8) {
+        0..=2 => {
+            let values = toml_values(s);
+            if values.is_empty() {
+                return joined(&[s, rng.pick(SIDECAR_LINES)]);
+            }
+            let (a, b) = values[below(rng, values.len())];
+            format!("{}{}{}", &s[..a], rng.pick(SIDECAR_VALUES), &s[b..]).into_bytes()
+        }
+        3 => {
+            let mut l = lines.clone();
+            let at = below(rng, l.len() + 1);
+            l.insert(at, rng.pick(SIDECAR_LINES));
+            joined(&l)
+        }
+        4 if !lines.is_empty() => {
+            let mut l = lines.clone();
+            let at = below(rng, l.len());
+            match below(rng, 3) {
+                0 => {
+                    l.remove(at);
+                }
+                1 => l.insert(at, lines[at]),
+                _ => l.swap(at, below(rng, lines.len())),
+            }
+            joined(&l)
+        }
+        5 => text[..below(rng, text.len() + 1)].to_vec(),
+        6 => {
+            let mut b = text.to_vec();
+            for _ in 0..1 + below(rng, 3) {
+                if !b.is_empty() {
+                    let at = below(rng, b.len());
+                    b[at] = (rng.next() * 256.0) as u8;
+                }
+            }
+            b
+        }
+        _ => joined(&[
+            s,
+            rng.pick(SIDECAR_LINES),
+            &format!(
+                "{} = {}",
+                rng.pick(&["size", "time", "aovs", "skip", "flip", "abs", "rel", "pixels"]),
+                rng.pick(SIDECAR_VALUES)
+            ),
+        ]),
+    }
+}
+
+/// One to three mutations of a sidecar.
+pub fn mutate_sidecar(text: &[u8], rng: &mut Rng) -> Vec<u8> {
+    let mut out = text.to_vec();
+    for _ in 0..1 + below(rng, 3) {
+        out = mutate_sidecar_once(&out, rng);
+    }
+    out
 }
