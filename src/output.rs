@@ -248,8 +248,8 @@ impl Drop for OutputSet {
 }
 
 /// For tests only: `HADOU_TEST_STAGE_PAUSE_MS=N` sleeps N ms (at most a minute) after each
-/// output's (or cache file's) temporary is written, so that a test can interrupt a command while its temporaries
-/// exist (tests/interrupts.rs). Unset in any real use.
+/// output's (or cache file's) temporary is written, so that a test can interrupt a command while
+/// its temporaries exist (tests/interrupts.rs). Unset in any real use.
 pub(crate) fn test_pause_after_stage() {
     let Some(ms) = std::env::var("HADOU_TEST_STAGE_PAUSE_MS").ok().and_then(|v| v.parse::<u64>().ok()) else {
         return;
