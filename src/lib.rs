@@ -41,8 +41,9 @@ pub use aov::{Aov, AovImage};
 pub use effects::metaballs::Ball;
 pub use frame::{FrameStats, PassTiming};
 pub use gpu::{DeviceInfo, GpuError, HostWaits, ValidationCounts};
+pub use renderer::assets::SpawnedGltf;
 pub use renderer::bakes::BakeProgress;
-pub use renderer::ids::MaterialId;
+pub use renderer::ids::{MaterialId, MeshId};
 pub use renderer::instances::{InstanceId, LightId};
 pub use renderer::world::{GroupId, MetaballsDesc, WaveDesc, WaveId};
 pub use renderer::{

@@ -31,6 +31,33 @@ pub struct GpuMesh {
 }
 
 impl GpuMesh {
+    /// The buffers of `mesh` (named `name` in debug labels), written at once: host-visible, so
+    /// a mesh spawned at run time waits for nothing.
+    pub fn new(
+        ctx: &GpuContext,
+        memory: &Memory,
+        name: &str,
+        mesh: &crate::scene::mesh::Mesh,
+    ) -> GpuResult<GpuMesh> {
+        let vertices = interleaved(mesh);
+        let vertex_usage = vk::BufferUsageFlags::VERTEX_BUFFER;
+        let label = format!("mesh {name} vertices");
+        let vertices = upload(ctx, memory, &label, vertex_usage, bytemuck::cast_slice(&vertices))?;
+        let label = format!("mesh {name} indices");
+        let index_bytes = bytemuck::cast_slice(&mesh.indices);
+        let indices = upload(ctx, memory, &label, vk::BufferUsageFlags::INDEX_BUFFER, index_bytes)?;
+        let index_count = mesh.indices.len() as u32;
+        let attributes = match attribute_records(mesh) {
+            Some(records) => {
+                let label = format!("mesh {name} vertex attributes");
+                Some(upload(ctx, memory, &label, vertex_usage, bytemuck::cast_slice(&records))?)
+            }
+            None => None,
+        };
+        let (deformed, stale, in_use) = (Vec::new(), 0, None);
+        Ok(GpuMesh { vertices, indices, index_count, attributes, deformed, stale, in_use })
+    }
+
     /// The vertex buffer the frame being recorded draws: the slot's own once the mesh deformed.
     pub fn vertex_buffer(&self) -> &Buffer {
         self.in_use.and_then(|s| self.deformed.get(s)?.as_ref()).unwrap_or(&self.vertices)
@@ -107,29 +134,7 @@ impl SceneGpu {
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
         let mut meshes = Vec::with_capacity(scene.meshes.len());
         for m in &scene.meshes {
-            let vertices = interleaved(&m.mesh);
-            let name = format!("mesh {} vertices", m.name);
-            let vertices = upload(
-                ctx,
-                memory,
-                &name,
-                vk::BufferUsageFlags::VERTEX_BUFFER,
-                bytemuck::cast_slice(&vertices),
-            )?;
-            let name = format!("mesh {} indices", m.name);
-            let index_bytes = bytemuck::cast_slice(&m.mesh.indices);
-            let indices = upload(ctx, memory, &name, vk::BufferUsageFlags::INDEX_BUFFER, index_bytes)?;
-            let index_count = m.mesh.indices.len() as u32;
-            let attributes = match attribute_records(&m.mesh) {
-                Some(records) => {
-                    let name = format!("mesh {} vertex attributes", m.name);
-                    let usage = vk::BufferUsageFlags::VERTEX_BUFFER;
-                    Some(upload(ctx, memory, &name, usage, bytemuck::cast_slice(&records))?)
-                }
-                None => None,
-            };
-            let (deformed, stale, in_use) = (Vec::new(), 0, None);
-            meshes.push(GpuMesh { vertices, indices, index_count, attributes, deformed, stale, in_use });
+            meshes.push(GpuMesh::new(ctx, memory, &m.name, &m.mesh)?);
         }
         let materials_pre_exposure = crate::effects::tonemap::pre_exposure(scene);
         let materials = material_records(scene, materials_pre_exposure);
@@ -139,6 +144,21 @@ impl SceneGpu {
     }
 
     /// The material table to upload this frame (at least one record: an empty table still binds).
+    /// Frees the buffers of mesh `index`, which nothing draws any more (despawned): they retire
+    /// with the frames that may still read them, and a one-triangle stand-in keeps the slot.
+    pub fn retire_mesh(&mut self, ctx: &GpuContext, memory: &Memory, index: usize) -> GpuResult<()> {
+        let stand_in = crate::scene::mesh::Mesh {
+            positions: vec![[0.0; 3]],
+            normals: vec![[0.0, 1.0, 0.0]],
+            indices: vec![0, 0, 0],
+            attributes: None,
+        };
+        if let Some(slot) = self.meshes.get_mut(index) {
+            *slot = GpuMesh::new(ctx, memory, "despawned", &stand_in)?;
+        }
+        Ok(())
+    }
+
     pub fn material_table(&self) -> &[MaterialData] {
         &self.materials
     }

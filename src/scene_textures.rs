@@ -21,7 +21,7 @@ use crate::gpu::sampler::Sampler;
 use crate::gpu::set_layout::SetLayout;
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::scene::texture::{Filter, SamplerDesc, TextureImage, TextureRef, Wrap};
-use crate::scene::Scene;
+use crate::scene::{Material, Scene};
 
 /// The raster's push constants for a textured material (shaders/raster.frag, MATERIAL_TEXTURES):
 /// each texture's 2×3 coordinate map as its two rows (u' and v': xyz; w unused) and, in `flags`,
@@ -44,6 +44,11 @@ pub fn texture_set_layout(ctx: &GpuContext) -> GpuResult<SetLayout> {
     SetLayout::samplers(ctx, "material textures set layout", 2, vk::ShaderStageFlags::FRAGMENT)
 }
 
+/// The materials `of_materials` reads, under the name `new`'s body uses.
+struct Materials<'a> {
+    materials: &'a [Material],
+}
+
 /// Copies not yet recorded: the staging buffer and, per image, its levels' offsets and sizes.
 struct Pending {
     staging: Buffer,
@@ -60,11 +65,12 @@ struct Owned {
 
 #[derive(Default)]
 pub struct SceneTextures {
-    owned: Option<Owned>,
+    /// The scene's, then those of each glTF file spawned into the world (`append`).
+    owned: Vec<Owned>,
     /// Per material: its set in `sets` (None: untextured).
     by_material: Vec<Option<usize>>,
     sets: Vec<(vk::DescriptorSet, TexturePush)>,
-    pending: Option<Pending>,
+    pending: Vec<Pending>,
 }
 
 fn sampler_info(d: &SamplerDesc) -> vk::SamplerCreateInfo<'static> {
@@ -104,6 +110,12 @@ impl SceneTextures {
     /// Every textured material's images, samplers and set; nothing at all for a scene without
     /// textures.
     pub fn new(ctx: &GpuContext, memory: &Memory, scene: &Scene) -> GpuResult<Self> {
+        Self::of_materials(ctx, memory, &scene.materials)
+    }
+
+    /// As `new`, for a list of materials (those a glTF file adds at run time).
+    pub fn of_materials(ctx: &GpuContext, memory: &Memory, materials: &[Material]) -> GpuResult<Self> {
+        let scene = Materials { materials };
         let textured: Vec<usize> =
             (0..scene.materials.len()).filter(|&m| !scene.materials[m].surface.textures.is_empty()).collect();
         if textured.is_empty() {
@@ -192,17 +204,29 @@ impl SceneTextures {
             sets.push((set, push));
         }
         Ok(SceneTextures {
-            owned: Some(Owned { _images: images, _samplers: samplers, _layout: layout, _pool: pool }),
+            owned: vec![Owned { _images: images, _samplers: samplers, _layout: layout, _pool: pool }],
             by_material,
             sets,
-            pending: Some(Pending { staging, copies }),
+            pending: vec![Pending { staging, copies }],
         })
+    }
+
+    /// Adds the textures of materials added to the world at run time (`Renderer::spawn_gltf`):
+    /// `more` was made for them alone, their first at material index `first_material`. Its
+    /// images are copied by the next frame, like a loaded scene's.
+    pub fn append(&mut self, more: SceneTextures, first_material: usize) {
+        let base = self.sets.len();
+        self.by_material.resize(first_material, None);
+        self.by_material.extend(more.by_material.into_iter().map(|s| s.map(|i| i + base)));
+        self.sets.extend(more.sets);
+        self.owned.extend(more.owned);
+        self.pending.extend(more.pending);
     }
 
     /// Records the images' copies into the frame being recorded, once (the first frame after the
     /// scene was loaded); the staging buffer is retired with that frame.
     pub fn record_uploads(&mut self, rec: &Recorder) {
-        if let Some(p) = self.pending.take() {
+        for p in std::mem::take(&mut self.pending) {
             for (image, levels) in &p.copies {
                 rec.upload_texture(&p.staging, *image, levels);
             }
@@ -223,6 +247,6 @@ impl SceneTextures {
 
     /// Whether any material has textures.
     pub fn is_empty(&self) -> bool {
-        self.owned.is_none()
+        self.owned.is_empty()
     }
 }

@@ -86,19 +86,10 @@ impl Lighting {
         Lighting { ambient: scene.render.ambient, lights, local }
     }
 
-    /// Panics where a scene has point or spot lights, for the functions that take no surface
-    /// position (theirs need one: the `_at` forms).
-    fn directional_only(&self) {
-        assert!(
-            self.local.is_empty(),
-            "a scene with point or spot lights is shaded at a position (the `_at` forms)"
-        );
-    }
-
-    /// ambient + Σ max(n·l, 0)·L: the light a surface of unit normal `n` receives. Directional
-    /// lights only (`diffuse_at` for point and spot lights).
+    /// ambient + Σ max(n·l, 0)·L over the directional lights: the light a surface of unit normal
+    /// `n` receives wherever it is. Point and spot lights depend on the surface's position and
+    /// are not in it (`diffuse_at` has them); for a scene with none, the whole light.
     pub fn diffuse(&self, n: DVec3) -> DVec3 {
-        self.directional_only();
         self.lights.iter().fold(self.ambient, |sum, l| sum + l.radiance * n.dot(l.to_light).max(0.0))
     }
 
@@ -113,10 +104,10 @@ impl Lighting {
         })
     }
 
-    /// ambient + Σ L: what a surface facing every light at once would receive (the scale of
-    /// `diffuse`, for error bounds). Directional lights only (`diffuse_scale_at`).
+    /// ambient + Σ L over the directional lights: what a surface facing them all at once would
+    /// receive (the scale of `diffuse`, for error bounds; `diffuse_scale_at` with point and spot
+    /// lights).
     pub fn diffuse_scale(&self) -> DVec3 {
-        self.directional_only();
         self.lights.iter().fold(self.ambient, |sum, l| sum + l.radiance)
     }
 
@@ -185,10 +176,10 @@ impl Lighting {
     }
 
     /// The light of a metaball surface of unit normal `n` (toward the camera) seen along `-v`
-    /// (`v` the unit vector from the surface toward the camera): only lights with n·l > 0 add
-    /// a diffuse and a highlight term.
+    /// (`v` the unit vector from the surface toward the camera) from the ambient and the
+    /// directional lights (`metaball_light_at` adds point and spot lights): only lights with
+    /// n·l > 0 add a diffuse and a highlight term.
     pub fn metaball_light(&self, n: DVec3, v: DVec3) -> MetaballLight {
-        self.directional_only();
         self.metaball_directional(n, v)
     }
 

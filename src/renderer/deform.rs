@@ -100,13 +100,11 @@ impl Renderer {
         positions: &[Vec3],
         normals: Option<&[Vec3]>,
     ) -> Result<(), Error> {
+        let index = self
+            .live_mesh(mesh)
+            .ok_or_else(|| invalid(format!("mesh \"{mesh}\""), "the name of a mesh of the world"))?;
         let loaded = self.loaded.as_mut().ok_or(Error::NoScene)?;
         let scene = &loaded.scene;
-        let index = scene
-            .meshes
-            .iter()
-            .position(|m| m.name == mesh)
-            .ok_or_else(|| invalid(format!("mesh \"{mesh}\""), "the name of a mesh of the scene"))?;
         let count = scene.meshes[index].mesh.positions.len();
         let what = || format!("vertices of mesh \"{mesh}\" ({} given)", positions.len());
         if positions.len() != count || normals.is_some_and(|n| n.len() != count) {

@@ -16,10 +16,15 @@ use super::world::{GroupId, WaveId};
 use super::Renderer;
 use crate::Error;
 
-/// A material of the loaded scene (materials are never despawned; an id from a scene loaded
-/// before, or from another renderer, is stale).
+/// A material of the world (from the scene file or `spawn_material`); stale once despawned, or
+/// from a scene loaded before or another renderer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct MaterialId(u64);
+pub struct MaterialId(pub(super) u64);
+
+/// A mesh of the world (from the scene file or `spawn_mesh`); stale once despawned, or from a
+/// scene loaded before or another renderer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MeshId(pub(super) u64);
 
 /// The place of `id` in `ids` (the scene order of its kind), or `Error::StaleId`.
 fn position(ids: &[u64], id: u64) -> Result<usize, Error> {
@@ -57,10 +62,32 @@ impl Renderer {
         position(&self.loaded_ref()?.material_ids, id.0)
     }
 
-    /// The ids of the loaded scene's materials, in scene order (that of `Scene::materials`: the
-    /// file's `[[material]]`s, then the built-in `"default"` when something used it).
+    /// The scene index of a mesh.
+    pub(super) fn mesh_index(&self, id: MeshId) -> Result<usize, Error> {
+        position(&self.loaded_ref()?.mesh_ids, id.0)
+    }
+
+    /// The ids of the world's materials, in scene order (that of `Scene::materials`: the file's
+    /// `[[material]]`s, the built-in `"default"` when something used it, then spawned ones).
     pub fn material_ids(&self) -> Vec<MaterialId> {
-        self.loaded.iter().flat_map(|l| l.material_ids.iter().map(|&id| MaterialId(id))).collect()
+        let live = |id: &&u64| **id != super::assets::RETIRED;
+        self.loaded
+            .iter()
+            .flat_map(|l| l.material_ids.iter().filter(live).map(|&id| MaterialId(id)))
+            .collect()
+    }
+
+    /// The ids of the world's meshes, in scene order (the file's `[[mesh]]`es and glTF
+    /// primitives, then spawned ones).
+    pub fn mesh_ids(&self) -> Vec<MeshId> {
+        let live = |id: &&u64| **id != super::assets::RETIRED;
+        self.loaded.iter().flat_map(|l| l.mesh_ids.iter().filter(live).map(|&id| MeshId(id))).collect()
+    }
+
+    /// The live mesh named `name`; `None` when the world has none.
+    pub fn mesh_named(&self, name: &str) -> Option<MeshId> {
+        let i = self.live_mesh(name)?;
+        Some(MeshId(self.loaded.as_ref()?.mesh_ids[i]))
     }
 
     /// The first instance (scene order) whose scene-file `name` is `name`; `None` when none is
@@ -89,8 +116,7 @@ impl Renderer {
     /// The material named `name` (`[[material]] name`, or `"default"` for the built-in one when
     /// the scene uses it); `None` when the scene has none of that name.
     pub fn material_named(&self, name: &str) -> Option<MaterialId> {
-        let l = self.loaded.as_ref()?;
-        let i = l.scene.materials.iter().position(|m| m.name == name)?;
-        Some(MaterialId(l.material_ids[i]))
+        let i = self.live_material(name)?;
+        Some(MaterialId(self.loaded.as_ref()?.material_ids[i]))
     }
 }

@@ -36,15 +36,14 @@ impl Renderer {
         transform: impl GameMatrix,
     ) -> Result<InstanceId, Error> {
         let transform = transform.to_dmat4();
+        let mesh_index = self
+            .live_mesh(mesh)
+            .ok_or_else(|| invalid(format!("instance mesh \"{mesh}\""), "the name of a mesh of the world"))?;
+        let material_index = self.live_material(material).ok_or_else(|| {
+            invalid(format!("instance material \"{material}\""), "the name of a material of the world")
+        })?;
         let loaded = self.loaded.as_ref().ok_or(Error::NoScene)?;
         let scene = &loaded.scene;
-        let mesh_index =
-            scene.meshes.iter().position(|m| m.name == mesh).ok_or_else(|| {
-                invalid(format!("instance mesh \"{mesh}\""), "the name of a mesh of the scene")
-            })?;
-        let material_index = scene.materials.iter().position(|m| m.name == material).ok_or_else(|| {
-            invalid(format!("instance material \"{material}\""), "the name of a material of the scene")
-        })?;
         let transform = Transform::from_ops(&[TransformOp::Matrix(transform)])
             .map_err(|e| invalid(format!("instance of \"{mesh}\""), e.to_string()))?;
         let table = match scene.materials[material_index].kind {

@@ -19,6 +19,7 @@
 //! Timestamps are read only from frames known to be finished, never waited for
 //! (`latest_timings`).
 
+pub mod assets;
 pub mod bakes;
 mod deform;
 mod effects;
@@ -95,6 +96,8 @@ struct Loaded {
     instance_ids: Vec<u64>,
     light_ids: Vec<u64>,
     material_ids: Vec<u64>,
+    /// The id of each of `scene.meshes` (`assets::RETIRED` once despawned).
+    mesh_ids: Vec<u64>,
     /// Thickness tables being baked at run time.
     bakes: bakes::Bakes,
     /// Instance transforms or materials changed since their tables were built.
@@ -237,6 +240,7 @@ impl Renderer {
         let instance_ids = (0..scene.instances.len()).map(|_| self.next_id()).collect();
         let light_ids = (0..scene.lights.len()).map(|_| self.next_id()).collect();
         let material_ids = (0..scene.materials.len()).map(|_| self.next_id()).collect();
+        let mesh_ids = (0..scene.meshes.len()).map(|_| self.next_id()).collect();
         self.loaded = Some(Loaded {
             scene,
             gpu,
@@ -246,6 +250,7 @@ impl Renderer {
             instance_ids,
             light_ids,
             material_ids,
+            mesh_ids,
             bakes: Default::default(),
             tables_dirty: false,
             wobble: deform::WobbleState::default(),

@@ -110,6 +110,8 @@ pub enum MeshSpec {
         /// The file, opened as given.
         path: PathBuf,
     },
+    /// A mesh a game handed at run time (`Renderer::spawn_mesh`): no source to build it from.
+    Given,
     /// One primitive of a glTF file (`scene::gltf`).
     Gltf {
         /// The .gltf or .glb file, opened as given.
@@ -175,6 +177,9 @@ impl MeshSpec {
             }
             MeshSpec::Obj { path } => obj::load_obj(path),
             MeshSpec::Gltf { path, mesh, primitive } => super::gltf::build_primitive(path, *mesh, *primitive),
+            MeshSpec::Given => {
+                Err(MeshError::Invalid("a mesh given at run time has no source to build it from".into()))
+            }
         }
     }
 }
