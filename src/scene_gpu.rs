@@ -22,6 +22,9 @@ pub struct GpuMesh {
     /// The glTF vertex attributes (`attribute_records`), None for a mesh without them: the
     /// raster draws those with its plain pipeline.
     pub attributes: Option<Buffer>,
+    /// The mesh's object-space bounds now (kept with its vertices: the frame's pre-exposure reads
+    /// them instead of every vertex).
+    pub bounds: (glam::DVec3, glam::DVec3),
     /// Once deformed: a vertex buffer per frame slot, made on the slot's first frame after that.
     deformed: Vec<Option<Buffer>>,
     /// Bit s: slot s's buffer is older than the mesh.
@@ -55,7 +58,8 @@ impl GpuMesh {
             None => None,
         };
         let (deformed, stale, in_use) = (Vec::new(), 0, None);
-        Ok(GpuMesh { vertices, indices, index_count, attributes, deformed, stale, in_use })
+        let bounds = mesh.bounds();
+        Ok(GpuMesh { vertices, indices, index_count, attributes, bounds, deformed, stale, in_use })
     }
 
     /// The vertex buffer the frame being recorded draws: the slot's own once the mesh deformed.
@@ -157,6 +161,11 @@ impl SceneGpu {
             *slot = GpuMesh::new(ctx, memory, "despawned", &stand_in)?;
         }
         Ok(())
+    }
+
+    /// Each mesh's object-space bounds, in scene order (`tonemap::pre_exposure_with`).
+    pub fn mesh_bounds(&self) -> Vec<(glam::DVec3, glam::DVec3)> {
+        self.meshes.iter().map(|m| m.bounds).collect()
     }
 
     pub fn material_table(&self) -> &[MaterialData] {

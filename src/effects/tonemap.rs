@@ -148,8 +148,19 @@ pub fn measure(hdr: &[[f64; 3]], surface: &[bool], width: usize, pre_exposure_lo
 /// A point or spot light counts with its luminance on a white surface facing it at
 /// `nearest_surface_distance` (`Light::radiance` / d², window and cone ≤ 1).
 pub fn lit_max(scene: &Scene) -> f64 {
+    lit_max_with(scene, &mesh_bounds(scene))
+}
+
+/// The object-space bounds of each of the scene's meshes (every vertex read).
+pub fn mesh_bounds(scene: &Scene) -> Vec<(DVec3, DVec3)> {
+    scene.meshes.iter().map(|m| m.mesh.bounds()).collect()
+}
+
+/// `lit_max` with the meshes' bounds known (`mesh_bounds`: the renderer keeps them, so a frame
+/// does not read every vertex again).
+pub fn lit_max_with(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)]) -> f64 {
     let local: Vec<&crate::scene::Light> = scene.lights.iter().filter(|l| l.is_local()).collect();
-    let boxes = if local.is_empty() { Vec::new() } else { instance_boxes(scene) };
+    let boxes = if local.is_empty() { Vec::new() } else { instance_boxes(scene, mesh_bounds) };
     let lit = scene.lights.iter().fold(scene.render.ambient, |sum, l| {
         if l.is_local() {
             let d = nearest_surface_distance(&boxes, l.position);
@@ -164,8 +175,7 @@ pub fn lit_max(scene: &Scene) -> f64 {
 
 /// The world-space bounding boxes of the scene's instances (each mesh's box, its 8 corners
 /// transformed).
-fn instance_boxes(scene: &Scene) -> Vec<(DVec3, DVec3)> {
-    let mesh_bounds: Vec<(DVec3, DVec3)> = scene.meshes.iter().map(|m| m.mesh.bounds()).collect();
+fn instance_boxes(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)]) -> Vec<(DVec3, DVec3)> {
     scene
         .instances
         .iter()
@@ -229,7 +239,13 @@ pub const PRE_EXPOSED_MAX: f64 = 4096.0;
 ///
 /// The renderer computes it once per frame (`FrameContext::pre_exposure`).
 pub fn pre_exposure(scene: &Scene) -> f64 {
-    let lit = lit_max(scene);
+    pre_exposure_with(scene, &mesh_bounds(scene))
+}
+
+/// `pre_exposure` with the meshes' bounds known (`mesh_bounds`), as the renderer computes it
+/// each frame.
+pub fn pre_exposure_with(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)]) -> f64 {
+    let lit = lit_max_with(scene, mesh_bounds);
     let peak = lit.max(scene.render.background.max_element());
     let r = &scene.render;
     if r.exposure_mode == ExposureMode::Linear && peak <= crate::scene::file::MAX_HDR {

@@ -76,6 +76,7 @@ impl Renderer {
             } else {
                 vertex_normals(&m.positions, &m.indices, normals)
             };
+            loaded.gpu.meshes[i].bounds = m.bounds();
             loaded.gpu.mesh_deformed(i);
         }
     }
@@ -144,6 +145,7 @@ impl Renderer {
             Some(n) => n.iter().map(|v| v.normalize().to_array()).collect(),
             None => vertex_normals(&m.positions, &m.indices, &m.normals),
         };
+        loaded.gpu.meshes[index].bounds = m.bounds();
         loaded.gpu.mesh_deformed(index);
         Ok(())
     }

@@ -163,7 +163,7 @@ impl Renderer {
             instances: none,
             materials: none,
             time: 0.0,
-            pre_exposure: crate::effects::tonemap::pre_exposure(scene),
+            pre_exposure: crate::effects::tonemap::pre_exposure_with(scene, &gpu.mesh_bounds()),
             embedded: false,
             depth_imported: false,
         };
@@ -196,7 +196,8 @@ impl Renderer {
         // Once per frame: what every radiance written into the HDR target is multiplied by. A
         // light, the ambient, the background or the exposure changed since the material table
         // was built changes it, and the table's emission with it.
-        let pre_exposure = crate::effects::tonemap::pre_exposure(&loaded.scene);
+        let bounds = loaded.gpu.mesh_bounds();
+        let pre_exposure = crate::effects::tonemap::pre_exposure_with(&loaded.scene, &bounds);
         let changed = std::mem::take(&mut loaded.tables_dirty);
         if changed {
             loaded.gpu.refresh_instances(&loaded.scene);
