@@ -3,6 +3,8 @@
 //! validation: the player charges a wave, fires it past the slime at the translucent target. Every
 //! frame's energy AOV is checked against the f64 integral of the wave its game state set.
 
+mod common;
+
 #[path = "../examples/game_prototype/game.rs"]
 mod game;
 #[path = "../examples/game_prototype/gpu.rs"]
@@ -145,4 +147,53 @@ fn six_hundred_frames_of_play() {
     let messages = g.destroy();
     let (errors, warnings) = messages.counts();
     assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
+}
+
+/// The game drops a glTF prop into the running world and takes it out again (`Game::toggle_prop`,
+/// `P` in the window): a crate of the test's own glTF file beside the player covers more pixels
+/// while it is there, and once it is taken out the frame is the frame before, bit for bit; zero
+/// validation messages.
+#[test]
+fn a_gltf_prop_dropped_at_run_time_and_taken_out() {
+    use common::gltf_writer::{temp_dir, IndexWidth, Writer};
+    let dir = temp_dir("game_prop");
+    let mut w = Writer::default();
+    let cube = hadou::scene::procedural::cube(1.5).unwrap();
+    let m = w
+        .material(serde_json::json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.9, 0.6, 0.2, 1.0] } }));
+    let p = w.primitive(&cube, IndexWidth::U16, true, Some(m));
+    let mesh = w.mesh(vec![p]);
+    let node = w.node(serde_json::json!({ "mesh": mesh, "translation": [0.0, 0.75, 0.0] }));
+    w.scene_roots.push(node);
+    let path = w.write_glb(&dir, "crate");
+
+    let vk =
+        gpu::GameVk::new(true, &[], &[], &|_, _, _, _| true).unwrap_or_else(|e| panic!("game device: {e}"));
+    let mut g = Game::new(vk).unwrap();
+    let e = vk::Extent2D { width: 64, height: 40 };
+    g.update(&Input::default(), 0.0).unwrap();
+    let frame = |g: &mut Game| {
+        g.offscreen_submit(e, &[Aov::Normal]).unwrap();
+        g.offscreen_finish().unwrap().pop().expect("a finished frame")
+    };
+    let surfaces = |f: &game::OffscreenFrame| {
+        let normal = &f.aovs.iter().find(|(a, _)| *a == Aov::Normal).unwrap().1;
+        normal.data.chunks_exact(4).filter(|n| n[3] == 1.0).count()
+    };
+    let before = frame(&mut g);
+    assert!(g.toggle_prop(&path).unwrap(), "the prop is there");
+    let with = frame(&mut g);
+    assert!(
+        surfaces(&with) > surfaces(&before),
+        "{} vs {} surface pixels",
+        surfaces(&with),
+        surfaces(&before)
+    );
+    assert!(!g.toggle_prop(&path).unwrap(), "the prop is gone");
+    let after = frame(&mut g);
+    assert!(after.color == before.color, "the world without the prop draws as before it came");
+    let messages = g.destroy();
+    let (errors, warnings) = messages.counts();
+    assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -273,7 +273,13 @@ pub struct Game {
     frames_in_flight: usize,
     /// CPU time of the last `Renderer::record_frame` (ms).
     pub last_record_ms: f64,
+    /// The glTF prop dropped into the world at run time (`toggle_prop`), while it is there.
+    prop: Option<hadou::SpawnedGltf>,
 }
+
+/// The prop `P` drops beside the player: the volume demo's glass and liquid (a glTF file read at
+/// run time, its translucent meshes baked in the background while TSM stands in).
+pub const PROP: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/gltf/volume_demo.glb");
 
 /// What a headless frame read back, and the state it was rendered from.
 pub struct OffscreenFrame {
@@ -325,7 +331,33 @@ impl Game {
             slime,
             frames_in_flight: frames,
             last_record_ms: 0.0,
+            prop: None,
         })
+    }
+
+    /// Drops the glTF file at `path` into the world beside the player, or takes the one dropped
+    /// before out again (instances, then meshes, materials and lights, by the ids it came with).
+    /// Returns whether a prop is there now.
+    pub fn toggle_prop(&mut self, path: &std::path::Path) -> Result<bool, String> {
+        let err = |e: hadou::Error| e.to_string();
+        if let Some(prop) = self.prop.take() {
+            for id in prop.instances {
+                self.hadou.despawn_instance(id).map_err(err)?;
+            }
+            for id in prop.meshes {
+                self.hadou.despawn_mesh(id).map_err(err)?;
+            }
+            for id in prop.materials {
+                self.hadou.despawn_material(id).map_err(err)?;
+            }
+            for id in prop.lights {
+                self.hadou.despawn_light(id).map_err(err)?;
+            }
+            return Ok(false);
+        }
+        let at = DMat4::from_translation(DVec3::new(PLAYER_X + 1.5, 0.0, self.state.player_z + 1.5));
+        self.prop = Some(self.hadou.spawn_gltf(path, at).map_err(err)?);
+        Ok(true)
     }
 
     /// Steps the state and hands hadou this frame's wave, slime and camera (no pipeline rebuilt).

@@ -193,6 +193,13 @@ impl ApplicationHandler for App {
                     KeyCode::KeyA | KeyCode::ArrowLeft => self.input.left = down,
                     KeyCode::KeyD | KeyCode::ArrowRight => self.input.right = down,
                     KeyCode::KeyR => self.input.reset = down,
+                    KeyCode::KeyP if down => {
+                        if let Some(r) = &mut self.running {
+                            if let Err(e) = r.game.toggle_prop(std::path::Path::new(game::PROP)) {
+                                eprintln!("prop: {e}");
+                            }
+                        }
+                    }
                     KeyCode::Escape => event_loop.exit(),
                     _ => {}
                 }
