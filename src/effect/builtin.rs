@@ -17,6 +17,7 @@ use crate::effects::metaballs::Metaballs;
 use crate::gpu::GpuResult;
 use crate::passes::light_id::LightIdPass;
 use crate::passes::peel::{self, PeelPass};
+use crate::passes::pipeline_memo::PipelineMemo;
 use crate::passes::raster::RasterPass;
 use crate::passes::translucency::{self, TranslucencyPass, TranslucentData};
 use crate::passes::Pass;
@@ -43,6 +44,12 @@ fn translucent_data(b: &mut PassBuilder) -> GpuResult<Arc<TranslucentData>> {
     b.shared(TranslucentData::new)
 }
 
+/// The scene's pipeline memo: kept when the tables are replaced, so the passes rebuilt on the
+/// new ones take their pipelines back (no compile in the frame that puts a bake in use).
+fn memo(b: &mut PassBuilder) -> GpuResult<Arc<PipelineMemo>> {
+    b.shared_untracked(|_, _, _| Ok(PipelineMemo::default()))
+}
+
 impl Effect for Translucency {
     fn name(&self) -> &'static str {
         "translucency"
@@ -61,13 +68,15 @@ impl Effect for Translucency {
         vec![
             EffectPass::new("light_id", translucency::needed, |b| {
                 let data = translucent_data(b)?;
-                Ok(boxed(LightIdPass::new(b.ctx, b.compiler, data, b.scene)?))
+                let memo = memo(b)?;
+                Ok(boxed(LightIdPass::new(b.ctx, b.compiler, &memo, data, b.scene)?))
             }),
             EffectPass::new("peel", peel::needed, |b| Ok(boxed(PeelPass::new(b.ctx, b.compiler, b.scene)?))),
             EffectPass::new("translucency", translucency::needed, |b| {
                 let data = translucent_data(b)?;
                 let (lut, peel) = (translucency::reads_lut(b.scene), peel::needed(b.scene));
-                Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, data, lut, peel)?))
+                let memo = memo(b)?;
+                Ok(boxed(TranslucencyPass::new(b.ctx, b.compiler, &memo, data, lut, peel)?))
             })
             // With or without the field's march and the peel lists.
             .with_variant(translucency::variant),

@@ -172,6 +172,15 @@ impl PassBuilder<'_> {
         self.shared.get_or_make(|| make(self.ctx, self.memory, self.scene))
     }
 
+    /// As `shared`, without making the pass a user of `T` (a pass built on data that is replaced
+    /// is rebuilt; data made to outlive such rebuilds, e.g. a pipeline memo, is not a reason to).
+    pub(crate) fn shared_untracked<T: Any + Send + Sync>(
+        &mut self,
+        make: impl FnOnce(&GpuContext, &Memory, &Scene) -> GpuResult<T>,
+    ) -> GpuResult<std::sync::Arc<T>> {
+        self.shared.get_or_make(|| make(self.ctx, self.memory, self.scene))
+    }
+
     /// A compute pipeline from GLSL `source` (a `.comp` shader; `#include "common/…"` reaches
     /// hadou's shared GLSL, e.g. `common/frame.glsl` for `FrameUniforms` with the camera's ray
     /// frame). Its descriptor set layout and push-constant range come from the shader; a

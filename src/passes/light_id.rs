@@ -17,6 +17,7 @@
 
 use std::sync::Arc;
 
+use super::pipeline_memo::PipelineMemo;
 use super::translucency::{LightDraw, LightViewData, TranslucentData, TranslucentFrame};
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
 use crate::gpu::barriers::ImageAccess;
@@ -31,8 +32,8 @@ const COLOR_TARGETS: [Target; 2] = [Target::LightIds, Target::LightZ];
 
 pub struct LightIdPass {
     /// Culling the faces turned away from the light: for instances as meshed, and mirrored ones.
-    pipeline: Pipeline,
-    mirrored: Pipeline,
+    pipeline: Arc<Pipeline>,
+    mirrored: Arc<Pipeline>,
     data: Arc<TranslucentData>,
     // This frame's light view, draws and map size (instances move).
     view: LightViewData,
@@ -43,14 +44,17 @@ pub struct LightIdPass {
 }
 
 impl LightIdPass {
+    /// Its pipelines come from `memo` (made there the first time): a pass rebuilt on new tables
+    /// compiles nothing.
     pub fn new(
         ctx: &GpuContext,
         compiler: &mut ShaderCompiler,
+        memo: &PipelineMemo,
         data: Arc<TranslucentData>,
         scene: &crate::scene::Scene,
     ) -> GpuResult<Self> {
-        let pipeline = Self::pipeline(ctx, compiler, false)?;
-        let mirrored = Self::pipeline(ctx, compiler, true)?;
+        let pipeline = memo.get_or_make("light_id", || Self::pipeline(ctx, compiler, false))?;
+        let mirrored = memo.get_or_make("light_id mirrored", || Self::pipeline(ctx, compiler, true))?;
         // The light's radiance is not used here: any pre-exposure.
         let now = TranslucentFrame::new(scene, &data, 1.0);
         let (view, lit, draws, size) = (now.view_data, now.view.is_some(), now.draws, now.map_size);
@@ -110,7 +114,7 @@ impl Pass for LightIdPass {
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
-        vec![&self.pipeline, &self.mirrored]
+        vec![&*self.pipeline, &*self.mirrored]
     }
 
     fn record(&self, pass: &PassRecording) {

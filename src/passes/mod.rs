@@ -14,6 +14,7 @@ pub mod gpu_structs;
 pub mod light_id;
 pub mod metaballs;
 pub mod peel;
+pub mod pipeline_memo;
 pub mod raster;
 
 pub mod tonemap;

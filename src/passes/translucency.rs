@@ -66,6 +66,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use super::pipeline_memo::PipelineMemo;
 use super::{Binding, FrameContext, Pass, PassRecording};
 use crate::effects::bake_cache::BakeCache;
 use crate::effects::thickness_lut::{bake, BakeOptions, ThicknessLut, TAU_STEPS};
@@ -659,9 +660,9 @@ pub fn variant(scene: &Scene) -> String {
 }
 
 pub struct TranslucencyPass {
-    pipeline: Pipeline,
+    pipeline: Arc<Pipeline>,
     /// The FILL_ONLY variant: +inf thickness over the frame, for the pixels outside `rect`.
-    fill: Pipeline,
+    fill: Arc<Pipeline>,
     /// The pixels that can show a translucent instance this frame; `None`: none can.
     rect: Option<PixelRect>,
     extent: vk::Extent2D,
@@ -671,9 +672,12 @@ pub struct TranslucencyPass {
 }
 
 impl TranslucencyPass {
+    /// Its pipelines come from `memo` (made there the first time): a pass rebuilt on new tables
+    /// compiles nothing.
     pub fn new(
         ctx: &GpuContext,
         compiler: &mut ShaderCompiler,
+        memo: &PipelineMemo,
         data: Arc<TranslucentData>,
         lut: bool,
         peel: bool,
@@ -690,10 +694,14 @@ impl TranslucencyPass {
         if data.pairs.is_some() {
             defines.push(("WITH_PAIRS", "1"));
         }
-        let spirv = compiler.compile("translucency.comp", &defines)?;
-        let fill_spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
-        let pipeline = create_compute_pipeline(ctx, "translucency", &spirv, 0)?;
-        let fill = create_compute_pipeline(ctx, "translucency fill", &fill_spirv, 0)?;
+        let pipeline = memo.get_or_make(&format!("translucency.comp {defines:?}"), || {
+            let spirv = compiler.compile("translucency.comp", &defines)?;
+            create_compute_pipeline(ctx, "translucency", &spirv, 0)
+        })?;
+        let fill = memo.get_or_make("translucency.comp FILL_ONLY", || {
+            let spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
+            create_compute_pipeline(ctx, "translucency fill", &spirv, 0)
+        })?;
         Ok(TranslucencyPass { pipeline, fill, rect: None, extent: vk::Extent2D::default(), data, peel })
     }
 }
@@ -767,7 +775,7 @@ impl Pass for TranslucencyPass {
 
     fn pipelines(&self) -> Vec<&Pipeline> {
         // The fill variant's shader uses fewer bindings: a set of its own.
-        vec![&self.pipeline, &self.fill]
+        vec![&*self.pipeline, &*self.fill]
     }
 
     fn record(&self, pass: &PassRecording) {
