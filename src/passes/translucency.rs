@@ -210,6 +210,19 @@ pub struct TranslucentData {
     /// The pair tables, one above the other (R8_UNORM, `PairAtlas`), and the sampler the pass
     /// reads it with; `None` when no table is a pair table.
     pub pairs: Option<(Image, Sampler)>,
+    /// The pair tables' copy into their image, until the first frame that reads them records it
+    /// (the translucency pass, before its dispatch): putting tables in use waits for nothing.
+    pairs_copy: std::sync::Mutex<Option<crate::gpu::staged_image::StagedCopy>>,
+}
+
+impl TranslucentData {
+    /// Records the pair tables' copy into the frame if no frame has yet (once per set of tables).
+    pub fn record_pending_copy(&self, rec: &crate::gpu::recorder::Recorder) {
+        let pending = self.pairs_copy.lock().unwrap_or_else(|e| e.into_inner()).take();
+        if let Some(copy) = pending {
+            copy.record(rec);
+        }
+    }
 }
 
 /// What the translucent instances look like this frame, from the scene's current transforms and
@@ -603,8 +616,8 @@ impl TranslucentData {
     }
 
     /// Uploads tables packed already (`pack_keys`, e.g. by a run-time bake): host-visible texel
-    /// buffers, written at once; the pair tables' image (if any) by a one-off copy waited for
-    /// (`gpu::staged_image`: once per set of tables, not per frame).
+    /// buffers, written at once; the pair tables' image (if any) staged, its copy recorded by the
+    /// first frame that reads it (`record_pending_copy`). Waits for nothing.
     pub(crate) fn upload(ctx: &GpuContext, memory: &Memory, packed: Packed) -> GpuResult<Self> {
         let (word, quad) = (Texels::U32, Texels::U32x4);
         let texels =
@@ -618,12 +631,13 @@ impl TranslucentData {
             packed.fields.len()
         );
         let a = &packed.atlas;
+        let mut pairs_copy = None;
         let pairs = if a.height == 0 {
             None
         } else {
             let extent = vk::Extent2D { width: a.width, height: a.height };
             let format = vk::Format::R8_UNORM;
-            let image = crate::gpu::staged_image::upload_compute_image(
+            let (image, copy) = crate::gpu::staged_image::stage_compute_image(
                 ctx,
                 memory,
                 "translucency pair tables",
@@ -638,9 +652,11 @@ impl TranslucentData {
                 a.height,
                 a.bytes.len()
             );
+            pairs_copy = Some(copy);
             Some((image, Sampler::nearest(ctx, "translucency pair tables")?))
         };
-        Ok(TranslucentData { tables: packed.tables, keys: packed.keys, fields, records, pairs })
+        let pairs_copy = std::sync::Mutex::new(pairs_copy);
+        Ok(TranslucentData { tables: packed.tables, keys: packed.keys, fields, records, pairs, pairs_copy })
     }
 }
 
@@ -682,28 +698,36 @@ impl TranslucencyPass {
         lut: bool,
         peel: bool,
     ) -> GpuResult<Self> {
-        let mut defines = Vec::new();
-        if lut {
-            defines.push(("WITH_LUT", "1"));
-        }
-        if peel {
-            defines.push(("WITH_PEEL", "1"));
-        }
-        // The pair tables' march-free read, where the tables in use hold one (WITH_PAIRS: the
-        // image at binding 15).
-        if data.pairs.is_some() {
-            defines.push(("WITH_PAIRS", "1"));
-        }
-        let pipeline = memo.get_or_make(&format!("translucency.comp {defines:?}"), || {
-            let spirv = compiler.compile("translucency.comp", &defines)?;
-            create_compute_pipeline(ctx, "translucency", &spirv, 0)
-        })?;
-        let fill = memo.get_or_make("translucency.comp FILL_ONLY", || {
-            let spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
-            create_compute_pipeline(ctx, "translucency fill", &spirv, 0)
-        })?;
+        // The pair tables' march-free read, where the tables in use hold one.
+        let (pipeline, fill) = pipelines(ctx, compiler, memo, lut, peel, data.pairs.is_some())?;
         Ok(TranslucencyPass { pipeline, fill, rect: None, extent: vk::Extent2D::default(), data, peel })
     }
+}
+
+/// The translucency pass's pipelines for a variant — with the field's march (`lut`), the peel
+/// lists, the pair tables' read (WITH_PAIRS: the image at binding 15) — and its fill pipeline,
+/// from `memo` (made there the first time). The renderer asks for the pairs variant ahead, when a
+/// pair table starts baking, so the frame that puts it in use compiles nothing.
+pub(crate) fn pipelines(
+    ctx: &GpuContext,
+    compiler: &mut ShaderCompiler,
+    memo: &PipelineMemo,
+    lut: bool,
+    peel: bool,
+    pairs: bool,
+) -> GpuResult<(Arc<Pipeline>, Arc<Pipeline>)> {
+    let flags = [(lut, "WITH_LUT"), (peel, "WITH_PEEL"), (pairs, "WITH_PAIRS")];
+    let defines: Vec<(&str, &str)> =
+        flags.iter().filter(|(on, _)| *on).map(|&(_, name)| (name, "1")).collect();
+    let pipeline = memo.get_or_make(&format!("translucency.comp {defines:?}"), || {
+        let spirv = compiler.compile("translucency.comp", &defines)?;
+        create_compute_pipeline(ctx, "translucency", &spirv, 0)
+    })?;
+    let fill = memo.get_or_make("translucency.comp FILL_ONLY", || {
+        let spirv = compiler.compile("translucency.comp", &[("FILL_ONLY", "1")])?;
+        create_compute_pipeline(ctx, "translucency fill", &spirv, 0)
+    })?;
+    Ok((pipeline, fill))
 }
 
 /// The pixels whose rays can meet a translucent instance: the screen bounds of the corners of
@@ -780,6 +804,8 @@ impl Pass for TranslucencyPass {
 
     fn record(&self, pass: &PassRecording) {
         let extent = self.extent;
+        // New pair tables: their copy, before anything reads them.
+        self.data.record_pending_copy(pass.rec);
         if self.rect != Some(PixelRect::full(extent.width, extent.height)) {
             pass.rec.bind_pipeline(&self.fill, pass.set(1));
             pass.rec.dispatch_2d(extent.width, extent.height, (8, 8));

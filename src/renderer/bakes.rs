@@ -8,7 +8,7 @@
 //! and rebuilds the two translucency passes on them: the instance switches to its table. One job runs at a time; keys asked for meanwhile make the next.
 //! `bakes_in_progress` shows progress, `wait_for_bakes` blocks until all are in (tests, tools).
 //! The seed's pair tables (`thickness = "pairs"`, keys with `PAIRS_KEY`) go the same way; their
-//! image is filled by a one-off copy waited for when the job's tables are put in use.
+//! image is staged then and copied by the first frame that reads it (no wait).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -76,6 +76,20 @@ impl Renderer {
             let data = TranslucentData::upload(&self.ctx, &self.memory, packed)?;
             loaded.passes.shared.replace(data);
         }
+        Ok(())
+    }
+
+    /// Makes the translucency pipeline that reads pair tables ahead (a pair table is baking), so
+    /// the frame that puts it in use compiles nothing; nothing when no translucency pass was
+    /// built yet (it will be built with its tables).
+    pub(super) fn warm_pair_pipelines(&mut self) -> Result<(), Error> {
+        let Some(loaded) = &self.loaded else { return Ok(()) };
+        let Some(memo) = loaded.passes.shared.get::<crate::passes::pipeline_memo::PipelineMemo>() else {
+            return Ok(());
+        };
+        let scene = &loaded.scene;
+        let (lut, peel) = (crate::passes::translucency::reads_lut(scene), crate::passes::peel::needed(scene));
+        crate::passes::translucency::pipelines(&self.ctx, &mut self.compiler, &memo, lut, peel, true)?;
         Ok(())
     }
 

@@ -79,6 +79,9 @@ impl Renderer {
         loaded.instance_ids.push(id);
         loaded.tables_dirty = true;
         self.sync_passes()?;
+        if table.is_some_and(|(_, r)| r & crate::passes::translucency::PAIRS_KEY != 0) {
+            self.warm_pair_pipelines()?;
+        }
         Ok(InstanceId(id))
     }
 
