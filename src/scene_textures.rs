@@ -44,11 +44,6 @@ pub fn texture_set_layout(ctx: &GpuContext) -> GpuResult<SetLayout> {
     SetLayout::samplers(ctx, "material textures set layout", 2, vk::ShaderStageFlags::FRAGMENT)
 }
 
-/// The materials `of_materials` reads, under the name `new`'s body uses.
-struct Materials<'a> {
-    materials: &'a [Material],
-}
-
 /// Copies not yet recorded: the staging buffer and, per image, its levels' offsets and sizes.
 struct Pending {
     staging: Buffer,
@@ -115,9 +110,8 @@ impl SceneTextures {
 
     /// As `new`, for a list of materials (those a glTF file adds at run time).
     pub fn of_materials(ctx: &GpuContext, memory: &Memory, materials: &[Material]) -> GpuResult<Self> {
-        let scene = Materials { materials };
         let textured: Vec<usize> =
-            (0..scene.materials.len()).filter(|&m| !scene.materials[m].surface.textures.is_empty()).collect();
+            (0..materials.len()).filter(|&m| !materials[m].surface.textures.is_empty()).collect();
         if textured.is_empty() {
             return Ok(SceneTextures::default());
         }
@@ -127,7 +121,7 @@ impl SceneTextures {
         let mut sampler_index: HashMap<SamplerDesc, usize> = HashMap::new();
         let mut samplers = Vec::new();
         for &m in &textured {
-            let t = &scene.materials[m].surface.textures;
+            let t = &materials[m].surface.textures;
             for r in [&t.base, &t.emissive].into_iter().flatten() {
                 image_index.entry(Arc::as_ptr(&r.image)).or_insert_with(|| {
                     unique.push(r.image.clone());
@@ -169,10 +163,10 @@ impl SceneTextures {
         }
         let layout = texture_set_layout(ctx)?;
         let pool = DescriptorPool::new(ctx, "material textures", textured.len() as u32)?;
-        let mut by_material = vec![None; scene.materials.len()];
+        let mut by_material = vec![None; materials.len()];
         let mut sets = Vec::with_capacity(textured.len());
         for &m in &textured {
-            let material = &scene.materials[m];
+            let material = &materials[m];
             let t = &material.surface.textures;
             let bound = |r: &TextureRef| {
                 Bound::Sampled(

@@ -106,14 +106,20 @@ fn a_colour_file_that_is_not_png_is_refused_and_nothing_is_written() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A scratch folder `name` with empty `scenes/` and `refs/` folders in it, for `hadou test`.
+fn scenes_and_refs(name: &str) -> (std::path::PathBuf, std::path::PathBuf, std::path::PathBuf) {
+    let dir = scratch(name);
+    let (scenes, refs) = (dir.join("scenes"), dir.join("refs"));
+    std::fs::create_dir_all(&scenes).unwrap();
+    std::fs::create_dir_all(&refs).unwrap();
+    (dir, scenes, refs)
+}
+
 /// A folder of glTF scenes (.glb, .gltf with its .bin, and a TOML scene beside them): each is a
 /// scene, blessed under its stem, compared under its sidecar, failing by name when it changes.
 #[test]
 fn hadou_test_takes_gltf_files_as_scenes() {
-    let dir = scratch("cmd_test_gltf");
-    let (scenes, refs) = (dir.join("scenes"), dir.join("refs"));
-    std::fs::create_dir_all(&scenes).unwrap();
-    std::fs::create_dir_all(&refs).unwrap();
+    let (dir, scenes, refs) = scenes_and_refs("cmd_test_gltf");
     hierarchy(true, true, None).write_glb(&scenes, "level");
     hierarchy(true, false, None).write_external(&scenes, "rooms");
     let cube = std::fs::read_to_string(common::asset("assets/scenes/single_cube.toml")).unwrap();
@@ -167,10 +173,7 @@ fn hadou_test_takes_gltf_files_as_scenes() {
 /// is an error row naming the others (exit 2), the other scenes still run.
 #[test]
 fn hadou_test_refuses_two_scenes_of_one_name() {
-    let dir = scratch("cmd_test_shared");
-    let (scenes, refs) = (dir.join("scenes"), dir.join("refs"));
-    std::fs::create_dir_all(&scenes).unwrap();
-    std::fs::create_dir_all(&refs).unwrap();
+    let (dir, scenes, refs) = scenes_and_refs("cmd_test_shared");
     hierarchy(true, false, None).write_glb(&scenes, "level");
     hierarchy(true, false, None).write_embedded(&scenes, "level");
     hierarchy(true, false, None).write_glb(&scenes, "other");

@@ -889,12 +889,10 @@ impl Tangency {
 /// the clipping: g as power-basis pieces ([`field_pieces`]), its critical points by the derivative
 /// cascade, the first hit from the same pieces.
 pub fn tangency(group: &MetaballGroupParams, origin: DVec3, dir: DVec3, t_min: f64, t_max: f64) -> Tangency {
-    let ray = group.transform.ray_to_object(origin, dir);
-    let (t0, t1) = (t_min * ray.t_scale, t_max * ray.t_scale);
     let mut margin = f64::INFINITY;
-    if t0.is_nan() || t1.is_nan() || t1 < t0 {
+    let Some((ray, t0, t1)) = super::metaballs::object_interval(group, origin, dir, t_min, t_max) else {
         return Tangency { margin };
-    }
+    };
     let pieces = field_pieces(group, &ray, t0, t1);
     let t_hit = pieces.iter().find_map(|p| roots_in_unit(&p.poly).first().map(|&u| p.t0 + u * (p.t1 - p.t0)));
     let rb = ray_balls(group, &ray, t0, t1);

@@ -71,11 +71,9 @@ pub fn trace(
     steps: u32,
 ) -> Trace {
     let mut out = Trace { hit: None, steps: 0, exhausted: false };
-    let ray = group.transform.ray_to_object(origin, dir);
-    let (t0, t_end) = (t_min * ray.t_scale, t_max * ray.t_scale);
-    if t0.is_nan() || t_end.is_nan() || t_end < t0 {
+    let Some((ray, t0, t_end)) = super::metaballs::object_interval(group, origin, dir, t_min, t_max) else {
         return out;
-    }
+    };
     let rb = ray_balls(group, &ray, t0, t_end);
     let gamma = group.kernel.max_slope();
     let threshold = group.threshold;

@@ -31,14 +31,4 @@ impl PipelineMemo {
         made.push((key.to_string(), p.clone()));
         Ok(p)
     }
-
-    /// How many pipelines it holds.
-    pub fn len(&self) -> usize {
-        self.made.lock().unwrap_or_else(|e| e.into_inner()).len()
-    }
-
-    /// Whether it holds none.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
 }

@@ -140,6 +140,25 @@ impl<'a> Owner<'a> {
         self.ctx.err(span, format!("{} `{field}`: expected {expected}, found {found}", self.label))
     }
 
+    /// A keyframe's required `time`, which must be past the previous keyframe's (`previous`):
+    /// keyframes of waves and metaball groups alike strictly increase in time.
+    pub fn keyframe_time(
+        &self,
+        time: Option<&Spanned<Num>>,
+        previous: Option<f64>,
+    ) -> Result<f64, SceneError> {
+        let def = self.required("time", time, "a number, in seconds")?;
+        let t = def.get_ref().0;
+        match previous {
+            Some(p) if t <= p => {
+                let expected =
+                    format!("a time > {} (the previous keyframe's; times must strictly increase)", show(p));
+                Err(self.fail(def.span(), "time", &expected, show(t)))
+            }
+            _ => Ok(t),
+        }
+    }
+
     /// A message about this table as a whole, at its header.
     pub fn fail_here(&self, message: impl Display) -> SceneError {
         self.ctx.err(self.span.clone(), format!("{}: {message}", self.label))

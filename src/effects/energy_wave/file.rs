@@ -113,17 +113,7 @@ fn keyframes(o: &Owner, defs: &Tables<KeyframeDef>) -> Result<Vec<WaveKeyframe>,
     for (i, def) in defs.0.iter().enumerate() {
         let k = Owner::new(o.ctx, format!("{} keyframe {}", o.label, i + 1), def.span());
         let d = def.get_ref();
-        let time_def = k.required("time", d.time.as_ref(), "a number, in seconds")?;
-        let time = time_def.get_ref().0;
-        if let Some(previous) = out.last().map(|p| p.time) {
-            if time <= previous {
-                let expected = format!(
-                    "a time > {} (the previous keyframe's; times must strictly increase)",
-                    show(previous)
-                );
-                return Err(k.fail(time_def.span(), "time", &expected, show(time)));
-            }
-        }
+        let time = k.keyframe_time(d.time.as_ref(), out.last().map(|p| p.time))?;
         let direction = match &d.direction {
             Some(v) => Some(keyframe_direction(&k, v, last_direction)?),
             None => None,

@@ -275,17 +275,7 @@ fn keyframes(
     for (i, def) in defs.0.iter().enumerate() {
         let k = Owner::new(o.ctx, format!("{} keyframe {}", o.label, i + 1), def.span());
         let d = def.get_ref();
-        let time_def = k.required("time", d.time.as_ref(), "a number, in seconds")?;
-        let time = time_def.get_ref().0;
-        if let Some(previous) = out.last().map(|p| p.time) {
-            if time <= previous {
-                let expected = format!(
-                    "a time > {} (the previous keyframe's; times must strictly increase)",
-                    show(previous)
-                );
-                return Err(k.fail(time_def.span(), "time", &expected, show(time)));
-            }
-        }
+        let time = k.keyframe_time(d.time.as_ref(), out.last().map(|p| p.time))?;
         let per_ball = |field: &str, len: usize, span: std::ops::Range<usize>| {
             if len == n {
                 Ok(())

@@ -483,6 +483,23 @@ fn sphere_root(ray: &ObjectRay, b: &Ball, iso: f64, ta: f64, tb: f64) -> Option<
     [near, far].into_iter().find(|&t| t >= ta && t <= tb)
 }
 
+/// A world ray (`dir` unit) over world distances [t_min, t_max] in the group's object space:
+/// the object ray and its parameter interval; None for an empty or NaN interval.
+pub fn object_interval(
+    group: &MetaballGroupParams,
+    origin: DVec3,
+    dir: DVec3,
+    t_min: f64,
+    t_max: f64,
+) -> Option<(ObjectRay, f64, f64)> {
+    let ray = group.transform.ray_to_object(origin, dir);
+    let (t0, t1) = (t_min * ray.t_scale, t_max * ray.t_scale);
+    if t0.is_nan() || t1.is_nan() || t1 < t0 {
+        return None;
+    }
+    Some((ray, t0, t1))
+}
+
 /// The first crossing of the group's surface along a world ray (`dir` unit) with
 /// t ∈ [t_min, t_max] (world distances), by the seed's algorithm (module docs).
 pub fn cast(
@@ -492,11 +509,7 @@ pub fn cast(
     t_min: f64,
     t_max: f64,
 ) -> Option<MetaHit> {
-    let ray = group.transform.ray_to_object(origin, dir);
-    let (t0, t1) = (t_min * ray.t_scale, t_max * ray.t_scale);
-    if t0.is_nan() || t1.is_nan() || t1 < t0 {
-        return None;
-    }
+    let (ray, t0, t1) = object_interval(group, origin, dir, t_min, t_max)?;
     let rb = ray_balls(group, &ray, t0, t1);
     let mut iterations = 0u32;
     let kernel = group.kernel;
@@ -695,11 +708,7 @@ pub fn cast_reference(
     t_min: f64,
     t_max: f64,
 ) -> Option<MetaHit> {
-    let ray = group.transform.ray_to_object(origin, dir);
-    let (t0, t1) = (t_min * ray.t_scale, t_max * ray.t_scale);
-    if t0.is_nan() || t1.is_nan() || t1 < t0 {
-        return None;
-    }
+    let (ray, t0, t1) = object_interval(group, origin, dir, t_min, t_max)?;
     // g on the previous piece's end (−T across a gap with no ball): a sign change between it and
     // the next piece's start is a root on the boundary that rounding split between the two.
     let mut before: Option<(f64, f64)> = None;
