@@ -1,13 +1,13 @@
 //! Figure 13 of seed 003 as a table: the bottle baked at 30³, 40³, 50³, 56³ — field bytes, bake
 //! seconds, and the field's error on light paths against the exact inside fraction
-//! (`hadou::report::lut_paths`, shared with the library's tests).
+//! (`hadou_cli::report::lut_paths`, shared with the library's tests).
 //!
 //! cargo run --release --example bake_measure
 
 use hadou::effects::raycast::MeshBvh;
 use hadou::effects::thickness_lut::{bake, BakeOptions};
-use hadou::report::lut_paths::{at, cpu_seconds, path_errors};
 use hadou::scene::procedural;
+use hadou_cli::report::lut_paths::{at, cpu_seconds, path_errors};
 
 /// Random light paths per resolution.
 const PATHS: usize = 20000;

@@ -1,13 +1,13 @@
 //! Speed against error for the energy-wave pass at three sizes: the analytic closed form with and
 //! without occluders, then the ray-marched baseline at several step counts, each compared per
-//! pixel with the f64 reference. The measurement is `hadou::report::energy_wave::measure`, the
+//! pixel with the f64 reference. The measurement is `hadou_cli::report::energy_wave::measure`, the
 //! same code `hadou report` runs; this prints markdown tables.
 //!
 //! cargo run --release --example energy_wave_bench [-- --frames N]
 
-use hadou::report::energy_wave::{measure, with_method, TIME};
 use hadou::scene::WaveMethod;
 use hadou::{Runtime, RuntimeOptions};
+use hadou_cli::report::energy_wave::{measure, with_method, TIME};
 
 const WARMUP: usize = 3;
 

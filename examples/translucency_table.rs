@@ -5,15 +5,15 @@
 //! cargo run --release --example translucency_table
 fn main() {
     let mut runtime = hadou::Runtime::new(&hadou::RuntimeOptions::from_env()).expect("runtime");
-    let mut opts = hadou::report::ReportOptions::new(false);
+    let mut opts = hadou_cli::report::ReportOptions::new(false);
     opts.voxel_res = vec![25, 40, 56, 64, 128];
     opts.peel_res = vec![25, 56];
     opts.pairs_res = vec![16, 25];
     opts.frames = 10;
     let mut show = |label: &str, _: usize, _: usize| eprintln!("{label}");
-    let mut steps = hadou::report::Steps::new(opts.step_count(), &mut show);
-    let (_, ceilings) = hadou::report::ceilings::section(&runtime, &opts, &mut steps).expect("ceilings");
-    let section = hadou::report::translucency::section(&mut runtime, &opts, &ceilings, &mut steps)
+    let mut steps = hadou_cli::report::Steps::new(opts.step_count(), &mut show);
+    let (_, ceilings) = hadou_cli::report::ceilings::section(&runtime, &opts, &mut steps).expect("ceilings");
+    let section = hadou_cli::report::translucency::section(&mut runtime, &opts, &ceilings, &mut steps)
         .expect("translucency");
     println!("{}", section.markdown(2, "."));
 }

@@ -1,7 +1,7 @@
 #version 460
 // composite: hadou's HDR result over the game's colour target, premultiplied alpha (the blend is
 // src + (1 − src.a)·dst): α = 1 where hadou drew a surface (over), 0 elsewhere, where only the
-// wave's glow remains (added). Tonemap as in tonemap.comp (CPU twin src/effects/tonemap.rs).
+// wave's glow remains (added). Tonemap as in tonemap.comp (CPU twin crates/hadou/src/effects/tonemap.rs).
 // AUTO_EXPOSURE: the factor from exposure.comp's measurement of this frame (dispatched by the
 // pass before it draws), moved from the adapted luminance of earlier frames (common/exposure.glsl).
 layout(set = 0, binding = 0, rgba16f) uniform readonly image2D hdr;

@@ -2,7 +2,7 @@
 // depth_import: the game's depth buffer → hadou's view-ray distance (R32F `distance`) and its own
 // reverse-Z depth (a buffer copied into the D32 `depth`), so hadou's instances are depth-tested
 // against the game's scene and the energy wave stops at it. CPU twin (f64):
-// src/renderer/depth_import.rs::import_depth.
+// crates/hadou/src/renderer/depth_import.rs::import_depth.
 #include "common/camera.glsl"
 #include "common/frame.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -13,7 +13,7 @@ layout(set = 0, binding = 2, std430) writeonly buffer HadouDepth { float hadou_d
 // The camera's ray frame (ray_forward.w: hadou's far) and the frame's size (counts.yz).
 layout(set = 0, binding = 3, std140) uniform FrameBlock { FrameUniforms frame; };
 
-// Params in src/passes/depth_import.rs.
+// Params in crates/hadou/src/passes/depth_import.rs.
 layout(push_constant) uniform Params {
     // 1 if the game's depth is reverse-Z (nearer is larger), the staging buffer's row length (the
     // width rounded up to whole 8-pixel workgroups)

@@ -4,14 +4,14 @@
 // Where hadou drew a surface (its instances, metaballs: ids.x != 0) the view depth along the
 // camera's forward axis is z = distance / |pixel ray direction| (the ray direction has forward
 // component 1) and the stored value d = -A + B / z; elsewhere the fragment is discarded and the
-// game's depth is kept. CPU twin (f64): src/passes/depth_import.rs::store_depth.
+// game's depth is kept. CPU twin (f64): crates/hadou/src/passes/depth_import.rs::store_depth.
 #include "common/frame.glsl"
 layout(set = 0, binding = 0, rg32ui) uniform readonly uimage2D ids;
 layout(set = 0, binding = 1, r32f) uniform readonly image2D distance_image;
 // The camera's ray frame and the frame's size (counts.yz).
 layout(set = 0, binding = 2, std140) uniform FrameBlock { FrameUniforms frame; };
 
-// Params in src/passes/depth_out.rs.
+// Params in crates/hadou/src/passes/depth_out.rs.
 layout(push_constant) uniform Params {
     // the game's projection: stored d = -A + B / z
     vec4 planes;

@@ -2,14 +2,14 @@
 // energy_wave: per pixel, H = ∫₀ᴸ E(O + s·u) ds for each wave, L = the view distance to the first
 // surface (or the camera's far distance). Adds colour × intensity × max(H − cutoff, 0) to HDR,
 // writes Σ H to energy.
-// CPU twins: src/effects/energy_wave.rs (f64), src/effects/energy_wave_f32.rs (this arithmetic).
+// CPU twins: crates/hadou/src/effects/energy_wave.rs (f64), crates/hadou/src/effects/energy_wave_f32.rs (this arithmetic).
 #include "common/camera.glsl"
 #include "common/energy_wave.glsl"
 #include "common/frame.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// WaveStyle in src/passes/energy_wave.rs (size checked when bound: gpu::reflect).
+// WaveStyle in crates/hadou/src/passes/energy_wave.rs (size checked when bound: gpu::reflect).
 struct WaveStyle {
     vec4 emission;  // rgb: colour × intensity; w: cutoff (H below it emits nothing)
     uvec4 method;   // x: 0 analytic, 1 raymarch; y: steps; z: jitter
@@ -24,7 +24,7 @@ layout(set = 0, binding = 4, std430) readonly buffer Styles { WaveStyle styles[]
 // the frame's size (counts.yz).
 layout(set = 0, binding = 5, std140) uniform FrameBlock { FrameUniforms frame; };
 
-// EnergyWaveParams in src/passes/energy_wave.rs (size checked at pipeline creation).
+// EnergyWaveParams in crates/hadou/src/passes/energy_wave.rs (size checked at pipeline creation).
 layout(push_constant) uniform EnergyWaveParams {
     uvec4 counts;  // x: wave count
 } params;

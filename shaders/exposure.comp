@@ -5,7 +5,7 @@
 // of the scene's average luminance: the mean bin centre between the 80th and 98.3rd percentiles
 // of the surfaces (of every pixel when no surface is seen), minus log2 of the pre-exposure. Integer
 // atomics only: the same frame gives the same bits. tonemap.comp (AUTO_EXPOSURE) reads it in the
-// same frame. CPU twin: src/effects/tonemap.rs (`measure`, `histogram_log2_average`).
+// same frame. CPU twin: crates/hadou/src/effects/tonemap.rs (`measure`, `histogram_log2_average`).
 layout(local_size_x = 256) in;
 
 layout(set = 0, binding = 0, rgba16f) uniform readonly image2D hdr;
@@ -17,7 +17,7 @@ layout(set = 0, binding = 3) buffer Measured {
     uint unused;
 } measured;
 
-// Push constants as tonemap.comp's (src/passes/tonemap.rs `Params`).
+// Push constants as tonemap.comp's (crates/hadou/src/passes/tonemap.rs `Params`).
 layout(push_constant) uniform Params {
     // Fixed exposure: exposure / pre-exposure, what the HDR value is multiplied by.
     float exposure;

@@ -9,7 +9,7 @@ layout(location = 0) in vec3 in_position;
 
 layout(set = 0, binding = 0, std430) readonly buffer Instances { InstanceData instances[]; };
 
-// LightViewData in src/passes/translucency.rs (size checked at pipeline creation).
+// LightViewData in crates/hadou/src/passes/translucency.rs (size checked at pipeline creation).
 layout(push_constant) uniform Push { LightViewData view; } push;
 
 layout(location = 0) out vec3 v_world;

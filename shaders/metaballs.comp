@@ -3,8 +3,8 @@
 // pixel's 8×8 tile, depth-tested against the raster (t_max = the `distance` target, t_min = the
 // near plane along the ray). The nearest surface writes HDR colour (Lambert + Blinn-Phong under
 // the scene's directional lights and ambient), distance, normal (toward the camera) and ids.
-// Binning and buffer layouts: src/passes/metaballs.rs. Cast: shaders/common/metaballs.glsl;
-// CPU twins src/effects/metaballs.rs (f64) and src/effects/metaballs_f32.rs (its arithmetic).
+// Binning and buffer layouts: crates/hadou/src/passes/metaballs.rs. Cast: shaders/common/metaballs.glsl;
+// CPU twins crates/hadou/src/effects/metaballs.rs (f64) and crates/hadou/src/effects/metaballs_f32.rs (its arithmetic).
 //
 // Per group present in the tile, each pixel first gathers its candidates: the balls of the
 // tile's run whose support its ray enters in [from, stop), as support chords in the cast's slots
@@ -44,19 +44,19 @@ layout(set = 0, binding = 5, std430) readonly buffer Materials { MaterialData ma
 // The group headers (MetaGroup, 14 texels each), the balls (MetaBall, 2 texels each), the tile
 // lists and their entries, as texel buffers of uints (floats by uintBitsToFloat): on lavapipe a
 // texel fetch is a branch-free gather, a storage-buffer load a loop over the lanes
-// (src/gpu/texel_buffer.rs).
+// (crates/hadou-gpu/src/texel_buffer.rs).
 layout(set = 0, binding = 6) uniform usamplerBuffer group_texels;
 layout(set = 0, binding = 7) uniform usamplerBuffer ball_texels;
-// Keep in sync with `TileLists` in src/passes/metaballs.rs: tiles[0 .. active) are the headers of
+// Keep in sync with `TileLists` in crates/hadou/src/passes/metaballs.rs: tiles[0 .. active) are the headers of
 // the tiles holding any ball (x: index of the tile's first run in this array, y: run count,
 // z, w: the tile's column and row); the runs follow (x: group, y: first entry in `entries`,
 // z: entry count, w: RUN_* flags), one per group present in the tile; each run's entries sorted
 // by ‖c − o‖ − R (object space, o the camera).
 layout(set = 0, binding = 8) uniform usamplerBuffer tile_texels;
 layout(set = 0, binding = 9) uniform usamplerBuffer entry_texels;
-// Keep in sync with the STAT_* indices in src/passes/metaballs.rs.
+// Keep in sync with the STAT_* indices in crates/hadou/src/passes/metaballs.rs.
 layout(set = 0, binding = 10, std430) buffer Stats { uint stats[]; };
-// Keep in sync with `PendingRecord` and `StreamDispatch` in src/passes/metaballs.rs. Per pixel of
+// Keep in sync with `PendingRecord` and `StreamDispatch` in crates/hadou/src/passes/metaballs.rs. Per pixel of
 // each active tile (tile · 64 + lane): the runs whose cast is crowded (x: runs 0–31 by bit, y:
 // 32–63, z: the first crowded run from 64 on, every later run streamed too; 0xffffffff: none) and
 // w: bit 31 set when the rounds found a hit, its clipping steps below.
@@ -106,7 +106,7 @@ float chunk_key(uvec4 run, uint k, vec3 o) { return mb_entry_key(load_ball(entri
 #define MB_TANGENT_FLAGS 0  // this pass never reads MB_TANGENT
 #include "common/metaballs.glsl"
 
-// Keep in sync with MetaballParams in src/passes/metaballs.rs. The camera's ray frame, the far
+// Keep in sync with MetaballParams in crates/hadou/src/passes/metaballs.rs. The camera's ray frame, the far
 // distance (ray_forward.w) and the frame's size (counts.yz) are the frame's uniforms.
 layout(push_constant) uniform MetaballParams {
     uvec4 counts;  // x: active tiles, y: instance id of group 0 (scene instances)
@@ -125,10 +125,10 @@ layout(push_constant) uniform MetaballParams {
                                // containing `from` found no slot (more than MB_MAX_RAY_BALLS
                                // supports there, or the subgroup's other rays filled them)
 
-// Keep in sync with RUN_LONE_BOUND in src/passes/metaballs.rs: all q ≥ 0 and F = 0 on the near
+// Keep in sync with RUN_LONE_BOUND in crates/hadou/src/passes/metaballs.rs: all q ≥ 0 and F = 0 on the near
 // plane, so F > T at a point well inside one ball's lone isosurface sphere bounds the first hit.
 #define RUN_LONE_BOUND 1u
-// Keep in sync with RUN_TRACE in src/passes/metaballs.rs: the group is sphere-traced.
+// Keep in sync with RUN_TRACE in crates/hadou/src/passes/metaballs.rs: the group is sphere-traced.
 #define RUN_TRACE 2u
 
 const float HALF_MAX = 65504.0;
@@ -136,7 +136,7 @@ const float HALF_MAX = 65504.0;
 const float SPECULAR = 0.25;
 const float SHININESS = 48.0;
 
-// Keep in sync with TILES_PER_ROW in src/passes/metaballs.rs.
+// Keep in sync with TILES_PER_ROW in crates/hadou/src/passes/metaballs.rs.
 #define TILES_PER_ROW 8192u
 
 // The shading and outputs of a metaball hit at pixel p (ray u).

@@ -1,12 +1,12 @@
 #version 460
 // peel: every fragment is one crossing of a texel centre's light ray with a peel instance's
-// surface; appended to the texel's list (src/passes/peel.rs). No depth test: all are kept, up to
+// surface; appended to the texel's list (crates/hadou/src/passes/peel.rs). No depth test: all are kept, up to
 // PEEL_K per texel; the count goes on, so a reader knows the list overflowed.
 #include "common/peel.glsl"
 
 layout(set = 0, binding = 1, r32ui) uniform uimage2D peel_counts;
 layout(set = 0, binding = 2, rg32ui) uniform writeonly uimage2D peel_lists;
-// Keep in sync with STAT_* in src/passes/peel.rs.
+// Keep in sync with STAT_* in crates/hadou/src/passes/peel.rs.
 layout(set = 0, binding = 3, std430) buffer Stats { uint stats[]; };
 #define STAT_OVERFLOWED 0
 #define STAT_TEXELS 1

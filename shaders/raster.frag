@@ -5,7 +5,7 @@
 // VERTEX_ATTRIBUTES; a fragment whose alpha is below the material's cutoff (alphaMode MASK) is
 // not drawn. Without them (TOML materials, meshes without attributes) the colour is the albedo
 // itself, nothing is discarded (alpha ≥ 0 = cutoff) and the emission added is exactly 0.
-// MATERIAL_TEXTURES (with VERTEX_ATTRIBUTES; src/scene_textures.rs): the base colour is also
+// MATERIAL_TEXTURES (with VERTEX_ATTRIBUTES; crates/hadou/src/scene_textures.rs): the base colour is also
 // multiplied by the base-colour texture and the emission by the emissive texture, each sampled
 // at its coordinate set mapped by KHR_texture_transform; both are sampled before the mask's
 // discard (implicit derivatives need every fragment of the quad).
@@ -40,7 +40,7 @@ struct TexturePush {
 };
 layout(set = 1, binding = 0) uniform sampler2D base_texture;
 layout(set = 1, binding = 1) uniform sampler2D emissive_texture;
-// TexturePush (src/scene_textures.rs): each texture's 2x3 coordinate map as its two rows;
+// TexturePush (crates/hadou/src/scene_textures.rs): each texture's 2x3 coordinate map as its two rows;
 // flags x, y: base, emissive present; z, w: their coordinate sets.
 layout(push_constant) uniform TexturePushBlock { TexturePush textures; };
 

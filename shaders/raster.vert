@@ -2,8 +2,8 @@
 // raster: instanced draws, one per mesh; gl_InstanceIndex includes the draw's firstInstance.
 // The instance's and its material's data are read here, once per vertex, and handed to the
 // fragments as flat varyings: on lavapipe a fragment shader runs under a coverage mask, where a
-// storage-buffer load is a loop over the lanes (src/gpu/texel_buffer.rs), per fragment.
-// VERTEX_ATTRIBUTES (the pipeline for meshes with glTF vertex attributes, src/passes/raster.rs):
+// storage-buffer load is a loop over the lanes (crates/hadou-gpu/src/texel_buffer.rs), per fragment.
+// VERTEX_ATTRIBUTES (the pipeline for meshes with glTF vertex attributes, crates/hadou/src/passes/raster.rs):
 // a second vertex binding with the vertex colour and both texture coordinate sets.
 #include "common/frame.glsl"
 

@@ -1,5 +1,5 @@
 #version 460
-// tonemap: exposure, ACES filmic (Narkowicz 2015 fit), sRGB encoding. CPU twin: src/effects/tonemap.rs.
+// tonemap: exposure, ACES filmic (Narkowicz 2015 fit), sRGB encoding. CPU twin: crates/hadou/src/effects/tonemap.rs.
 // AUTO_EXPOSURE: the factor comes from exposure.comp's measurement of this frame, moved from the
 // adapted luminance of earlier frames by params.weight (common/exposure.glsl).
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -7,7 +7,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba16f) uniform readonly image2D hdr;
 layout(set = 0, binding = 1, rgba8) uniform writeonly image2D ldr;
 
-// Shared with exposure.comp (src/passes/tonemap.rs `Params`).
+// Shared with exposure.comp (crates/hadou/src/passes/tonemap.rs `Params`).
 layout(push_constant) uniform Params {
     // Fixed exposure: exposure / pre-exposure, what the HDR value is multiplied by.
     float exposure;

@@ -10,7 +10,7 @@
 //        |M(b - a)| = z(P) - z(entry).
 //   pairs: d = |P - entry| times the fraction the seed's pair table gives for the surface voxels
 //        of entry and P (pair_inside_fraction, WITH_PAIRS: the scene's tables hold a pair table).
-// Fallbacks are documented in src/passes/translucency.rs. CPU twin: src/effects/translucency.rs.
+// Fallbacks are documented in crates/hadou/src/passes/translucency.rs. CPU twin: crates/hadou/src/effects/translucency.rs.
 // Dispatched over `rect` only (the pixels that can show a translucent instance: lavapipe runs the
 // whole shader for every 8-lane group, taken branches or not). WITH_LUT (an instance reads a
 // LUT) and WITH_PEEL (one reads peel lists) compile those paths in only where the scene has them,
@@ -22,7 +22,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 // The fields, LutRecords and TranslucentInstances as texel buffers: inside a branch, on lavapipe,
-// a storage-buffer load is a loop over the lanes (src/gpu/texel_buffer.rs).
+// a storage-buffer load is a loop over the lanes (crates/hadou-gpu/src/texel_buffer.rs).
 layout(set = 0, binding = 7) uniform usamplerBuffer field_texels;
 layout(set = 0, binding = 8) uniform usamplerBuffer lut_texels;
 layout(set = 0, binding = 9) uniform usamplerBuffer translucent_texels;
@@ -32,7 +32,7 @@ uint field_word(uint i) { return texelFetch(field_texels, int(i)).x; }
 #endif
 #include "common/translucency.glsl"
 
-// Keep in sync with TranslucencyParams in src/passes/translucency.rs. The camera's ray frame and
+// Keep in sync with TranslucencyParams in crates/hadou/src/passes/translucency.rs. The camera's ray frame and
 // position and the frame's size (counts.yz) are the frame's uniforms (binding 12).
 struct TranslucencyParams {
     vec4 radiance;  // rgb: the first light's colour × intensity; w: 1 when the scene has a light

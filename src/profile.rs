@@ -5,9 +5,9 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::frame::FrameStats;
-use crate::gpu::DeviceInfo;
 use crate::profile_diff::RunSamples;
+use hadou::gpu::DeviceInfo;
+use hadou::FrameStats;
 
 /// min / p50 / p95 / p99 / max of a series, in milliseconds.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]

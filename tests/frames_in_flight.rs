@@ -511,7 +511,7 @@ material = "jade"
 /// of 1.2 voxels at some orientations (tests/gpu_translucency.rs asserts ≤ 1 on its placements).
 #[test]
 fn a_moving_translucent_instance_renders_as_the_same_world_still() {
-    use hadou::report::translucency::{abs_stats, sample_set, world_voxel};
+    use hadou_cli::report::translucency::{abs_stats, sample_set, world_voxel};
     let (_leaks, ctx) = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, 2);

@@ -20,10 +20,10 @@ use std::path::Path;
 use common::gltf_writer::{hierarchy, hierarchy_twin_instances, temp_dir};
 use glam::DVec3;
 use hadou::effects::translucency::{exit_weight, transmitted};
-use hadou::report::translucency::{self as report, abs_stats};
 use hadou::scene::{MaterialKind, Scene};
 use hadou::testing::Comparison;
 use hadou::{Aov, FrameRequest};
+use hadou_cli::report::translucency::{self as report, abs_stats};
 use serde_json::json;
 
 /// Renders colour and the depth, HDR, normal (and thickness when translucent) AOVs.

@@ -39,12 +39,14 @@ use common::host::Host;
 use glam::{DVec3, Vec3};
 use hadou::effects::peel::{PeelThickness, PeelTwin};
 use hadou::passes::peel;
-use hadou::report::translucency::{self as report, abs_stats as stats, with_thickness, Sample, SampleSet};
 use hadou::scene::mesh::Mesh;
 use hadou::scene::transform::{Transform, TransformOp};
 use hadou::scene::{Scene, ThicknessMode};
 use hadou::testing::Comparison;
 use hadou::{Aov, Error, FrameInputs, FrameRequest, Renderer, RendererOptions, Runtime};
+use hadou_cli::report::translucency::{
+    self as report, abs_stats as stats, with_thickness, Sample, SampleSet,
+};
 
 /// Relative f32 term of the bound (module docs), times |C| + 2R.
 const EPS_DEPTH: f64 = 1e-5;

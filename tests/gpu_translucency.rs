@@ -37,11 +37,13 @@ mod common;
 use glam::DVec3;
 use hadou::effects::raycast::SceneCaster;
 use hadou::effects::translucency::{exit_weight, transmitted};
-use hadou::report::translucency::{self as report, abs_stats as stats, with_thickness, Sample, SampleSet};
 use hadou::scene::transform::{Transform, TransformOp};
 use hadou::scene::{MaterialKind, Scene, ThicknessMode};
 use hadou::testing::Comparison;
 use hadou::{Aov, FrameRequest};
+use hadou_cli::report::translucency::{
+    self as report, abs_stats as stats, with_thickness, Sample, SampleSet,
+};
 
 // ---------------------------------------------------------------------------------------------
 // Rendering

@@ -225,7 +225,7 @@ fn check_translucent_blocks(
     rt: &mut hadou::Runtime,
     frames: &[(usize, hadou::scene::Scene, hadou::renderer::AovReadback)],
 ) {
-    use hadou::report::translucency::{abs_stats, sample_set, world_voxel, MAX_SKIPPED_SHARE};
+    use hadou_cli::report::translucency::{abs_stats, sample_set, world_voxel, MAX_SKIPPED_SHARE};
     let (mut errors, mut skipped) = (Vec::new(), 0);
     for (i, world, readback) in frames {
         let (thickness, depth) = (readback.aov(Aov::Thickness).unwrap(), readback.aov(Aov::Depth).unwrap());
@@ -591,7 +591,7 @@ fn a_new_translucent_mesh_bakes_in_the_background() {
 /// for paths that cross no cavity (docs/scene-format.md, translucency).
 #[test]
 fn a_moving_translucent_object_keeps_its_thickness() {
-    use hadou::report::translucency::{self as report, abs_stats};
+    use hadou_cli::report::translucency::{self as report, abs_stats};
     let text = r#"
         [camera]
         position = [0, 0.8, 6]

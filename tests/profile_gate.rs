@@ -4,7 +4,7 @@
 
 mod common;
 
-use hadou::profile_diff::{diff, GateOptions, Rng, Verdict};
+use hadou_cli::profile_diff::{diff, GateOptions, Rng, Verdict};
 
 /// Frame times of one run: median `ms` × exp(σ·x) with x an AR(1) series (ρ = 0.5, unit
 /// variance): neighbouring frames on lavapipe are correlated, which the block bootstrap must

@@ -12,8 +12,8 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
 
-use hadou::report::csv::parse;
-use hadou::report::ReportOptions;
+use hadou_cli::report::csv::parse;
+use hadou_cli::report::ReportOptions;
 
 fn hadou() -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_hadou"));
@@ -130,7 +130,7 @@ fn quick_report_has_every_row() {
     assert_eq!(tl.rows.len(), labels.len());
 
     let mb = Csv::read(&out.join("metaballs.csv"));
-    let variants = hadou::report::metaballs::variant_methods();
+    let variants = hadou_cli::report::metaballs::variant_methods();
     for (label, _) in &variants {
         let row = mb.row("variant", label);
         for column in ["pass ms p50", "hit mismatch %", "depth max rel err", "depth p99 rel err"] {

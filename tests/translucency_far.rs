@@ -7,8 +7,8 @@
 
 mod common;
 
-use hadou::report::translucency::{abs_stats, sample_set, world_voxel};
 use hadou::{Aov, FrameRequest};
+use hadou_cli::report::translucency::{abs_stats, sample_set, world_voxel};
 
 fn scene(x: f64, mode: &str) -> hadou::scene::Scene {
     common::parse(&format!(

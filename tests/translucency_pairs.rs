@@ -1,4 +1,4 @@
-//! `thickness = "pairs"`, the seed's own LUT (seed 003 §3.2; src/effects/thickness_pairs.rs):
+//! `thickness = "pairs"`, the seed's own LUT (seed 003 §3.2; crates/hadou/src/effects/thickness_pairs.rs):
 //! the bake against the exact f64 pair thickness, the GPU pass against its f64 twin on lavapipe
 //! (validation and sync validation on), and the refusal of a table past the limits.
 //!
@@ -21,10 +21,10 @@ mod common;
 use glam::DVec3;
 use hadou::effects::raycast::MeshBvh;
 use hadou::effects::thickness_pairs::{self, exact_pair, PairOptions, QUANTIZATION_BOUND};
-use hadou::report::translucency::{self as report, with_thickness};
 use hadou::scene::{Scene, ThicknessMode};
 use hadou::testing::Comparison;
 use hadou::{Aov, FrameRequest};
+use hadou_cli::report::translucency::{self as report, with_thickness};
 
 /// Every pair's stored thickness is within the quantization bound of the exact f64 thickness
 /// (cast again here, on a sample of the pairs), symmetric, and the cavity of a cavity cube is
@@ -210,7 +210,7 @@ fn a_table_past_the_budget_is_refused_naming_the_material() {
 }
 
 /// A pairs instance spawned at run time (its mesh has no table yet) is drawn with TSM while the
-/// table bakes in the background (src/renderer/bakes.rs, the same jobs as the fields'); once it
+/// table bakes in the background (crates/hadou/src/renderer/bakes.rs, the same jobs as the fields'); once it
 /// is in use (one copy into the table image, waited for once), the frame is bit for bit the scene
 /// loaded with that instance.
 #[test]

@@ -2,7 +2,7 @@
 //! finite and infinite far, y up and Vulkan's y flipped, sub-pixel jitter and an off-centre
 //! frustum. For each, the depth AOV against an f64 ray cast and the energy AOV against the f64
 //! line integral, along pixel rays built here from the matrices alone (the inverse of proj·view
-//! at each pixel's centre, independent of src/scene/camera.rs). Bad matrices are typed errors
+//! at each pixel's centre, independent of crates/hadou/src/scene/camera.rs). Bad matrices are typed errors
 //! that leave the camera as it was. Lavapipe, validation + synchronization validation.
 
 mod common;

@@ -1,5 +1,5 @@
 // Pixel rays for compute passes. Keep in sync with Camera::ray_frame / Camera::pixel_ray in
-// src/scene/camera.rs: right and up are scaled by the lens (tan(fov/2)·aspect and tan(fov/2) when
+// crates/hadou/src/scene/camera.rs: right and up are scaled by the lens (tan(fov/2)·aspect and tan(fov/2) when
 // symmetric), their w the lens's ndc offset (−shift: off-centre frusta, jitter); row 0 is the top.
 #ifndef HADOU_CAMERA_GLSL
 #define HADOU_CAMERA_GLSL

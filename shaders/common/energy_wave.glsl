@@ -1,7 +1,7 @@
 // The energy wave (seed 004): closed-form integral of its density along a pixel ray, and the
-// ray-march baseline. Keep in sync with src/effects/energy_wave_f32.rs, its f32 CPU twin line for
+// ray-march baseline. Keep in sync with crates/hadou/src/effects/energy_wave_f32.rs, its f32 CPU twin line for
 // line (the struct's size and offsets are asserted there); the model, the closed form and the
-// clamp rule are documented in src/effects/energy_wave.rs.
+// clamp rule are documented in crates/hadou/src/effects/energy_wave.rs.
 //
 // Model: E(P) = a·k(|P − M|) + b·k(dist(P, segment [M, M + ℓD])), k(r) = 1/√(r² + ε²).
 // wave_line_integral returns H = ∫₀ᴸ E(O + s·u) ds for the camera O the Wave was built for
@@ -30,12 +30,12 @@
 // their argument, not their code), the sphere term with its one piece, two plane crossings (not
 // four), no double-float work on the constant end s = 0, and a log1p with no second branch.
 // A cheaper plain-f32 path for "easy" rays would be paid on top of this one, never instead of it
-// (and would cost accuracy: see "Cost" in src/effects/energy_wave_f32.rs).
+// (and would cost accuracy: see "Cost" in crates/hadou/src/effects/energy_wave_f32.rs).
 #ifndef HADOU_ENERGY_WAVE_GLSL
 #define HADOU_ENERGY_WAVE_GLSL
 
 // One wave seen from the camera (std430, 64 bytes). Keep in sync with GpuWave in
-// src/effects/energy_wave_f32.rs. O − M = q0·D + R × D, O − T = (q0 − ℓ)·D + R × D.
+// crates/hadou/src/effects/energy_wave_f32.rs. O − M = q0·D + R × D, O − T = (q0 − ℓ)·D + R × D.
 struct Wave {
     vec4 dir;       // xyz: D (unit); w: q0 = (O − M)·D
     vec4 rperp;     // xyz: R = D × (O − M); w: q0 − ℓ (0 when the beam is endless)
@@ -61,7 +61,7 @@ const float HADOU_LN2_LO = 1.428606765330187e-6;     // ln 2 − LN2_HI
 // log1p(x) = k·ln 2 + 2·atanh(z) + err/u with z = (f − 1)/(f + 1) (f − 1 exact by Sterbenz),
 // |z| ≤ 0.1716, atanh as the odd series to z^9/9: the first omitted term, z^11/11, is below
 // 2.0e-9 relative. The neglected −(err/u)²/2 is below 2^-49. Measured worst relative error
-// 2.7e-7 (2.2 ulp) over [−0.99, 1e30] (src/effects/energy_wave_f32.rs's test holds it below
+// 2.7e-7 (2.2 ulp) over [−0.99, 1e30] (crates/hadou/src/effects/energy_wave_f32.rs's test holds it below
 // 4·2^-23). Only nonnegative arguments reach it here.
 float hadou_log1p(float x) {
     precise float u = 1.0 + x;

@@ -1,5 +1,5 @@
 // The automatic exposure's constants, shared by exposure.comp (the measurement), tonemap.comp
-// and composite.frag (AUTO_EXPOSURE). CPU twin: src/effects/tonemap.rs.
+// and composite.frag (AUTO_EXPOSURE). CPU twin: crates/hadou/src/effects/tonemap.rs.
 #ifndef HADOU_EXPOSURE_GLSL
 #define HADOU_EXPOSURE_GLSL
 

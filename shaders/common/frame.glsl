@@ -1,5 +1,5 @@
-// Structs shared with Rust: src/passes/gpu_structs.rs. Their sizes are checked against this
-// layout whenever they are bound (src/gpu/reflect.rs), offsets asserted there.
+// Structs shared with Rust: crates/hadou/src/passes/gpu_structs.rs. Their sizes are checked against this
+// layout whenever they are bound (crates/hadou-gpu/src/reflect.rs), offsets asserted there.
 #ifndef HADOU_FRAME_GLSL
 #define HADOU_FRAME_GLSL
 
@@ -26,7 +26,7 @@ struct FrameUniforms {
     vec4 ray_forward;
 };
 
-// Twin: Light and LOCAL_LIGHT_* in src/scene/model.rs, effects::shading::LocalLight.
+// Twin: Light and LOCAL_LIGHT_* in crates/hadou/src/scene/model.rs, effects::shading::LocalLight.
 #define LOCAL_LIGHT_D2_MIN 1e-30
 #define LOCAL_LIGHT_MAX 1e30
 

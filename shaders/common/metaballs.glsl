@@ -1,8 +1,8 @@
 // Metaballs (seed 000): ray cast of one metaball group by support-sphere intervals, the lone-ball
 // sphere path and Bézier clipping of the summed Bernstein coefficients; or, for the
 // speed-against-error comparison, sphere tracing (mb_trace_slots).
-// CPU twins: src/effects/metaballs.rs (f64 reference, the math in its module docs),
-// src/effects/metaballs_trace.rs (the sphere tracer in f64) and src/effects/metaballs_f32.rs
+// CPU twins: crates/hadou/src/effects/metaballs.rs (f64 reference, the math in its module docs),
+// crates/hadou/src/effects/metaballs_trace.rs (the sphere tracer in f64) and crates/hadou/src/effects/metaballs_f32.rs
 // (this arithmetic, line by line: keep the two in sync).
 //
 // Include it twice: the first time gives the structs (so the caller can declare its buffers of
@@ -23,7 +23,7 @@
 #ifndef HADOU_METABALLS_STRUCTS
 #define HADOU_METABALLS_STRUCTS
 
-// Keep in sync with GpuMetaGroup in src/effects/metaballs_f32.rs (224 bytes, std430; asserted there).
+// Keep in sync with GpuMetaGroup in crates/hadou/src/effects/metaballs_f32.rs (224 bytes, std430; asserted there).
 struct MetaGroup {
     mat4 to_object;      // M⁻¹: world → the group's object space
     mat4 to_world;       // M: object → world (not needed by the cast; for culling and binning)
@@ -33,14 +33,14 @@ struct MetaGroup {
     uvec4 info;          // x: kernel (MB_KERNEL_*), y: first ball, z: ball count, w: material index
 };
 
-// Keep in sync with GpuMetaBall in src/effects/metaballs_f32.rs (32 bytes, std430; asserted there).
+// Keep in sync with GpuMetaBall in crates/hadou/src/effects/metaballs_f32.rs (32 bytes, std430; asserted there).
 struct MetaBall {
     vec4 centre_radius;  // xyz: object-space centre c, w: support radius R > 0
     vec4 coeffs;         // x: q, y: ρ*·R, the lone ball's isosurface radius (0: none),
                          // z: |q|·γ/R (bound on ‖∇(q f)‖, γ the kernel's max slope), w: 0
 };
 
-// What metaball_cast returns. Keep in sync with MetaHitF32 in src/effects/metaballs_f32.rs.
+// What metaball_cast returns. Keep in sync with MetaHitF32 in crates/hadou/src/effects/metaballs_f32.rs.
 struct MetaHit {
     vec3 normal;      // world unit normal −∇F (out of the blob); valid with MB_HIT
     float t;          // world distance along dir: the hit with MB_HIT
@@ -787,7 +787,7 @@ vec3 mb_trace_probe(uint kernel, uint slots, uint mask, float t) {
     return vec3(F, L, next_en);
 }
 
-// The sphere-tracing baseline (CPU twin: src/effects/metaballs_trace.rs): from t0, steps of
+// The sphere-tracing baseline (CPU twin: crates/hadou/src/effects/metaballs_trace.rs): from t0, steps of
 // |F − T|/L (never past a root: |F − T| changes by at most L per unit t′ until the next chord
 // entry, which ends a step), at least MB_TRACE_MIN_STEP·T/L, at most g.params.z of them; a sign
 // change of F − T brackets the root, refined by MB_TRACE_BISECT bisections. Out of steps before

@@ -1,6 +1,6 @@
-// The peel pass's per-texel crossing lists (src/passes/peel.rs): shared by peel.frag, which
+// The peel pass's per-texel crossing lists (crates/hadou/src/passes/peel.rs): shared by peel.frag, which
 // appends, and translucency.comp, which sums them. Keep in sync with PEEL_K and PEEL_TILE in
-// src/passes/peel.rs (checked there against this file's text by a test).
+// crates/hadou/src/passes/peel.rs (checked there against this file's text by a test).
 #ifndef HADOU_PEEL_GLSL
 #define HADOU_PEEL_GLSL
 

@@ -1,9 +1,9 @@
 // The tonemap curve and the sRGB encoding, once: tonemap.comp (headless) and composite.frag
-// (embedded) both use them. CPU twin: src/effects/tonemap.rs.
+// (embedded) both use them. CPU twin: crates/hadou/src/effects/tonemap.rs.
 #ifndef HADOU_TONEMAP_GLSL
 #define HADOU_TONEMAP_GLSL
 
-// src/effects/tonemap.rs ACES_WHITE: aces(64) = 1, and 64² cannot overflow.
+// crates/hadou/src/effects/tonemap.rs ACES_WHITE: aces(64) = 1, and 64² cannot overflow.
 const float ACES_WHITE = 64.0;
 
 // ACES filmic (Narkowicz 2015 fit).

@@ -1,6 +1,6 @@
 // Structs and lookups shared by light_id.vert/.frag and translucency.comp. Keep in sync with
-// src/passes/translucency.rs (LutRecord, TranslucentInstance, LightViewData; sizes asserted there)
-// and src/effects/translucency.rs (the light view's math).
+// crates/hadou/src/passes/translucency.rs (LutRecord, TranslucentInstance, LightViewData; sizes asserted there)
+// and crates/hadou/src/effects/translucency.rs (the light view's math).
 #ifndef HADOU_TRANSLUCENCY_GLSL
 #define HADOU_TRANSLUCENCY_GLSL
 
@@ -35,7 +35,7 @@ vec3 light_project(LightViewData v, vec3 p) {
 }
 
 // The records from texel buffers of uints (16-byte texels, floats by uintBitsToFloat; see
-// src/gpu/texel_buffer.rs): a LutRecord is 3 texels, a TranslucentInstance 9.
+// crates/hadou-gpu/src/texel_buffer.rs): a LutRecord is 3 texels, a TranslucentInstance 9.
 LutRecord lut_record_at(usamplerBuffer records, uint i) {
     int t = int(3u * i);
     LutRecord r;
@@ -58,7 +58,7 @@ TranslucentInstance translucent_instance_at(usamplerBuffer instances, uint i) {
 
 #ifdef HADOU_TRANSLUCENCY_FIELD
 // Needs `uint field_word(uint i)` (word i of the fields) defined before this file is included with
-// HADOU_TRANSLUCENCY_FIELD. CPU twin: src/effects/thickness_lut/march.rs (same steps, same order).
+// HADOU_TRANSLUCENCY_FIELD. CPU twin: crates/hadou/src/effects/thickness_lut/march.rs (same steps, same order).
 
 // Keep in sync with effects::thickness_lut (MAX_STEP_VOXELS, FIELD_LIPSCHITZ, MAX_MARCH_STEPS).
 const float LUT_MAX_STEP_VOXELS = 0.5;

@@ -1,4 +1,4 @@
-// The seed's own thickness LUT (seed 003 §3.2; src/effects/thickness_pairs.rs, its f64 twin
+// The seed's own thickness LUT (seed 003 §3.2; crates/hadou/src/effects/thickness_pairs.rs, its f64 twin
 // `PairTable::inside_fraction`): the surface voxels standing for the light's entry a and the shaded
 // point b, and the thickness between their centroids from the N×N R8 table. Needs, before it is
 // included: `uint field_word(uint i)` (the fields' words: each grid voxel's surface voxel, then

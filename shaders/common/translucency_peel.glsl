@@ -1,4 +1,4 @@
-// The peel thickness (src/passes/peel.rs; CPU twin effects::peel::peel_thickness), included by
+// The peel thickness (crates/hadou/src/passes/peel.rs; CPU twin effects::peel::peel_thickness), included by
 // translucency.comp with WITH_PEEL after binding `peel_counts` and `peel_lists`.
 #include "common/peel.glsl"
 

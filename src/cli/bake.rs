@@ -8,8 +8,8 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use hadou::effects::bake_cache::{self, BakeCache, CacheOutcome};
-use hadou::effects::thickness_lut::{self, BakeOptions, BakeStats, ThicknessLut, FIELD_FORMAT};
+use hadou::bake::bake_cache::{self, BakeCache, CacheOutcome};
+use hadou::bake::thickness_lut::{self, BakeOptions, BakeStats, ThicknessLut, FIELD_FORMAT};
 use hadou::scene::mesh::Mesh;
 use hadou::scene::{MaterialKind, ThicknessMode};
 
@@ -84,8 +84,8 @@ fn jobs(args: &BakeArgs) -> anyhow::Result<(Vec<Job>, Vec<PathBuf>)> {
 
 pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     if let Some(res) = args.res {
-        if res == 0 || res > hadou::effects::voxelize::MAX_VOXEL_RES {
-            bail!("--res {res}: expected 1..={}", hadou::effects::voxelize::MAX_VOXEL_RES);
+        if res == 0 || res > hadou::bake::MAX_VOXEL_RES {
+            bail!("--res {res}: expected 1..={}", hadou::bake::MAX_VOXEL_RES);
         }
     }
     let (jobs, inputs) = jobs(&args)?;
@@ -158,7 +158,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
 /// A pair table (`thickness = "pairs"`) through the cache, or baked afresh with `--force`; a
 /// progress step per row of pairs; `--out` writes the pair cache's file format.
 fn bake_pairs(job: &Job, args: &BakeArgs, cache: Option<&BakeCache>) -> anyhow::Result<()> {
-    use hadou::effects::thickness_pairs::{self, PairOptions, PAIR_FORMAT};
+    use hadou::bake::thickness_pairs::{self, PairOptions, PAIR_FORMAT};
     let progress =
         super::progress::bar(&format!("baking the pair table of {} at {}³", job.label, job.res), 0);
     let show = |done: usize, total: usize| {
@@ -204,7 +204,7 @@ fn bake_pairs(job: &Job, args: &BakeArgs, cache: Option<&BakeCache>) -> anyhow::
         start.elapsed().as_secs_f64()
     );
     if let Some(out) = &args.out {
-        let bytes = hadou::effects::pair_cache::encode(&table, bake_cache::mesh_hash(&job.mesh));
+        let bytes = hadou::bake::pair_cache::encode(&table, bake_cache::mesh_hash(&job.mesh));
         hadou::output::write_atomically(out, &bytes)?;
         println!("  written to {}", out.display());
     }

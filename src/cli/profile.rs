@@ -9,8 +9,8 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::Args;
 use hadou::output::OutputSet;
-use hadou::profile::{chrome_trace, ProfileReport};
 use hadou::{FrameRequest, Runtime, RuntimeOptions};
+use hadou_cli::profile::{chrome_trace, ProfileReport};
 
 #[derive(Args, Debug)]
 pub struct ProfileArgs {

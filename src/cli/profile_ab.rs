@@ -8,7 +8,7 @@ use std::process::{Command, ExitCode, Stdio};
 
 use anyhow::{bail, Context};
 use hadou::output::OutputSet;
-use hadou::profile_diff::RunSamples;
+use hadou_cli::profile_diff::RunSamples;
 
 use super::profile::ProfileArgs;
 use super::profile_diff::{gate, ProfileFile};

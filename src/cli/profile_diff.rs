@@ -1,6 +1,6 @@
 //! `hadou profile-diff base.json new.json [--threshold 5%]`: per row (each pass's GPU time, the
 //! GPU frame) the ratio of medians new / base with its bootstrap interval; exit 1 when a row is
-//! slower beyond the threshold (see `hadou::profile_diff`), 2 on an error. A gated row the gate
+//! slower beyond the threshold (see `hadou_cli::profile_diff`), 2 on an error. A gated row the gate
 //! cannot judge (missing from the candidate, too few timed frames, a median of 0) is an error,
 //! and so is an input that is not a regular file or holds a sample that is not a time: a broken
 //! candidate never passes.
@@ -11,7 +11,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use hadou::profile_diff::{diff, GateOptions, RunSamples, Verdict, MAX_RESAMPLES};
+use hadou_cli::profile_diff::{diff, GateOptions, RunSamples, Verdict, MAX_RESAMPLES};
 use serde::Deserialize;
 
 #[derive(Args, Debug)]

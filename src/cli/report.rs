@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use hadou::report::output::Staging;
-use hadou::report::{docs, ReportOptions};
 use hadou::{Runtime, RuntimeOptions};
+use hadou_cli::report::output::Staging;
+use hadou_cli::report::{docs, ReportOptions};
 
 #[derive(Args, Debug)]
 pub struct ReportArgs {
@@ -63,7 +63,7 @@ pub fn run(args: ReportArgs) -> anyhow::Result<()> {
         progress.set_position(done as u64);
         progress.set_message(label.to_string());
     };
-    let report = hadou::report::run(&mut runtime, &opts, &command, &mut show)?;
+    let report = hadou_cli::report::run(&mut runtime, &opts, &command, &mut show)?;
     progress.finish();
     super::finish_validated(runtime)?;
     let written = staging.write(&report)?;

@@ -3,20 +3,20 @@
 //! device does at best. The ceiling is the best of the runs (the least disturbed), p50 is shown
 //! beside it.
 
-use crate::gpu::memory::MemoryLocation;
+use hadou::gpu::memory::MemoryLocation;
 
-use crate::gpu::barriers::{cmd_barriers, memory_barrier};
-use crate::gpu::commands::FrameCommands;
-use crate::gpu::memory::{Buffer, Memory};
-use crate::gpu::pipeline::{
+use crate::profile::Summary;
+use hadou::gpu::barriers::{cmd_barriers, memory_barrier};
+use hadou::gpu::commands::FrameCommands;
+use hadou::gpu::memory::{Buffer, Memory};
+use hadou::gpu::pipeline::{
     create_compute_pipeline, write_set, Bound, BufferRange, DescriptorPool, Pipeline,
 };
-use crate::gpu::recorder::Recorder;
-use crate::gpu::shader::ShaderCompiler;
-use crate::gpu::timestamps::TimestampPool;
-use crate::gpu::{vk, GpuContext, GpuResult};
-use crate::profile::Summary;
-use crate::Runtime;
+use hadou::gpu::recorder::Recorder;
+use hadou::gpu::shader::ShaderCompiler;
+use hadou::gpu::timestamps::TimestampPool;
+use hadou::gpu::{vk, GpuContext, GpuResult};
+use hadou::Runtime;
 
 use super::table::{Cell, Fmt, Table};
 use super::{ReportOptions, Section, Steps};
@@ -195,7 +195,7 @@ fn calibrate_rounds(min_ms: f64, mut time_at: impl FnMut(u32) -> GpuResult<f64>)
 fn measure(runtime: &Runtime, quick: bool, steps: &mut Steps) -> GpuResult<(Vec<Runs>, Runs)> {
     let ctx = runtime.context();
     let memory = Memory::new(ctx)?;
-    let mut compiler = ShaderCompiler::new(crate::passes::SHADERS)?;
+    let mut compiler = ShaderCompiler::new(hadou::SHADERS)?;
     let runs = if quick { 5 } else { 10 };
     let mut arithmetic = Vec::new();
     for Arithmetic { name, defines, flop_per_round } in ARITHMETIC_KERNELS {

@@ -2,11 +2,11 @@
 //! timed over frames and compared per pixel with the f64 reference integrated to the GPU's own
 //! depth. `examples/energy_wave_bench.rs` prints its tables from the same `measure`.
 
-use crate::effects::energy_wave::line_integral;
-use crate::passes::energy_wave::wave_params;
 use crate::profile::Summary;
-use crate::scene::{Scene, WaveMethod};
-use crate::{Aov, Error, FrameRequest, Runtime};
+use hadou::reference::line_integral;
+use hadou::reference::wave_params;
+use hadou::scene::{Scene, WaveMethod};
+use hadou::{Aov, Error, FrameRequest, Runtime};
 
 use super::ceilings::Ceilings;
 use super::costs::{self, FRACTION_COLUMNS};

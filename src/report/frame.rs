@@ -2,7 +2,7 @@
 //! statistics as `hadou profile` (`profile::ProfileReport`).
 
 use crate::profile::{ProfileReport, Summary};
-use crate::{FrameRequest, Runtime};
+use hadou::{FrameRequest, Runtime};
 
 use super::ceilings::Ceilings;
 use super::costs::{self, PassCost, FRACTION_COLUMNS};
@@ -19,7 +19,7 @@ pub fn profile(
     size: (u32, u32),
     warmup: usize,
     frames: usize,
-) -> Result<ProfileReport, crate::Error> {
+) -> Result<ProfileReport, hadou::Error> {
     let mut request = FrameRequest::new(size.0, size.1);
     request.color = false;
     let mut stats = Vec::with_capacity(frames);
@@ -50,7 +50,7 @@ pub fn section(
 ) -> Result<Section, ReportError> {
     let path = opts.scene("showcase.toml");
     let scene = opts.load_scene("showcase.toml")?;
-    let analytic = scene.waves().iter().all(|w| w.method == crate::scene::WaveMethod::Analytic);
+    let analytic = scene.waves().iter().all(|w| w.method == hadou::scene::WaveMethod::Analytic);
     let waves = if analytic { scene.waves().len() } else { 0 };
     runtime.load_scene(scene)?;
     let mut columns = vec!["size", "pass", "ms p50", "ms p95", "ms p99", "frames"];

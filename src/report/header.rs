@@ -1,7 +1,7 @@
 //! The report's header: where and how the numbers were measured.
 
-use crate::gpu::DeviceInfo;
 use crate::profile::build_profile_name;
+use hadou::gpu::DeviceInfo;
 
 use super::ReportOptions;
 

@@ -6,9 +6,9 @@
 
 use glam::DVec3;
 
-use crate::effects::raycast::MeshBvh;
-use crate::effects::thickness_lut::ThicknessLut;
-use crate::testing::Rng;
+use hadou::bake::thickness_lut::ThicknessLut;
+use hadou::reference::MeshBvh;
+use hadou::testing::Rng;
 
 /// |Δf| and |Δd| per path (d in voxel edges), sorted ascending.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -75,8 +75,8 @@ pub fn cpu_seconds() -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effects::thickness_lut::{bake, BakeOptions};
-    use crate::scene::procedural;
+    use hadou::bake::thickness_lut::{bake, BakeOptions};
+    use hadou::scene::procedural;
 
     /// On a solid box every segment between two surface points is inside: the exact fraction is 1
     /// and so is the field's (the gap threshold keeps the ends' reconstruction error out).

@@ -6,11 +6,11 @@
 //! sphere-tracing baseline at several step budgets, each group's `method` set as a scene file's
 //! `method`/`tolerance`/`steps` would.
 
-use crate::effects::metaballs::CastMethod;
-use crate::effects::metaballs_compare::{compare_metaballs, MetaballErrorStats, MetaballFrame};
 use crate::profile::Summary;
-use crate::scene::Scene;
-use crate::{Aov, AovImage, Error, FrameRequest, Runtime};
+use hadou::reference::{compare_metaballs, MetaballErrorStats, MetaballFrame};
+use hadou::scene::CastMethod;
+use hadou::scene::Scene;
+use hadou::{Aov, AovImage, Error, FrameRequest, Runtime};
 
 use super::plot::{Plot, PlotPoint};
 use super::table::{Cell, Fmt, Table};

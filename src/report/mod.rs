@@ -25,7 +25,7 @@ pub use header::Header;
 pub use plot::{Plot, PlotPoint};
 pub use table::{Cell, Fmt, Table};
 
-use crate::Runtime;
+use hadou::Runtime;
 
 /// The sections' ids, in report order (CSV and plot stems, docs markers).
 pub const SECTION_IDS: [&str; 5] = ["energy_wave", "translucency", "metaballs", "frame", "ceilings"];
@@ -53,7 +53,7 @@ pub struct ReportOptions {
     /// as the square of the surface voxels, so low resolutions).
     pub pairs_res: Vec<u32>,
     /// A folder to read the scenes from; `None` (the default) takes the built-in copies of
-    /// `assets/scenes` (`crate::builtin`), so the report runs from any directory.
+    /// `assets/scenes` (`hadou::builtin`), so the report runs from any directory.
     pub scenes: Option<PathBuf>,
 }
 
@@ -104,10 +104,10 @@ impl ReportOptions {
     }
 
     /// Loads scene `name` (`showcase.toml`) from `scenes`, or the built-in copy.
-    pub fn load_scene(&self, name: &str) -> Result<crate::scene::Scene, crate::scene::SceneError> {
+    pub fn load_scene(&self, name: &str) -> Result<hadou::scene::Scene, hadou::scene::SceneError> {
         match &self.scenes {
-            Some(dir) => crate::scene::load_scene(&dir.join(name)),
-            None => crate::builtin::scene(name),
+            Some(dir) => hadou::scene::load_scene(&dir.join(name)),
+            None => hadou::builtin::scene(name),
         }
     }
 }
@@ -182,19 +182,19 @@ impl Report {
 #[non_exhaustive]
 pub enum ReportError {
     #[error(transparent)]
-    Hadou(#[from] crate::Error),
+    Hadou(#[from] hadou::Error),
     #[error("{0}")]
     Output(String),
 }
 
-impl From<crate::gpu::GpuError> for ReportError {
-    fn from(e: crate::gpu::GpuError) -> Self {
+impl From<hadou::gpu::GpuError> for ReportError {
+    fn from(e: hadou::gpu::GpuError) -> Self {
         ReportError::Hadou(e.into())
     }
 }
 
-impl From<crate::scene::SceneError> for ReportError {
-    fn from(e: crate::scene::SceneError) -> Self {
+impl From<hadou::scene::SceneError> for ReportError {
+    fn from(e: hadou::scene::SceneError) -> Self {
         ReportError::Hadou(e.into())
     }
 }

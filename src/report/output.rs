@@ -39,7 +39,7 @@ impl Staging {
             std::fs::remove_dir_all(&tmp).map_err(|e| io("cannot remove the stale", &tmp, e))?;
         }
         // Registered: SIGINT/SIGTERM removes it (output::interrupt).
-        crate::output::interrupt::create_temporary_dir(&tmp).map_err(|e| io("cannot create", &tmp, e))?;
+        hadou::output::interrupt::create_temporary_dir(&tmp).map_err(|e| io("cannot create", &tmp, e))?;
         Ok(Staging { out: out.to_path_buf(), tmp, committed: false })
     }
 
@@ -61,7 +61,7 @@ impl Staging {
                     plot::render(p).map_err(|e| ReportError::Output(format!("plot {}: {e}", p.id)))?;
                 let name = format!("{}.png", p.id);
                 let path = self.tmp.join(&name);
-                crate::output::write_png(&path, w, h, &rgba)
+                hadou::output::write_png(&path, w, h, &rgba)
                     .map_err(|e| ReportError::Output(format!("{}: {e}", path.display())))?;
                 written.push(self.out.join(name));
             }
@@ -71,23 +71,9 @@ impl Staging {
 
     /// Puts the staging folder in place of `out` (replacing an earlier report there).
     pub fn commit(mut self) -> Result<PathBuf, ReportError> {
-        // Both renames under the interrupt registry's lock: SIGINT/SIGTERM is handled before
-        // them (the staging folder removed, the old report kept) or after (the new one in place).
-        let mut registered = crate::output::interrupt::registry();
-        let old = self.tmp.with_extension("old");
-        if self.out.is_dir() {
-            std::fs::rename(&self.out, &old).map_err(|e| io("cannot move aside", &self.out, e))?;
-        }
-        if let Err(e) = std::fs::rename(&self.tmp, &self.out) {
-            let _ = std::fs::rename(&old, &self.out);
-            return Err(io("cannot rename the report into", &self.out, e));
-        }
+        hadou::output::interrupt::commit_temporary_dir(&self.tmp, &self.out)
+            .map_err(|e| io("cannot put the report in place at", &self.out, e))?;
         self.committed = true;
-        crate::output::interrupt::forget(&mut registered, &self.tmp);
-        drop(registered);
-        if old.exists() {
-            let _ = std::fs::remove_dir_all(&old);
-        }
         Ok(self.out.clone())
     }
 }
@@ -95,7 +81,7 @@ impl Staging {
 impl Drop for Staging {
     fn drop(&mut self) {
         if !self.committed {
-            crate::output::interrupt::remove_temporary(&self.tmp);
+            hadou::output::interrupt::remove_temporary(&self.tmp);
         }
     }
 }

@@ -313,7 +313,7 @@ mod tests {
             ],
         };
         let (w, h, rgba) = render(&plot).unwrap();
-        let png = crate::output::encode_png("p.png".as_ref(), w, h, &rgba).unwrap();
+        let png = hadou::output::encode_png("p.png".as_ref(), w, h, &rgba).unwrap();
         let img = image::load_from_memory(&png).unwrap().to_rgb8();
         assert_eq!(img.dimensions(), (WIDTH, HEIGHT));
         let rgb = |c: RGBColor| image::Rgb([c.0, c.1, c.2]);

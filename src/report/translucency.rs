@@ -7,16 +7,15 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use crate::effects::bake_cache::BakeCache;
-use crate::effects::raycast::{MeshBvh, SceneCaster};
-use crate::effects::thickness::{exact_thickness, tsm_thickness};
-use crate::effects::thickness_lut::{bake, BakeOptions};
-use crate::effects::thickness_pairs::{self, PairOptions};
-use crate::effects::translucency::{exit_weight, light_map_size, translucent_colour};
-use crate::passes::peel;
 use crate::profile::Summary;
-use crate::scene::{MaterialKind, Scene, ThicknessMode};
-use crate::{Aov, Error, FrameRequest, Runtime};
+use hadou::bake::bake_cache::BakeCache;
+use hadou::bake::thickness_lut::{bake, BakeOptions};
+use hadou::bake::thickness_pairs::{self, PairOptions};
+use hadou::reference::{exact_thickness, tsm_thickness};
+use hadou::reference::{exit_weight, light_map_size, peel_image_bytes, translucent_colour};
+use hadou::reference::{MeshBvh, SceneCaster};
+use hadou::scene::{MaterialKind, Scene, ThicknessMode};
+use hadou::{Aov, Error, FrameRequest, Runtime};
 
 use super::ceilings::Ceilings;
 use super::costs::{self, FRACTION_COLUMNS};
@@ -143,7 +142,7 @@ pub fn sample_set(
 ) -> Result<SampleSet, Error> {
     let meshes: Vec<_> = scene.meshes.iter().map(|m| m.mesh.clone()).collect();
     let instances: Vec<_> = scene.instances.iter().map(|i| (i.mesh, i.transform)).collect();
-    let mesh_error = |e: crate::scene::mesh::MeshError| Error::Report(format!("reference ray caster: {e}"));
+    let mesh_error = |e: hadou::scene::mesh::MeshError| Error::Report(format!("reference ray caster: {e}"));
     let caster = SceneCaster::new(&meshes, &instances).map_err(mesh_error)?;
     let bvhs = meshes.iter().map(MeshBvh::new).collect::<Result<Vec<_>, _>>().map_err(mesh_error)?;
     let mut set = SampleSet::default();
@@ -437,7 +436,7 @@ pub fn section(
         let memory = match mode {
             ThicknessMode::Lut => Some(bake_all(&scene)?),
             ThicknessMode::Pairs => Some(bake_all_pairs(&scene)?),
-            ThicknessMode::Peel => Some((0.0, peel::image_bytes(map) as usize)),
+            ThicknessMode::Peel => Some((0.0, peel_image_bytes(map) as usize)),
             ThicknessMode::Tsm => None,
         };
         let r = render(runtime, &scene, opts, aovs.clone())?;
@@ -503,7 +502,7 @@ pub fn section(
          RGBA16F rounding (2⁻¹⁰ relative). LUT bytes: the row's thickness fields (2 bytes a grid corner, 1 a cell). Bake s: wall \
          seconds of baking every table of the row (all cores), before the frames. Peel rows (`thickness = \"peel\"`, no bake): the voxel resolution only sizes the \
          light map (texels of ¼ voxel), and their memory is the pass's crossing lists and counts \
-         (`passes::peel::image_bytes`), allocated for every frame; the light_id maps (the light map's \
+         (`reference::peel_image_bytes`), allocated for every frame; the light_id maps (the light map's \
          size, all rows) are not counted. The TSM row has neither. Pairs rows (`thickness = \"pairs\"`, \
          the seed's own LUT, `effects::thickness_pairs`): every pair of surface voxels' thickness in an \
          N×N R8 image; bytes are the tables' N² plus a 4-byte word a grid voxel and a surface voxel \
@@ -559,7 +558,7 @@ mod tests {
             mesh = "box"
             material = "jade"
         "#;
-        let scene = crate::scene::parse_scene(text, std::path::Path::new("inline.toml")).unwrap();
+        let scene = hadou::scene::parse_scene(text, std::path::Path::new("inline.toml")).unwrap();
         let inf = f32::INFINITY;
         let err = sample_set(&scene, (2, 1), &[inf, f32::NAN], &[4.0, 4.0]).unwrap_err().to_string();
         assert!(err.contains("pixel (1, 0)"), "{err}");

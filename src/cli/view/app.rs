@@ -443,9 +443,8 @@ impl ApplicationHandler for App {
 
 /// Compiles every shader stage hadou has from `HADOU_SHADER_DIR` (none takes `#define`s).
 fn check_shaders() -> Result<(), String> {
-    let mut compiler =
-        hadou::gpu::shader::ShaderCompiler::new(hadou::passes::SHADERS).map_err(|e| e.to_string())?;
-    for (name, _) in hadou::passes::SHADERS {
+    let mut compiler = hadou::gpu::shader::ShaderCompiler::new(hadou::SHADERS).map_err(|e| e.to_string())?;
+    for (name, _) in hadou::SHADERS {
         if !name.starts_with("common/") {
             compiler.compile(name, &[]).map_err(|e| e.to_string())?;
         }

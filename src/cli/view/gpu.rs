@@ -7,9 +7,9 @@
 use std::sync::Arc;
 
 use anyhow::Context;
+use hadou::gpu::present::{PresentConfig, WindowOutput};
 use hadou::gpu::validation::ValidationLog;
 use hadou::gpu::ContextOptions;
-use hadou::present::{PresentConfig, WindowOutput};
 use hadou::scene::camera::Camera;
 use hadou::scene::Scene;
 use hadou::{FrameRequest, FrameStats, Runtime};
@@ -88,7 +88,7 @@ impl ViewerGpu {
     /// last fallible step, signals the image's fence); the instant is when the copy began.
     fn render_and_copy(
         &mut self,
-        acquired: &hadou::present::Acquired,
+        acquired: &hadou::gpu::present::Acquired,
         camera: Camera,
         time: f64,
     ) -> anyhow::Result<(Vec<u8>, FrameStats, std::time::Instant)> {

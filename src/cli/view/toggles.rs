@@ -121,7 +121,11 @@ fn file_thickness(scene: &Scene) -> Option<ThicknessMode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hadou::passes::plan;
+    use hadou::effect::Effects;
+
+    fn plan(scene: &Scene) -> Vec<&'static str> {
+        Effects::builtin().plan(scene)
+    }
 
     fn showcase() -> Scene {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/showcase.toml");

@@ -76,6 +76,30 @@ pub fn create_temporary_dir(path: &Path) -> std::io::Result<()> {
     Ok(())
 }
 
+/// Puts the temporary folder `tmp` (from `create_temporary_dir`) in place of the folder `out`,
+/// replacing an earlier one there. Both renames happen under the registry's lock, so SIGINT/SIGTERM
+/// is handled before them (the temporary removed, the old folder kept) or after (the new one in
+/// place). On failure the old folder is back and the temporary still registered; the error names
+/// which step failed.
+pub fn commit_temporary_dir(tmp: &Path, out: &Path) -> std::io::Result<()> {
+    let step = |what: &str, e: std::io::Error| std::io::Error::new(e.kind(), format!("{what}: {e}"));
+    let mut list = registry();
+    let old = tmp.with_extension("old");
+    if out.is_dir() {
+        std::fs::rename(out, &old).map_err(|e| step("cannot move the earlier folder aside", e))?;
+    }
+    if let Err(e) = std::fs::rename(tmp, out) {
+        let _ = std::fs::rename(&old, out);
+        return Err(step("cannot rename the new folder into place", e));
+    }
+    forget(&mut list, tmp);
+    drop(list);
+    if old.exists() {
+        let _ = std::fs::remove_dir_all(&old);
+    }
+    Ok(())
+}
+
 /// Removes a file, or a folder and what it holds; whether something was removed.
 fn remove_path(path: &Path) -> bool {
     match std::fs::symlink_metadata(path) {

@@ -20,6 +20,8 @@ pub mod transform;
 pub mod wave_track;
 pub mod wobble;
 
+/// How a metaball group is ray cast (`[[metaballs]] method`).
+pub use crate::effects::metaballs::CastMethod;
 pub use error::SceneError;
 pub use file::{load_scene, load_scene_with, parse_scene, parse_scene_with};
 pub use model::*;

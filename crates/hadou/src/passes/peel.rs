@@ -312,7 +312,7 @@ mod tests {
     /// The shader's constants are the ones above.
     #[test]
     fn glsl_constants_match() {
-        let glsl = include_str!("../../shaders/common/peel.glsl");
+        let glsl = include_str!("../../../../shaders/common/peel.glsl");
         for (name, value) in [("PEEL_K", PEEL_K), ("PEEL_TILE_X", PEEL_TILE.0), ("PEEL_TILE_Y", PEEL_TILE.1)]
         {
             assert!(glsl.contains(&format!("#define {name} {value}u")), "{name}");

@@ -23,17 +23,37 @@ use std::path::{Component, Path, PathBuf};
 
 use crate::aov::AovImage;
 
+/// Why an output was not written; each names the file.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum OutputError {
     // `error` is not a `source`: the message already holds the OS text, and a chain printer
     // (anyhow's `{:#}`) would repeat it.
+    /// Creating, writing or renaming the file (or its temporary) failed.
     #[error("cannot write {}: {error}", path.display())]
-    Io { path: PathBuf, error: std::io::Error },
+    Io {
+        /// The output.
+        path: PathBuf,
+        /// What the OS said.
+        error: std::io::Error,
+    },
+    /// The image could not be encoded in the format its extension names.
     #[error("cannot encode {}: {message}", path.display())]
-    Encode { path: PathBuf, message: String },
+    Encode {
+        /// The output.
+        path: PathBuf,
+        /// The encoder's message.
+        message: String,
+    },
+    /// The path is not one hadou writes to (the rules in the module docs); the message says what
+    /// was found and what was expected.
     #[error("output {}: {message}", path.display())]
-    Refused { path: PathBuf, message: String },
+    Refused {
+        /// The output.
+        path: PathBuf,
+        /// What was expected.
+        message: String,
+    },
 }
 
 fn io_error(path: &Path) -> impl Fn(std::io::Error) -> OutputError + '_ {

@@ -6,7 +6,7 @@
 //!
 //! A translucent instance whose material reads a thickness table (`thickness = "lut"`) and whose
 //! (mesh, voxel_res) has no table yet is drawn with the shadow-map thickness until the table,
-//! baked in the background, is in (src/renderer/bakes.rs); `thickness = "tsm"` materials need no
+//! baked in the background, is in (crates/hadou/src/renderer/bakes.rs); `thickness = "tsm"` materials need no
 //! table.
 
 use super::game_math::{GameMatrix, GameVector};
@@ -62,7 +62,7 @@ impl Renderer {
         }
         if let Some(key) = table.filter(|&k| !self.table_known(k)) {
             // Tables for the passes to find (not bake) before the instance is in the scene; its
-            // own is baked in the background (src/renderer/bakes.rs).
+            // own is baked in the background (crates/hadou/src/renderer/bakes.rs).
             self.ensure_tables()?;
             self.request_bake(key);
         }

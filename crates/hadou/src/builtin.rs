@@ -12,17 +12,17 @@ pub const PREFIX: &str = "builtin:";
 
 /// (name, TOML text) of every built-in scene: each file of `assets/scenes`.
 pub const SCENES: [(&str, &str); 11] = [
-    ("empty", include_str!("../assets/scenes/empty.toml")),
-    ("energy_wave", include_str!("../assets/scenes/energy_wave.toml")),
-    ("energy_wave_open", include_str!("../assets/scenes/energy_wave_open.toml")),
-    ("instances", include_str!("../assets/scenes/instances.toml")),
-    ("metaballs", include_str!("../assets/scenes/metaballs.toml")),
-    ("metaballs_4096", include_str!("../assets/scenes/metaballs_4096.toml")),
-    ("metaballs_dense", include_str!("../assets/scenes/metaballs_dense.toml")),
-    ("showcase", include_str!("../assets/scenes/showcase.toml")),
-    ("single_cube", include_str!("../assets/scenes/single_cube.toml")),
-    ("translucency", include_str!("../assets/scenes/translucency.toml")),
-    ("translucency_peel", include_str!("../assets/scenes/translucency_peel.toml")),
+    ("empty", include_str!("../../../assets/scenes/empty.toml")),
+    ("energy_wave", include_str!("../../../assets/scenes/energy_wave.toml")),
+    ("energy_wave_open", include_str!("../../../assets/scenes/energy_wave_open.toml")),
+    ("instances", include_str!("../../../assets/scenes/instances.toml")),
+    ("metaballs", include_str!("../../../assets/scenes/metaballs.toml")),
+    ("metaballs_4096", include_str!("../../../assets/scenes/metaballs_4096.toml")),
+    ("metaballs_dense", include_str!("../../../assets/scenes/metaballs_dense.toml")),
+    ("showcase", include_str!("../../../assets/scenes/showcase.toml")),
+    ("single_cube", include_str!("../../../assets/scenes/single_cube.toml")),
+    ("translucency", include_str!("../../../assets/scenes/translucency.toml")),
+    ("translucency_peel", include_str!("../../../assets/scenes/translucency_peel.toml")),
 ];
 
 /// The TOML text of built-in scene `name` (`showcase` or `showcase.toml`).
@@ -64,7 +64,7 @@ mod tests {
     /// Every file of assets/scenes is built in, and each parses without reading another file.
     #[test]
     fn every_scene_file_is_built_in_and_parses() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/scenes");
         let mut files: Vec<String> = std::fs::read_dir(&dir)
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())

@@ -1,7 +1,7 @@
 //! The camera as a game gives it: view and projection matrices (`Renderer::set_view_projection`),
 //! turned into hadou's camera — a position and frame from the view, a [`Lens::Matrix`] and the
 //! near and far planes from the projection — so every pass and every f64 twin builds the same
-//! pixel rays from it (src/scene/camera.rs). The camera is given once: a game that hands its depth
+//! pixel rays from it (crates/hadou/src/scene/camera.rs). The camera is given once: a game that hands its depth
 //! says `DepthConvention::Camera` and the depth convention is the same projection's; one that
 //! names a convention of its own is checked against the projection (`depth_convention`).
 

@@ -4,7 +4,7 @@
 //! A spawned mesh gets its vertex and index buffers at once (host-visible, written on the spot:
 //! nothing is waited for); a spawned material goes into the material table the next frame
 //! uploads. Instances of them are spawned with `spawn_instance_of`; a translucent material's
-//! table bakes in the background like any run-time bake (src/renderer/bakes.rs). A mesh or
+//! table bakes in the background like any run-time bake (crates/hadou/src/renderer/bakes.rs). A mesh or
 //! material is despawned only when nothing draws it; its slot in the scene stays (indices of the
 //! others do not move), its id goes stale, its buffers are retired with the frames that may still
 //! read them, and its name is free again.

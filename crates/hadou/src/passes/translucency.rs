@@ -25,7 +25,7 @@
 //! - `thickness = "peel"` (built with WITH_PEEL when the scene has it; the LUT's march likewise only
 //!   with WITH_LUT, when an instance reads a LUT): d = the inside intervals of
 //!   P's instance on the crossing list of P's texel t (the `peel` pass), up to z(P); an overflowed
-//!   list takes the TSM path below (src/passes/peel.rs).
+//!   list takes the TSM path below (crates/hadou/src/passes/peel.rs).
 //! - `thickness = "lut"`: the light's entry point a = P − l·tsm lies on P's own light ray; with
 //!   b = P, both taken to object space by M⁻¹, d = |M(b − a)| times the inside fraction the
 //!   instance's thickness field decodes along a → b (`lut_inside_fraction` in
@@ -88,7 +88,7 @@ pub const NO_LUT: u32 = u32::MAX;
 
 /// Set in a table key's resolution for a pair table (`thickness = "pairs"`): the keys of the
 /// fields and of the pair tables share one list, so run-time bakes handle both
-/// (src/renderer/bakes.rs). voxel_res ≤ 128 leaves the bit free.
+/// (crates/hadou/src/renderer/bakes.rs). voxel_res ≤ 128 leaves the bit free.
 pub const PAIRS_KEY: u32 = 1 << 31;
 
 /// The table key (mesh, voxel_res, with `PAIRS_KEY` for a pair table) of an instance of `mesh`

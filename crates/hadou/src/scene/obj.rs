@@ -344,7 +344,7 @@ struct Args<'t> {
 /// Test helper shared with `raycast`: where the OBJ test files are.
 #[cfg(test)]
 pub(crate) fn test_data(name: &str) -> std::path::PathBuf {
-    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/obj").join(name)
+    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/obj").join(name)
 }
 
 #[cfg(test)]
@@ -353,7 +353,7 @@ mod tests {
     use std::path::PathBuf;
 
     fn asset(name: &str) -> PathBuf {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/meshes").join(name)
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../assets/meshes").join(name)
     }
 
     /// Loads a malformed file and returns (line, column, message).
