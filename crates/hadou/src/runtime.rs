@@ -82,7 +82,8 @@ impl FrameOutput {
 /// ```
 /// use hadou::{Runtime, RuntimeOptions, FrameRequest, Aov};
 /// let mut runtime = Runtime::new(&RuntimeOptions { validation: true, ..Default::default() })?;
-/// runtime.load_scene(hadou::scene::load_scene("assets/scenes/showcase.toml".as_ref())?)?;
+/// // `builtin:NAME`: a scene of assets/scenes built into the library (a game names its file).
+/// runtime.load_scene(hadou::builtin::load("builtin:showcase".as_ref())?)?;
 /// let mut request = FrameRequest::new(512, 512);
 /// request.aovs.push(Aov::Depth);
 /// let frame = runtime.render(&request)?;

@@ -282,7 +282,9 @@ mod tests {
 
     #[test]
     fn light_map_texels_are_a_quarter_of_the_finest_voxel() {
-        let load = |name: &str| crate::scene::load_scene(format!("assets/scenes/{name}").as_ref()).unwrap();
+        let load = |name: &str| {
+            crate::builtin::load(format!("builtin:{}", name.trim_end_matches(".toml")).as_ref()).unwrap()
+        };
         for name in ["translucency.toml", "showcase.toml"] {
             let scene = load(name);
             let size = light_map_size(&scene);

@@ -879,8 +879,7 @@ mod tests {
     /// world that starts or stops reading one rebuilds the pass.
     #[test]
     fn the_field_march_is_built_only_for_lut_scenes() {
-        let scene =
-            crate::scene::load_scene(std::path::Path::new("assets/scenes/translucency.toml")).unwrap();
+        let scene = crate::builtin::load("builtin:translucency".as_ref()).unwrap();
         assert!(reads_lut(&scene));
         let mut tsm = scene.clone();
         for m in &mut tsm.materials {
@@ -890,8 +889,7 @@ mod tests {
         }
         assert!(!reads_lut(&tsm));
         assert_ne!(variant(&scene), variant(&tsm));
-        let peel =
-            crate::scene::load_scene(std::path::Path::new("assets/scenes/translucency_peel.toml")).unwrap();
+        let peel = crate::builtin::load("builtin:translucency_peel".as_ref()).unwrap();
         assert!(!reads_lut(&peel));
         assert_ne!(variant(&peel), variant(&tsm), "the peel lists are a variant too");
     }
