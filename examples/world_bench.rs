@@ -2,10 +2,11 @@
 //! flight, once with the world changing every frame (the player walks, the wave is charged, fired,
 //! flies and is despawned, the slime buds and merges) and once with the same world held still;
 //! then what spawning costs — the first wave / metaball group (the pass is built: shaders compiled,
-//! pipeline made) and a later one (the pass is parked, built: nothing to compile); then a glTF
-//! prop with translucent meshes dropped into the changing world with an empty bake cache: every
-//! `record_frame`'s CPU time until its tables are baked in the background and put in use, and the
-//! largest of them — before the drop, while baking, and at each switch-over.
+//! pipeline made) and a later one (the pass is parked, built: nothing to compile); then run-time
+//! bakes with an empty bake cache: the glTF prop (translucent glass and liquid) dropped into the
+//! changing world, then a translucent torus at 128³ — every `record_frame`'s CPU time until their
+//! tables are baked in the background and put in use: before, while baking, at each switch-over
+//! and after.
 //!
 //! LP_NUM_THREADS=1 cargo run --release --example world_bench -- [--frames N] [--size WxH]
 
@@ -24,6 +25,7 @@ use ash::vk;
 use bench_util::{arg, percentile};
 use game::{Game, Input};
 use glam::{DMat4, DVec3};
+use hadou::scene::{MaterialKind, ThicknessMode, MAX_VOXEL_RES};
 use hadou::{Ball, MetaballsDesc, WaveDesc};
 
 /// The input of frame `i` of the changing run: walk, charge for a second, release, repeat.
@@ -157,10 +159,11 @@ fn main() -> Result<(), String> {
     run_time_bake(extent)
 }
 
-/// The glTF prop (translucent glass and liquid) dropped into the changing world at frame 30 with
-/// an empty bake cache; frames go on until every table it needs is in use, then 30 more. Prints
-/// the largest `record_frame` CPU time before the drop, while baking, at each switch-over (the
-/// frame that put a finished bake in use) and after.
+/// Run-time bakes with an empty bake cache, in the changing world: the glTF prop (translucent
+/// glass and liquid, the default 48³) dropped at frame 30, then, once its tables are in use, a
+/// translucent torus at the largest `voxel_res` (128³). Each drop's frames go on until every table
+/// it needs is in use, then 30 more. Prints `record_frame`'s CPU time before each drop, while
+/// baking, at each switch-over (a frame that put a finished bake in use) and after.
 fn run_time_bake(extent: vk::Extent2D) -> Result<(), String> {
     let cache = std::env::temp_dir().join(format!("hadou-world-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&cache);
@@ -168,73 +171,37 @@ fn run_time_bake(extent: vk::Extent2D) -> Result<(), String> {
     std::env::set_var("HADOU_CACHE_DIR", &cache);
     let vk = gpu::GameVk::new(false, &[], &[], &|_, _, _, _| true)?;
     let mut g = Game::new(vk)?;
-    // The first frame builds the scene's passes (as `load_scene`'s first frame always does).
-    const WARMUP: usize = 10;
-    const DROP_AT: usize = 30;
-    let mut warmup = Vec::new();
-    let (mut before, mut baking, mut switches, mut after) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let (mut spawn_ms, mut in_progress, mut done_at) = (0.0, 0, None);
-    let start = Instant::now();
-    let mut baked_in = 0.0;
-    for i in 0.. {
-        if i == DROP_AT {
-            let t = Instant::now();
-            g.toggle_prop(std::path::Path::new(game::PROP))?;
-            spawn_ms = t.elapsed().as_secs_f64() * 1e3;
-            in_progress = g.hadou.bakes_in_progress().len();
-            baked_in = start.elapsed().as_secs_f64();
-        }
-        g.update(&input(i), 1.0 / 30.0)?;
-        g.offscreen_submit(extent, &[])?;
-        let now = g.hadou.bakes_in_progress().len();
-        let ms = g.last_record_cpu_ms;
-        match () {
-            _ if i < WARMUP => warmup.push(ms),
-            _ if i < DROP_AT => before.push(ms),
-            _ if now < in_progress => switches.push((i, ms)),
-            _ if done_at.is_none() => baking.push(ms),
-            _ => after.push(ms),
-        }
-        if i >= DROP_AT && now == 0 && done_at.is_none() {
-            done_at = Some(i);
-            baked_in = start.elapsed().as_secs_f64() - baked_in;
-        }
-        in_progress = now;
-        if done_at.is_some_and(|d| i >= d + 30) {
-            break;
-        }
-        if start.elapsed().as_secs() > 600 {
-            return Err("the prop's bakes did not finish in 10 minutes".into());
-        }
-    }
-    g.offscreen_finish()?;
-    let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
-    println!(
-        "\nA run-time bake: `toggle_prop` (spawn_gltf of {}) at frame {DROP_AT}, bake cache empty",
-        game::PROP
-    );
-    println!(
-        "spawn_gltf {spawn_ms:.1} ms; tables in use {baked_in:.2} s later, after {} frames\n",
-        baking.len() + switches.len()
-    );
-    println!("| frames | count | `record_frame` CPU p50 | max |");
+    let mut frame = 0;
+    // The first frames build the scene's passes (as `load_scene`'s first frame always does).
+    let warmup = frames(&mut g, extent, &mut frame, 10)?;
+    println!("\nRun-time bakes in the changing world, bake cache empty; `record_frame` CPU time:\n");
+    println!("| frames | count | p50 | max |");
     println!("|---|---:|---:|---:|");
-    for (label, v) in [
-        ("the first 10 (passes built)", &warmup),
-        ("before the drop", &before),
-        ("while baking", &baking),
-        ("after", &after),
-    ] {
-        if !v.is_empty() {
-            println!("| {label} | {} | {:.3} ms | {:.3} ms |", v.len(), percentile(v, 0.5), max(v));
-        }
-    }
-    for (i, ms) in &switches {
-        println!("| switch-over (frame {i}) | 1 | {ms:.3} ms | {ms:.3} ms |");
-    }
-    let all: Vec<f64> =
-        [&before[..], &baking, &after].concat().into_iter().chain(switches.iter().map(|s| s.1)).collect();
-    println!("\nmax record_frame CPU time over the run (from frame 10): {:.3} ms", max(&all));
+    row("the first 10 (the scene's passes built)", &warmup);
+    let mut all = Vec::new();
+    let before = frames(&mut g, extent, &mut frame, 20)?;
+    row("before the prop", &before);
+    all.extend(before);
+    let t = Instant::now();
+    g.toggle_prop(std::path::Path::new(game::PROP))?;
+    let prop_ms = t.elapsed().as_secs_f64() * 1e3;
+    all.extend(until_baked(&mut g, extent, &mut frame, "the prop (spawn_gltf, 48³)", prop_ms)?);
+    let torus = hadou::scene::procedural::torus(0.8, 0.3, 48, 24).map_err(|e| e.to_string())?;
+    let t = Instant::now();
+    let v = |p: &[[f32; 3]]| p.iter().map(|&a| glam::Vec3::from(a)).collect::<Vec<_>>();
+    let (hadou, err) = (&mut g.hadou, |e: hadou::Error| e.to_string());
+    let mesh = hadou
+        .spawn_mesh("torus", &v(&torus.positions), Some(&v(&torus.normals)), &torus.indices)
+        .map_err(err)?;
+    let sigma = glam::DVec3::new(0.8, 1.2, 2.0);
+    let kind = MaterialKind::Translucent { sigma, voxel_res: MAX_VOXEL_RES, thickness: ThicknessMode::Lut };
+    let jade = hadou.spawn_material("torus jade", glam::Vec3::new(0.3, 0.8, 0.5), kind).map_err(err)?;
+    let at = DMat4::from_translation(DVec3::new(game::PLAYER_X - 1.5, 1.0, 1.0));
+    hadou.spawn_instance_of(mesh, jade, at).map_err(err)?;
+    let torus_ms = t.elapsed().as_secs_f64() * 1e3;
+    all.extend(until_baked(&mut g, extent, &mut frame, "a torus at 128³", torus_ms)?);
+    g.offscreen_finish()?;
+    println!("\nmax record_frame CPU time after the first 10 frames: {:.3} ms", max(&all));
     let messages = g.destroy();
     let _ = std::fs::remove_dir_all(&cache);
     let (errors, warnings) = messages.counts();
@@ -242,4 +209,62 @@ fn run_time_bake(extent: vk::Extent2D) -> Result<(), String> {
         return Err(format!("validation: {errors} errors, {warnings} warnings"));
     }
     Ok(())
+}
+
+/// `n` frames of the changing world; each one's `record_frame` CPU time.
+fn frames(g: &mut Game, extent: vk::Extent2D, frame: &mut usize, n: usize) -> Result<Vec<f64>, String> {
+    let mut out = Vec::with_capacity(n);
+    for _ in 0..n {
+        g.update(&input(*frame), 1.0 / 30.0)?;
+        g.offscreen_submit(extent, &[])?;
+        out.push(g.last_record_cpu_ms);
+        *frame += 1;
+    }
+    Ok(out)
+}
+
+/// Frames after a spawn (which took `spawn_ms`) until no bake is in progress, then 30 more;
+/// prints their rows and returns every frame's `record_frame` CPU time.
+fn until_baked(
+    g: &mut Game,
+    extent: vk::Extent2D,
+    frame: &mut usize,
+    label: &str,
+    spawn_ms: f64,
+) -> Result<Vec<f64>, String> {
+    let start = Instant::now();
+    let (mut baking, mut switches) = (Vec::new(), Vec::new());
+    let mut in_progress = g.hadou.bakes_in_progress().len();
+    while in_progress > 0 {
+        if start.elapsed().as_secs() > 600 {
+            return Err(format!("{label}: bakes not in use after 10 minutes"));
+        }
+        let ms = frames(g, extent, frame, 1)?[0];
+        let now = g.hadou.bakes_in_progress().len();
+        if now < in_progress {
+            switches.push((*frame - 1, ms));
+        } else {
+            baking.push(ms);
+        }
+        in_progress = now;
+    }
+    let baked_s = start.elapsed().as_secs_f64();
+    let after = frames(g, extent, frame, 30)?;
+    row(&format!("{label}: the spawn calls"), &[spawn_ms]);
+    row(&format!("{label}: while baking ({baked_s:.2} s)"), &baking);
+    for (i, ms) in &switches {
+        row(&format!("{label}: switch-over (frame {i})"), &[*ms]);
+    }
+    row(&format!("{label}: after"), &after);
+    Ok([baking, after, switches.iter().map(|s| s.1).collect()].concat())
+}
+
+fn max(v: &[f64]) -> f64 {
+    v.iter().copied().fold(0.0, f64::max)
+}
+
+fn row(label: &str, v: &[f64]) {
+    if !v.is_empty() {
+        println!("| {label} | {} | {:.3} ms | {:.3} ms |", v.len(), percentile(v, 0.5), max(v));
+    }
 }
