@@ -24,6 +24,7 @@ use glam::{DVec2, DVec3};
 
 use super::thickness::transmittance;
 use super::thickness_lut::ThicknessLut;
+use super::tonemap::mesh_bounds;
 use crate::scene::transform::Transform;
 use crate::scene::{MaterialKind, Scene, ThicknessMode};
 
@@ -45,13 +46,19 @@ impl LightView {
     /// The view along the scene's first directional light fitted to its translucent instances;
     /// `None` without one or without a translucent instance.
     pub fn fit(scene: &Scene) -> Option<LightView> {
+        LightView::fit_with(scene, &mesh_bounds(scene))
+    }
+
+    /// `fit` with each mesh's object-space bounds known (`mesh_bounds`, in scene order: the
+    /// renderer keeps them with the vertex buffers, so a frame reads no vertex).
+    pub fn fit_with(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)]) -> Option<LightView> {
         let light = scene.first_directional_light()?;
         let mut corners = Vec::new();
         for inst in &scene.instances {
             if !matches!(scene.materials[inst.material].kind, MaterialKind::Translucent { .. }) {
                 continue;
             }
-            let (lo, hi) = scene.meshes[inst.mesh].mesh.bounds();
+            let (lo, hi) = mesh_bounds[inst.mesh];
             for k in 0..8 {
                 let pick = |bit: usize, a: f64, b: f64| if k & bit == 0 { a } else { b };
                 let c = DVec3::new(pick(1, lo.x, hi.x), pick(2, lo.y, hi.y), pick(4, lo.z, hi.z));
@@ -140,7 +147,16 @@ pub const LIGHT_MAP_STEP: u32 = 256;
 /// 1/‖M⁻¹‖₂ ≥ 1/‖M⁻¹‖_F (Frobenius, on the linear part): h/‖M⁻¹‖_F is a lower bound of it
 /// (√3 below the true edge for a uniform scale: the map may be larger than needed).
 pub fn light_map_size(scene: &Scene) -> u32 {
-    let Some((diameter, finest)) = light_map_extent(scene) else { return LIGHT_MAP_MIN };
+    let bounds = mesh_bounds(scene);
+    light_map_size_in(scene, &bounds, LightView::fit_with(scene, &bounds).as_ref())
+}
+
+/// `light_map_size` with the meshes' bounds known (see `LightView::fit_with`) and the light view
+/// already fitted to them (`None`: no light or no translucent instance).
+pub fn light_map_size_in(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)], view: Option<&LightView>) -> u32 {
+    let Some((diameter, finest)) = view.map(|v| light_map_extent(scene, mesh_bounds, v)) else {
+        return LIGHT_MAP_MIN;
+    };
     let peel = scene.instances.iter().any(|i| {
         matches!(
             scene.materials[i.material].kind,
@@ -159,19 +175,20 @@ pub fn light_map_size(scene: &Scene) -> u32 {
 /// The light map's texel in finest voxel edges (the bound `light_map_size` aims at ≤ ¼);
 /// `None` without a light or a translucent instance.
 pub fn light_map_texel_voxels(scene: &Scene) -> Option<f64> {
-    let (diameter, finest) = light_map_extent(scene)?;
-    Some(diameter / light_map_size(scene) as f64 / finest)
+    let bounds = mesh_bounds(scene);
+    let view = LightView::fit_with(scene, &bounds)?;
+    let (diameter, finest) = light_map_extent(scene, &bounds, &view);
+    Some(diameter / light_map_size_in(scene, &bounds, Some(&view)) as f64 / finest)
 }
 
 /// The light view's diameter 2R and the finest world voxel edge bound (see `light_map_size`).
-fn light_map_extent(scene: &Scene) -> Option<(f64, f64)> {
-    let view = LightView::fit(scene)?;
+fn light_map_extent(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)], view: &LightView) -> (f64, f64) {
     let mut finest = f64::INFINITY;
     for inst in &scene.instances {
         let MaterialKind::Translucent { voxel_res, .. } = scene.materials[inst.material].kind else {
             continue;
         };
-        let (lo, hi) = scene.meshes[inst.mesh].mesh.bounds();
+        let (lo, hi) = mesh_bounds[inst.mesh];
         let inv = inst.transform.inverse;
         let frobenius = (inv.x_axis.truncate().length_squared()
             + inv.y_axis.truncate().length_squared()
@@ -179,7 +196,7 @@ fn light_map_extent(scene: &Scene) -> Option<(f64, f64)> {
         .sqrt();
         finest = finest.min((hi - lo).max_element() / voxel_res as f64 / frobenius);
     }
-    Some((2.0 * view.radius, finest))
+    (2.0 * view.radius, finest)
 }
 
 /// The light that crossed d of material: L·albedo·exp(−σ·d) per channel (0 for d = +inf).

@@ -56,7 +56,8 @@ impl LightIdPass {
         let pipeline = memo.get_or_make("light_id", || Self::pipeline(ctx, compiler, false))?;
         let mirrored = memo.get_or_make("light_id mirrored", || Self::pipeline(ctx, compiler, true))?;
         // The light's radiance is not used here: any pre-exposure.
-        let now = TranslucentFrame::new(scene, &data, 1.0);
+        let bounds = crate::effects::tonemap::mesh_bounds(scene);
+        let now = TranslucentFrame::new(scene, &bounds, &data, 1.0);
         let (view, lit, draws, size) = (now.view_data, now.view.is_some(), now.draws, now.map_size);
         Ok(LightIdPass { pipeline, mirrored, data, view, lit, draws, size })
     }
@@ -107,7 +108,8 @@ impl Pass for LightIdPass {
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         // Instances may have moved: this frame's light view, draws and map size.
-        let now = TranslucentFrame::new(frame.scene, &self.data, frame.pre_exposure);
+        let bounds = frame.scene_gpu.mesh_bounds();
+        let now = TranslucentFrame::new(frame.scene, &bounds, &self.data, frame.pre_exposure);
         (self.view, self.lit, self.draws, self.size) =
             (now.view_data, now.view.is_some(), now.draws, now.map_size);
         Ok(vec![Binding::Bound(Bound::Storage(frame.instances))])

@@ -44,7 +44,7 @@ use crate::gpu::memory::MemoryLocation;
 
 use super::translucency::LightViewData;
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording, Reader};
-use crate::effects::translucency::{light_map_size, LightView};
+use crate::effects::translucency::{light_map_size, light_map_size_in, LightView};
 use crate::frame::FrameStats;
 use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::Buffer;
@@ -221,11 +221,12 @@ impl Pass for PeelPass {
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let scene = frame.scene;
-        let view = LightView::fit(scene);
+        let bounds = frame.scene_gpu.mesh_bounds();
+        let view = LightView::fit_with(scene, &bounds);
         self.lit = view.is_some();
         self.view = view.as_ref().map(LightViewData::new).unwrap_or_default();
         self.draws = draw_runs(scene);
-        self.size = light_map_size(scene);
+        self.size = light_map_size_in(scene, &bounds, view.as_ref());
         let limit = frame.ctx.limits.max_image_dimension2_d;
         if self.size * PEEL_TILE.0 > limit {
             return Err(GpuError::DeviceLimit {

@@ -71,7 +71,7 @@ use super::{Binding, FrameContext, Pass, PassRecording};
 use crate::effects::bake_cache::BakeCache;
 use crate::effects::thickness_lut::{bake, BakeOptions, ThicknessLut, TAU_STEPS};
 use crate::effects::thickness_pairs::{self, PairOptions, PairTable};
-use crate::effects::translucency::{light_map_size, LightView};
+use crate::effects::translucency::{light_map_size_in, LightView};
 use crate::gpu::memory::{Image, Memory};
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, Pipeline};
 use crate::gpu::sampler::Sampler;
@@ -244,8 +244,14 @@ pub struct TranslucentFrame {
 impl TranslucentFrame {
     /// `pre_exposure`: the frame's (`FrameContext::pre_exposure`), what the light's radiance is
     /// multiplied by.
-    pub fn new(scene: &Scene, data: &TranslucentData, pre_exposure: f64) -> Self {
-        let view = LightView::fit(scene);
+    /// `mesh_bounds`: each mesh's object-space bounds in scene order (`SceneGpu::mesh_bounds`).
+    pub fn new(
+        scene: &Scene,
+        mesh_bounds: &[(glam::DVec3, glam::DVec3)],
+        data: &TranslucentData,
+        pre_exposure: f64,
+    ) -> Self {
+        let view = LightView::fit_with(scene, mesh_bounds);
         let view_data = view.as_ref().map(LightViewData::new).unwrap_or(LightViewData {
             centre: [0.0, 0.0, 0.0, 1.0],
             right: [1.0, 0.0, 0.0, 0.0],
@@ -253,7 +259,6 @@ impl TranslucentFrame {
             dir: [0.0, 0.0, 1.0, 0.0],
         });
         TranslucentFrame {
-            view,
             view_data,
             // Pre-exposed as the frame's other radiances (`effects::tonemap::pre_exposure`).
             radiance: scene
@@ -261,7 +266,8 @@ impl TranslucentFrame {
                 .map_or(glam::DVec3::ZERO, |l| l.color * l.intensity * pre_exposure),
             draws: draw_runs(scene),
             instances: instance_table(scene, &data.keys),
-            map_size: light_map_size(scene),
+            map_size: light_map_size_in(scene, mesh_bounds, view.as_ref()),
+            view,
         }
     }
 }
@@ -733,12 +739,16 @@ pub(crate) fn pipelines(
 /// The pixels whose rays can meet a translucent instance: the screen bounds of the corners of
 /// their transformed mesh boxes (`Camera::pixel_bounds`; the box's hull holds the mesh). Only
 /// these run the per-pixel thickness work.
-fn translucent_pixels(scene: &Scene, extent: vk::Extent2D) -> Option<PixelRect> {
+fn translucent_pixels(
+    scene: &Scene,
+    mesh_bounds: &[(glam::DVec3, glam::DVec3)],
+    extent: vk::Extent2D,
+) -> Option<PixelRect> {
     let corners: Vec<DVec3> = (0..scene.instances.len())
         .filter(|&k| translucent_mode(scene, k).is_some())
         .flat_map(|k| {
             let inst = &scene.instances[k];
-            let (lo, hi) = scene.meshes[inst.mesh].mesh.bounds();
+            let (lo, hi) = mesh_bounds[inst.mesh];
             (0..8).map(move |c| {
                 let p = DVec3::new([lo.x, hi.x][c & 1], [lo.y, hi.y][(c >> 1) & 1], [lo.z, hi.z][c >> 2]);
                 inst.transform.transform_point(p)
@@ -757,8 +767,10 @@ impl Pass for TranslucencyPass {
         let (scene, extent) = (frame.scene, frame.extent);
         let data = &self.data;
         // Instances may have moved: this frame's light view and matrices.
-        let now = TranslucentFrame::new(scene, data, frame.pre_exposure);
-        self.rect = translucent_pixels(scene, extent);
+        // Bounds kept with the vertex buffers: no vertex is read here.
+        let bounds = frame.scene_gpu.mesh_bounds();
+        let now = TranslucentFrame::new(scene, &bounds, data, frame.pre_exposure);
+        self.rect = translucent_pixels(scene, &bounds, extent);
         self.extent = extent;
         let params = TranslucencyParams {
             radiance: v4(now.radiance, if now.view.is_some() { 1.0 } else { 0.0 }),
