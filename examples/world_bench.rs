@@ -251,7 +251,7 @@ fn until_baked(
     let baked_s = start.elapsed().as_secs_f64();
     let after = frames(g, extent, frame, 30)?;
     row(&format!("{label}: the spawn calls"), &[spawn_ms]);
-    row(&format!("{label}: while baking ({baked_s:.2} s)"), &baking);
+    row(&format!("{label}: while baking and copying ({baked_s:.2} s)"), &baking);
     for (i, ms) in &switches {
         row(&format!("{label}: switch-over (frame {i})"), &[*ms]);
     }

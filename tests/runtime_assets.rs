@@ -154,6 +154,46 @@ fn a_spawned_translucent_material_bakes_in_the_background() {
 }
 
 #[test]
+fn a_large_table_is_copied_a_slice_per_frame_and_drawn_as_loaded() {
+    // The cube at the largest voxel_res: 129³ corners and 128³ τ bytes, a few slices.
+    let mut rt = common::runtime();
+    rt.load_scene(common::parse(&file_scene(&JADE.replace("voxel_res = 12", "voxel_res = 128")))).unwrap();
+    let loaded = render(&mut rt);
+
+    rt.load_scene(common::parse(LIGHTS_AND_CAMERA)).unwrap();
+    let (p, n, i) = crate_mesh();
+    let mesh = rt.renderer().spawn_mesh("crate", &p, Some(&n), &i).unwrap();
+    let kind = MaterialKind::Translucent {
+        sigma: DVec3::new(2.0, 1.0, 1.5),
+        voxel_res: 128,
+        thickness: ThicknessMode::Lut,
+    };
+    let jade = rt.renderer().spawn_material("paint", DVec3::new(0.4, 0.9, 0.6), kind).unwrap();
+    rt.renderer().spawn_instance_of(mesh, jade, transform()).unwrap();
+    // Frames go on while it bakes and while its tables are copied; no frame copies more than the
+    // budget, and the copy takes the frames the bytes need.
+    let budget = hadou::Renderer::UPLOAD_BYTES_PER_FRAME;
+    let (mut copies, mut last, mut bytes) = (Vec::new(), 0, 0);
+    let start = std::time::Instant::now();
+    loop {
+        let progress = rt.renderer().bakes_in_progress();
+        let Some(p) = progress.first() else { break };
+        if p.bytes > 0 {
+            copies.push(p.copied - last);
+            (last, bytes) = (p.copied, p.bytes);
+        }
+        assert!(start.elapsed().as_secs() < 300, "the bake did not finish: {p:?}");
+        rt.render(&FrameRequest::new(64, 48)).unwrap();
+    }
+    assert!(bytes > 2 * budget, "a 128³ table is more than two slices: {bytes} bytes");
+    assert!(copies.iter().all(|&c| c <= budget), "a frame copied more than {budget} bytes: {copies:?}");
+    // The frame that saw the first slice, the ones in between, and the one that put it in use.
+    assert!(copies.len() + 1 >= bytes.div_ceil(budget), "{} frames for {bytes} bytes", copies.len() + 1);
+    assert_same(&render(&mut rt), &loaded, "once copied, as the file's");
+    common::assert_clean(&rt);
+}
+
+#[test]
 fn bad_assets_are_refused_by_name() {
     let mut rt = common::runtime();
     rt.load_scene(common::parse(LIGHTS_AND_CAMERA)).unwrap();

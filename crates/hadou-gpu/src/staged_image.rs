@@ -23,6 +23,12 @@ pub struct StagedCopy {
 }
 
 impl StagedCopy {
+    /// Writes `data` into the staging buffer at `offset` (the image's bytes, row 0 first); an
+    /// error naming the buffer past its end.
+    pub fn write(&mut self, offset: usize, data: &[u8]) -> GpuResult<()> {
+        self.staging.write(offset, data)
+    }
+
     /// Records the copy into the frame's command buffer and leaves the image ready for compute
     /// shaders to sample (`ImageAccess::COMPUTE_SAMPLED`).
     pub fn record(self, rec: &Recorder) {
@@ -78,12 +84,27 @@ pub fn stage_compute_image(
             ),
         });
     }
+    let (image, mut copy) = stage_empty_compute_image(ctx, memory, name, extent, format, texel_bytes)?;
+    copy.write(0, bytes)?;
+    Ok((image, copy))
+}
+
+/// `stage_compute_image` with the staging buffer not written yet: the caller fills it with
+/// `StagedCopy::write` (a slice at a time, e.g. spread over frames) before the copy is recorded.
+pub fn stage_empty_compute_image(
+    ctx: &GpuContext,
+    memory: &Memory,
+    name: &str,
+    extent: vk::Extent2D,
+    format: vk::Format,
+    texel_bytes: u64,
+) -> GpuResult<(Image, StagedCopy)> {
+    let bytes = extent.width as u64 * extent.height as u64 * texel_bytes;
     let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
     let image = memory.create_image(ctx, name, extent, format, usage)?;
     let src = vk::BufferUsageFlags::TRANSFER_SRC;
-    let mut staging =
-        memory.create_buffer(ctx, &format!("{name} staging"), expected, src, MemoryLocation::CpuToGpu)?;
-    staging.write(0, bytes)?;
+    let staging =
+        memory.create_buffer(ctx, &format!("{name} staging"), bytes, src, MemoryLocation::CpuToGpu)?;
     let copy = StagedCopy { staging, image: image.raw, format, extent };
     Ok((image, copy))
 }

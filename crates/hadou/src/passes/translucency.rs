@@ -83,6 +83,9 @@ use crate::scene::camera::PixelRect;
 use crate::scene::{MaterialKind, Scene, ThicknessMode};
 use crate::targets::Target;
 
+mod upload;
+pub(crate) use upload::{Uploading, UPLOAD_BYTES_PER_FRAME};
+
 /// `TranslucentInstance::info.x` of an instance without a table.
 pub const NO_LUT: u32 = u32::MAX;
 
@@ -621,48 +624,14 @@ impl TranslucentData {
         Self::upload(ctx, memory, pack(scene, PackLimits::of(ctx))?)
     }
 
-    /// Uploads tables packed already (`pack_keys`, e.g. by a run-time bake): host-visible texel
-    /// buffers, written at once; the pair tables' image (if any) staged, its copy recorded by the
-    /// first frame that reads it (`record_pending_copy`). Waits for nothing.
+    /// Uploads tables packed already (`pack_keys`): host-visible texel buffers, written at once;
+    /// the pair tables' image (if any) staged, its copy recorded by the first frame that reads it
+    /// (`record_pending_copy`). Waits for nothing. A run-time bake writes them over several frames
+    /// instead (`Uploading`).
     pub(crate) fn upload(ctx: &GpuContext, memory: &Memory, packed: Packed) -> GpuResult<Self> {
-        let (word, quad) = (Texels::U32, Texels::U32x4);
-        let texels =
-            |name: &str, bytes: &[u8], texels| TexelBuffer::from_bytes(ctx, memory, name, bytes, texels);
-        let fields = texels("translucency fields", bytemuck::cast_slice(&packed.fields), word)?;
-        let records = texels("translucency lut records", bytemuck::cast_slice(&packed.records), quad)?;
-        let field_bytes: u64 = packed.tables.iter().map(|s| s.field_bytes).sum();
-        log::info!(
-            "translucency: {} thickness fields, {field_bytes} bytes ({} words of R8_SNORM quads and τ)",
-            packed.tables.len(),
-            packed.fields.len()
-        );
-        let a = &packed.atlas;
-        let mut pairs_copy = None;
-        let pairs = if a.height == 0 {
-            None
-        } else {
-            let extent = vk::Extent2D { width: a.width, height: a.height };
-            let format = vk::Format::R8_UNORM;
-            let (image, copy) = crate::gpu::staged_image::stage_compute_image(
-                ctx,
-                memory,
-                "translucency pair tables",
-                extent,
-                format,
-                1,
-                &a.bytes,
-            )?;
-            log::info!(
-                "translucency: pair tables in a {}x{} R8_UNORM image ({} bytes)",
-                a.width,
-                a.height,
-                a.bytes.len()
-            );
-            pairs_copy = Some(copy);
-            Some((image, Sampler::nearest(ctx, "translucency pair tables")?))
-        };
-        let pairs_copy = std::sync::Mutex::new(pairs_copy);
-        Ok(TranslucentData { tables: packed.tables, keys: packed.keys, fields, records, pairs, pairs_copy })
+        let mut uploading = Uploading::begin(ctx, memory, packed)?;
+        uploading.step(usize::MAX)?;
+        uploading.finish(ctx)
     }
 }
 

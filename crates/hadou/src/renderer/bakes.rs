@@ -3,9 +3,12 @@
 //! (TSM: the translucency pass falls back to it for an instance without a table), while a
 //! background thread bakes the table through the bake cache (keyed on the mesh's content, so the
 //! same mesh under many transforms bakes once) and packs it with the tables already in use. The
-//! first frame recorded after the job ends puts the new tables in use — host-visible buffers
-//! written at once, the LUT image filled by a copy in that frame's own command buffer, no wait —
-//! and rebuilds the two translucency passes on them: the instance switches to its table. One job runs at a time; keys asked for meanwhile make the next.
+//! frames recorded after the job ends copy the packed tables into fresh host-visible buffers, at
+//! most `Renderer::UPLOAD_BYTES_PER_FRAME` each (`passes::translucency::Uploading`), and the one
+//! whose slice completes them puts them in use — the pair image filled by a copy in that frame's
+//! own command buffer, no wait — and rebuilds the two translucency passes on them (pipelines from
+//! the memo: nothing compiled): the instance switches to its table. One job runs at a time; keys
+//! asked for meanwhile make the next.
 //! `bakes_in_progress` shows progress, `wait_for_bakes` blocks until all are in (tests, tools).
 //! The seed's pair tables (`thickness = "pairs"`, keys with `PAIRS_KEY`) go the same way; their
 //! image is staged then and copied by the first frame that reads it (no wait).
@@ -16,7 +19,9 @@ use std::thread::JoinHandle;
 
 use super::Renderer;
 use crate::gpu::GpuResult;
-use crate::passes::translucency::{pack_keys, PackLimits, Packed, TranslucentData, PAIRS_KEY};
+use crate::passes::translucency::{
+    pack_keys, PackLimits, Packed, TranslucentData, Uploading, PAIRS_KEY, UPLOAD_BYTES_PER_FRAME,
+};
 use crate::Error;
 
 /// A run-time bake not yet in use.
@@ -30,6 +35,12 @@ pub struct BakeProgress {
     pub done: usize,
     /// Steps in all (0 until the bake starts).
     pub total: usize,
+    /// Bytes of the tables (all in use, packed again with this one) copied into their buffers so
+    /// far: a finished bake's tables are copied by the frames that follow, at most
+    /// `Renderer::UPLOAD_BYTES_PER_FRAME` each, and put in use by the frame that completes them.
+    pub copied: usize,
+    /// Bytes to copy in all (0 until the bake is done).
+    pub bytes: usize,
 }
 
 struct Job {
@@ -37,7 +48,14 @@ struct Job {
     adds: Vec<(usize, u32)>,
     done: Arc<AtomicUsize>,
     total: Arc<AtomicUsize>,
-    thread: JoinHandle<GpuResult<Packed>>,
+    stage: Stage,
+}
+
+/// Where a job is: baking and packing on its thread, then its tables copied into their buffers by
+/// the frames that follow, `UPLOAD_BYTES_PER_FRAME` a frame; in use once all are in.
+enum Stage {
+    Baking(JoinHandle<GpuResult<Packed>>),
+    Uploading(Box<Uploading>),
 }
 
 /// The run-time bakes of the loaded scene.
@@ -56,6 +74,10 @@ fn current_data(shared: &crate::effect::SharedData) -> Option<Arc<TranslucentDat
 }
 
 impl Renderer {
+    /// The most bytes of a finished run-time bake's tables one frame copies (`BakeProgress`):
+    /// 512 KiB, ≈ 0.3 ms of `record_frame` on lavapipe here (docs/PERFORMANCE.md).
+    pub const UPLOAD_BYTES_PER_FRAME: usize = UPLOAD_BYTES_PER_FRAME;
+
     /// Whether (mesh, voxel_res) has a table in use, or is being or was tried to be baked.
     pub(super) fn table_known(&self, key: (usize, u32)) -> bool {
         let Some(loaded) = &self.loaded else { return false };
@@ -123,24 +145,46 @@ impl Renderer {
             };
             pack_keys(&scene, keys, limit, &progress)
         });
-        loaded.bakes.job = Some(Job { adds, done, total, thread });
+        loaded.bakes.job = Some(Job { adds, done, total, stage: Stage::Baking(thread) });
     }
 
-    /// Puts a finished job's tables in use (`block`: waits for a running job first).
+    /// Moves the job on: a finished bake's tables get their buffers and the first slice of their
+    /// copy, later frames copy a slice each, and the frame whose slice completes them puts them in
+    /// use. `block`: waits for a running bake and copies everything now (tools, tests).
     pub(super) fn poll_bakes(&mut self, block: bool) -> Result<(), Error> {
         let Some(loaded) = &mut self.loaded else { return Ok(()) };
-        let finished = loaded.bakes.job.as_ref().is_some_and(|j| block || j.thread.is_finished());
-        if !finished {
-            return Ok(());
-        }
-        let Some(job) = loaded.bakes.job.take() else { return Ok(()) };
-        let packed = job.thread.join().unwrap_or_else(|_| {
-            Err(crate::gpu::GpuError::Bake {
-                what: "run-time bake".into(),
-                message: "the bake thread panicked".into(),
-            })
-        });
-        match packed.and_then(|p| TranslucentData::upload(&self.ctx, &self.memory, p)) {
+        let Some(mut job) = loaded.bakes.job.take() else { return Ok(()) };
+        let uploading = match job.stage {
+            Stage::Baking(thread) if !(block || thread.is_finished()) => {
+                job.stage = Stage::Baking(thread);
+                loaded.bakes.job = Some(job);
+                return Ok(());
+            }
+            Stage::Baking(thread) => {
+                let packed = thread.join().unwrap_or_else(|_| {
+                    Err(crate::gpu::GpuError::Bake {
+                        what: "run-time bake".into(),
+                        message: "the bake thread panicked".into(),
+                    })
+                });
+                packed.and_then(|p| Uploading::begin(&self.ctx, &self.memory, p)).map(Box::new)
+            }
+            Stage::Uploading(u) => Ok(u),
+        };
+        let budget = if block { usize::MAX } else { UPLOAD_BYTES_PER_FRAME };
+        let data = match uploading {
+            Ok(mut u) => match u.step(budget) {
+                Ok(true) => u.finish(&self.ctx),
+                Ok(false) => {
+                    job.stage = Stage::Uploading(u);
+                    loaded.bakes.job = Some(job);
+                    return Ok(());
+                }
+                Err(e) => Err(e),
+            },
+            Err(e) => Err(e),
+        };
+        match data {
             Ok(data) => {
                 loaded.passes.shared.replace(data);
                 // The passes built on the old tables go (retired with the frames that use them);
@@ -172,11 +216,17 @@ impl Renderer {
         let mut out = Vec::new();
         if let Some(job) = &loaded.bakes.job {
             let (done, total) = (job.done.load(Ordering::Relaxed), job.total.load(Ordering::Relaxed));
+            let (copied, bytes) = match &job.stage {
+                Stage::Baking(_) => (0, 0),
+                Stage::Uploading(u) => (u.written(), u.total()),
+            };
             out.extend(job.adds.iter().map(|&(m, r)| BakeProgress {
                 mesh: name(m),
                 voxel_res: r & !PAIRS_KEY,
                 done,
                 total,
+                copied,
+                bytes,
             }));
         }
         let queued = loaded.bakes.queued.iter();
@@ -185,6 +235,8 @@ impl Renderer {
             voxel_res: r & !PAIRS_KEY,
             done: 0,
             total: 0,
+            copied: 0,
+            bytes: 0,
         }));
         out
     }
