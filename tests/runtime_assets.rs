@@ -131,10 +131,13 @@ fn a_spawned_mesh_and_material_draw_as_loaded_ones() {
     common::assert_clean(&rt);
 }
 
-#[test]
-fn a_spawned_translucent_material_bakes_in_the_background() {
+/// The crate of jade at `voxel_res` loaded from a file and rendered; then the same world built at
+/// run time (a bare scene, the mesh, the material and the instance spawned). The runtime and the
+/// file's render.
+fn jade_crate_spawned(voxel_res: u32) -> (common::CheckedRuntime, (Vec<u8>, Vec<f32>)) {
     let mut rt = common::runtime();
-    rt.load_scene(common::parse(&file_scene(JADE))).unwrap();
+    let jade = JADE.replace("voxel_res = 12", &format!("voxel_res = {voxel_res}"));
+    rt.load_scene(common::parse(&file_scene(&jade))).unwrap();
     let loaded = render(&mut rt);
 
     rt.load_scene(common::parse(LIGHTS_AND_CAMERA)).unwrap();
@@ -142,11 +145,17 @@ fn a_spawned_translucent_material_bakes_in_the_background() {
     let mesh = rt.renderer().spawn_mesh("crate", &p, Some(&n), &i).unwrap();
     let kind = MaterialKind::Translucent {
         sigma: DVec3::new(2.0, 1.0, 1.5),
-        voxel_res: 12,
+        voxel_res,
         thickness: ThicknessMode::Lut,
     };
     let jade = rt.renderer().spawn_material("paint", DVec3::new(0.4, 0.9, 0.6), kind).unwrap();
     rt.renderer().spawn_instance_of(mesh, jade, transform()).unwrap();
+    (rt, loaded)
+}
+
+#[test]
+fn a_spawned_translucent_material_bakes_in_the_background() {
+    let (mut rt, loaded) = jade_crate_spawned(12);
     assert!(!rt.renderer().bakes_in_progress().is_empty(), "its table bakes in the background");
     rt.renderer().wait_for_bakes().unwrap();
     assert_same(&render(&mut rt), &loaded, "once baked, as the file's");
@@ -156,20 +165,7 @@ fn a_spawned_translucent_material_bakes_in_the_background() {
 #[test]
 fn a_large_table_is_copied_a_slice_per_frame_and_drawn_as_loaded() {
     // The cube at the largest voxel_res: 129³ corners and 128³ τ bytes, a few slices.
-    let mut rt = common::runtime();
-    rt.load_scene(common::parse(&file_scene(&JADE.replace("voxel_res = 12", "voxel_res = 128")))).unwrap();
-    let loaded = render(&mut rt);
-
-    rt.load_scene(common::parse(LIGHTS_AND_CAMERA)).unwrap();
-    let (p, n, i) = crate_mesh();
-    let mesh = rt.renderer().spawn_mesh("crate", &p, Some(&n), &i).unwrap();
-    let kind = MaterialKind::Translucent {
-        sigma: DVec3::new(2.0, 1.0, 1.5),
-        voxel_res: 128,
-        thickness: ThicknessMode::Lut,
-    };
-    let jade = rt.renderer().spawn_material("paint", DVec3::new(0.4, 0.9, 0.6), kind).unwrap();
-    rt.renderer().spawn_instance_of(mesh, jade, transform()).unwrap();
+    let (mut rt, loaded) = jade_crate_spawned(128);
     // Frames go on while it bakes and while its tables are copied; no frame copies more than the
     // budget, and the copy takes the frames the bytes need.
     let budget = hadou::Renderer::UPLOAD_BYTES_PER_FRAME;

@@ -26,6 +26,7 @@ use crate::Error;
 
 /// A run-time bake not yet in use.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct BakeProgress {
     /// The mesh's name.
     pub mesh: String,
