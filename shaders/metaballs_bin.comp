@@ -247,11 +247,11 @@ void main() {
 #endif
 
 #elif MB_BIN_STAGE == 2 || MB_BIN_STAGE == 4
-// Per chunk of 64 sorted balls: each marks, in the bit masks of the block's tiles its rectangle
-// meets, its place in the chunk (atomicOr: any order gives the same masks); then each tile
-// appends its marked balls in bit order, which is the sorted order.
+// Per chunk of 64 sorted balls of one group: each marks, in the bit masks of the block's tiles its
+// rectangle meets, its place in the chunk (atomicOr: any order gives the same masks); then each
+// tile appends its marked balls in bit order, which is the sorted order.
 shared uint masks[128];
-shared uvec2 chunk_ball[64];  // (group, ball index)
+shared uint chunk_index[64];  // the chunk's ball indices
 
 bool loops_cut(uint n) {
     uint loops = 0u;
@@ -260,36 +260,6 @@ bool loops_cut(uint n) {
         ++loops;
     } while (loops < wanted);
     return loops != wanted;
-}
-
-uint count = 0u;
-uint run_count = 0u;
-uint group = NONE;
-uint run_start = 0u;
-#if MB_BIN_STAGE == 4
-uvec4 off = uvec4(0u);
-uint limit = 0u;
-#endif
-
-void close_run() {
-#if MB_BIN_STAGE == 4
-    uint flags = bin_groups[group].info.z;
-    if (state[BIN_GROUPS + 2u * group] == 0u) flags |= RUN_LONE_BOUND;
-    runs[off.x + run_count - 1u] = uvec4(group, off.x + run_start, count - run_start, flags);
-#endif
-}
-
-void append(uvec2 ball) {
-    if (ball.x != group) {
-        if (group != NONE) close_run();
-        group = ball.x;
-        run_start = count;
-        ++run_count;
-    }
-#if MB_BIN_STAGE == 4
-    if (count < limit) entries[off.x + count] = ball.y;
-#endif
-    ++count;
 }
 
 void main() {
@@ -303,8 +273,13 @@ void main() {
     bool mine = tile.x < tiles.x && tile.y < tiles.y;
     uint t = tile.y * tiles.x + tile.x;
     uvec2 last = min(block + 7u, tiles - 1u);
-    uint visible = state[BIN_VISIBLE];
+    uint count = 0u;
+    uint run_count = 0u;
+    uint group = NONE;
+    uint run_start = 0u;
 #if MB_BIN_STAGE == 4
+    uvec4 off = uvec4(0u);
+    uint limit = 0u;
     if (mine) {
         off = offsets[t];
         limit = counts[t].x;
@@ -314,63 +289,88 @@ void main() {
     masks[2u * lane + 1u] = 0u;
     barrier();
     uint chunks = 0u;
-    for (uint base = 0u; base < visible; base += 64u) {
-        ++chunks;
-        uint k = base + lane;
-        if (k < visible) {
-            uvec2 key = elements[k];
-            uint index = key.y & INDEX_MASK;
-            uvec2 packed = rects[index];
-            chunk_ball[lane] = uvec2(key.x >> GROUP_SHIFT, index);
-            // The rectangle within the block.
-            ivec2 lo = ivec2(max(uvec2(packed.x & 0xffffu, packed.x >> 16u), block)) - ivec2(block);
-            ivec2 hi = ivec2(min(uvec2(packed.y & 0xffffu, packed.y >> 16u), last)) - ivec2(block);
-            uint bit = 1u << (lane & 31u);
-            uint word = lane >> 5u;
-            // Rows of at most 8 tiles, written out (loops count against lavapipe's budget).
+    uint start = 0u;  // the group's first sort key
+    // Group by group (their keys are contiguous), so a chunk holds one group and a tile's runs
+    // change only between chunks.
+    for (uint g = 0u; g < params.sizes.y; ++g) {
+        uint visible = state[BIN_GROUPS + 2u * g + 1u];
+        for (uint base = 0u; base < visible; base += 64u) {
+            ++chunks;
+            uint k = base + lane;
+            if (k < visible) {
+                uint index = elements[start + k].y & INDEX_MASK;
+                uvec2 packed = rects[index];
+                chunk_index[lane] = index;
+                // The rectangle within the block.
+                ivec2 lo = ivec2(max(uvec2(packed.x & 0xffffu, packed.x >> 16u), block)) - ivec2(block);
+                ivec2 hi = ivec2(min(uvec2(packed.y & 0xffffu, packed.y >> 16u), last)) - ivec2(block);
+                uint bit = 1u << (lane & 31u);
+                uint word = lane >> 5u;
+                // Rows of at most 8 tiles, written out (loops count against lavapipe's budget).
 #define MB_MARK(u) if (lo.x + u <= hi.x) atomicOr(masks[2u * uint(y * 8 + lo.x + u) + word], bit)
-            for (int y = lo.y; y <= hi.y; ++y) {
-                MB_MARK(0); MB_MARK(1); MB_MARK(2); MB_MARK(3);
-                MB_MARK(4); MB_MARK(5); MB_MARK(6); MB_MARK(7);
+                for (int y = lo.y; y <= hi.y; ++y) {
+                    MB_MARK(0); MB_MARK(1); MB_MARK(2); MB_MARK(3);
+                    MB_MARK(4); MB_MARK(5); MB_MARK(6); MB_MARK(7);
+                }
             }
-        }
-        barrier();
-        uint m0 = masks[2u * lane];
-        uint m1 = masks[2u * lane + 1u];
-        masks[2u * lane] = 0u;
-        masks[2u * lane + 1u] = 0u;
-        if (mine) {
-            // The marked balls, 8 per iteration (lavapipe's loop budget).
-#define MB_NEXT(w, bits)                                \
-    if (bits != 0u) {                                   \
-        uint j = uint(findLSB(bits));                   \
-        bits &= bits - 1u;                              \
-        append(chunk_ball[32u * w + j]);                \
+            barrier();
+            uint m0 = masks[2u * lane];
+            uint m1 = masks[2u * lane + 1u];
+            masks[2u * lane] = 0u;
+            masks[2u * lane + 1u] = 0u;
+            if (mine && (m0 | m1) != 0u) {
+                if (g != group) {
+#if MB_BIN_STAGE == 4
+                    if (group != NONE) {
+                        uint flags = bin_groups[group].info.z;
+                        if (state[BIN_GROUPS + 2u * group] == 0u) flags |= RUN_LONE_BOUND;
+                        runs[off.x + run_count - 1u] = uvec4(group, off.x + run_start, count - run_start, flags);
+                    }
+#endif
+                    group = g;
+                    run_start = count;
+                    ++run_count;
+                }
+#if MB_BIN_STAGE == 4
+                // The marked balls in bit order, 8 per iteration (lavapipe's loop budget).
+#define MB_NEXT(w, bits)                                                      \
+    if (bits != 0u) {                                                         \
+        uint j = uint(findLSB(bits));                                         \
+        bits &= bits - 1u;                                                    \
+        if (count < limit) entries[off.x + count] = chunk_index[32u * w + j]; \
+        ++count;                                                              \
     }
-            while (m0 != 0u) {
-                MB_NEXT(0u, m0) MB_NEXT(0u, m0) MB_NEXT(0u, m0) MB_NEXT(0u, m0)
-                MB_NEXT(0u, m0) MB_NEXT(0u, m0) MB_NEXT(0u, m0) MB_NEXT(0u, m0)
+                while (m0 != 0u) {
+                    MB_NEXT(0u, m0) MB_NEXT(0u, m0) MB_NEXT(0u, m0) MB_NEXT(0u, m0)
+                    MB_NEXT(0u, m0) MB_NEXT(0u, m0) MB_NEXT(0u, m0) MB_NEXT(0u, m0)
+                }
+                while (m1 != 0u) {
+                    MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1)
+                    MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1)
+                }
+#else
+                count += uint(bitCount(m0) + bitCount(m1));
+#endif
             }
-            while (m1 != 0u) {
-                MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1)
-                MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1)
-            }
+            barrier();
         }
-        barrier();
+        start += visible;
     }
     if (mine) {
 #if MB_BIN_STAGE == 2
         counts[t] = uvec2(count, run_count);
 #else
         if (group != NONE) {
-            close_run();
+            uint flags = bin_groups[group].info.z;
+            if (state[BIN_GROUPS + 2u * group] == 0u) flags |= RUN_LONE_BOUND;
+            runs[off.x + run_count - 1u] = uvec4(group, off.x + run_start, count - run_start, flags);
             headers[off.z] = uvec4(off.x, run_count, tile);
         }
 #endif
     }
     // Lavapipe's loop budget: a cut walk would have lost balls; say so (every pixel of the
     // block counts as dropped) rather than draw less.
-    if (loops_cut(chunks) && lane == 0u) {
+    if (loops_cut(chunks + params.sizes.y) && lane == 0u) {
         atomicAdd(stats[STAT_DROPPED], 64u * 64u);
         atomicAdd(state[BIN_CUT], 1u);
     }
