@@ -8,15 +8,15 @@
 //   1, 5 sort: bitonic, in blocks of 512 in shared memory (1) and across blocks (5, one step a
 //     dispatch). Every key is distinct, so the order is the same on any device: group, then entry
 //     key, then index, as the CPU twin sorts them;
-//   2 count, 4 fill: one 8×8 workgroup per 8×8 block of tiles walks the sorted balls in chunks
-//     of 64; each ball marks its place in the chunk in the bit masks of the tiles it meets, and
-//     each tile appends its marked balls in bit order (the sorted order): counts, then (after the
-//     scan) the entries, runs and header;
-//   3 scan: one workgroup turns the counts into offsets (a tile's runs sit at its entries' offset:
+//   3 scan: one workgroup sums the bounds' difference grid into the tiles' counts (2D prefix)
+//     and turns them into offsets (a tile's runs sit at its entries' offset:
 //     a tile has no more runs than entries), the header index of each tile holding any ball
 //     (row-major) and the pass's dispatch. Past the entry capacity (the host grows it from the
 //     totals it reads back) it writes instead lists every tile shares, one run per group over the
-//     group's visible balls in sorted order (exact, only slower), and fill writes nothing.
+//     group's visible balls in sorted order (exact, only slower), and fill writes nothing;
+//   4 fill: one 8×8 workgroup per 8×8 block of tiles walks each group's sorted balls in chunks
+//     of 64; each ball marks its place in the chunk in the bit masks of the tiles it meets, and
+//     each tile appends its marked balls in bit order (the sorted order): entries, runs, header.
 // So within a run the order is always the entry key's (ties by index): each pixel sums its balls
 // in the same order as the CPU-built lists did, and the image is the same bit for bit.
 #include "common/frame.glsl"
@@ -24,7 +24,7 @@
 #ifndef MB_BIN_STAGE
 #define MB_BIN_STAGE 0
 #endif
-#if MB_BIN_STAGE == 2 || MB_BIN_STAGE == 4
+#if MB_BIN_STAGE == 4
 layout(local_size_x = 64) in;
 #else
 layout(local_size_x = 256) in;
@@ -54,6 +54,10 @@ layout(set = 0, binding = 21, std430) buffer Entries { uint entries[]; };
 // Keep in sync with BIN_* in crates/hadou/src/passes/metaballs_bin.rs: the main dispatch's
 // arguments (x, y, z), then the totals, then per group its lone flag and visible count.
 layout(set = 0, binding = 22, std430) buffer BinState { uint state[]; };
+// The tiles' counts as a 2D difference grid, (tiles per row + 1) × (tile rows + 1), zeroed by the
+// host: each visible ball adds ±1 at its rectangle's four corners (bounds), the scan's 2D prefix
+// sum gives every tile its count.
+layout(set = 0, binding = 23, std430) buffer Diff { uint diff[]; };
 #define BIN_OVERFLOW 3
 #define BIN_ENTRIES 4
 #define BIN_RUNS 5
@@ -173,6 +177,11 @@ void main() {
         bits = (bits & 0x80000000u) != 0u ? ~bits : (bits | 0x80000000u);
         elements[i] = uvec2((g << GROUP_SHIFT) | (bits >> 15u), ((bits & 0x7fffu) << GROUP_SHIFT) | i);
         rects[i] = uvec2(rect.x | (rect.y << 16u), rect.z | (rect.w << 16u));
+        uint row = params.caps.z + 1u;
+        atomicAdd(diff[rect.y * row + rect.x], 1u);
+        atomicAdd(diff[rect.y * row + rect.z + 1u], 0xffffffffu);  // −1, wrapping
+        atomicAdd(diff[(rect.w + 1u) * row + rect.x], 0xffffffffu);
+        atomicAdd(diff[(rect.w + 1u) * row + rect.z + 1u], 1u);
     } else {
         elements[i] = uvec2(NONE);
     }
@@ -246,7 +255,7 @@ void main() {
 }
 #endif
 
-#elif MB_BIN_STAGE == 2 || MB_BIN_STAGE == 4
+#elif MB_BIN_STAGE == 4
 // Per chunk of 64 sorted balls of one group: each marks, in the bit masks of the block's tiles its
 // rectangle meets, its place in the chunk (atomicOr: any order gives the same masks); then each
 // tile appends its marked balls in bit order, which is the sorted order.
@@ -263,9 +272,7 @@ bool loops_cut(uint n) {
 }
 
 void main() {
-#if MB_BIN_STAGE == 4
     if (state[BIN_OVERFLOW] != 0u) return;
-#endif
     uvec2 tiles = uvec2(params.caps.z, params.caps.w);
     uvec2 block = gl_WorkGroupID.xy * 8u;
     uint lane = gl_LocalInvocationID.x;
@@ -277,14 +284,12 @@ void main() {
     uint run_count = 0u;
     uint group = NONE;
     uint run_start = 0u;
-#if MB_BIN_STAGE == 4
     uvec4 off = uvec4(0u);
     uint limit = 0u;
     if (mine) {
         off = offsets[t];
         limit = counts[t].x;
     }
-#endif
     masks[2u * lane] = 0u;
     masks[2u * lane + 1u] = 0u;
     barrier();
@@ -320,18 +325,15 @@ void main() {
             masks[2u * lane + 1u] = 0u;
             if (mine && (m0 | m1) != 0u) {
                 if (g != group) {
-#if MB_BIN_STAGE == 4
                     if (group != NONE) {
                         uint flags = bin_groups[group].info.z;
                         if (state[BIN_GROUPS + 2u * group] == 0u) flags |= RUN_LONE_BOUND;
                         runs[off.x + run_count - 1u] = uvec4(group, off.x + run_start, count - run_start, flags);
                     }
-#endif
                     group = g;
                     run_start = count;
                     ++run_count;
                 }
-#if MB_BIN_STAGE == 4
                 // The marked balls in bit order, 8 per iteration (lavapipe's loop budget).
 #define MB_NEXT(w, bits)                                                      \
     if (bits != 0u) {                                                         \
@@ -348,25 +350,16 @@ void main() {
                     MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1)
                     MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1) MB_NEXT(1u, m1)
                 }
-#else
-                count += uint(bitCount(m0) + bitCount(m1));
-#endif
             }
             barrier();
         }
         start += visible;
     }
-    if (mine) {
-#if MB_BIN_STAGE == 2
-        counts[t] = uvec2(count, run_count);
-#else
-        if (group != NONE) {
-            uint flags = bin_groups[group].info.z;
-            if (state[BIN_GROUPS + 2u * group] == 0u) flags |= RUN_LONE_BOUND;
-            runs[off.x + run_count - 1u] = uvec4(group, off.x + run_start, count - run_start, flags);
-            headers[off.z] = uvec4(off.x, run_count, tile);
-        }
-#endif
+    if (mine && group != NONE) {
+        uint flags = bin_groups[group].info.z;
+        if (state[BIN_GROUPS + 2u * group] == 0u) flags |= RUN_LONE_BOUND;
+        runs[off.x + run_count - 1u] = uvec4(group, off.x + run_start, count - run_start, flags);
+        headers[off.z] = uvec4(off.x, run_count, tile);
     }
     // Lavapipe's loop budget: a cut walk would have lost balls; say so (every pixel of the
     // block counts as dropped) rather than draw less.
@@ -384,12 +377,33 @@ shared uint shared_groups;
 void main() {
     uint lane = gl_LocalInvocationID.x;
     uint n = params.sizes.w;
+    // The tiles' counts: the difference grid summed along rows, then down columns.
+    uint tiles_x = params.caps.z;
+    uint tiles_y = params.caps.w;
+    uint w = tiles_x + 1u;
+    for (uint y = lane; y < tiles_y; y += 256u) {
+        uint acc = 0u;
+        for (uint x = 0u; x < tiles_x; ++x) {
+            acc += diff[y * w + x];
+            diff[y * w + x] = acc;
+        }
+    }
+    memoryBarrierBuffer();
+    barrier();
+    for (uint x = lane; x < tiles_x; x += 256u) {
+        uint acc = 0u;
+        for (uint y = 0u; y < tiles_y; ++y) {
+            acc += diff[y * w + x];
+            counts[y * tiles_x + x] = uvec2(acc, 0u);
+        }
+    }
+    memoryBarrierBuffer();
     if (lane == 0u) carry = uvec4(0u);
     barrier();
     for (uint base = 0u; base < n; base += 256u) {
         uint t = base + lane;
         uvec2 c = t < n ? counts[t] : uvec2(0u);
-        uvec4 v = uvec4(c.x, c.y, c.y > 0u ? 1u : 0u, 0u);
+        uvec4 v = uvec4(c.x, 0u, c.x > 0u ? 1u : 0u, 0u);
         // Inclusive scan over the workgroup (Hillis-Steele in shared memory).
         partial[lane] = v;
         barrier();
@@ -439,7 +453,6 @@ void main() {
     }
     barrier();
     groups = shared_groups;
-    uint tiles_x = params.caps.z;
     for (uint t = lane; t < n; t += 256u) headers[t] = uvec4(0u, groups, t % tiles_x, t / tiles_x);
 }
 #endif

@@ -73,7 +73,7 @@ fn device_lists(scene: &Scene, width: u32, height: u32, capacity: u64) -> (TileL
         bins.reset().unwrap();
         let params = bins.params(&scene.camera, extent);
         // Bindings by number as the pass gives them; those the stages do not declare are unused.
-        let mut bound = vec![Bound::Storage(BufferRange::whole(stats.raw)); 23];
+        let mut bound = vec![Bound::Storage(BufferRange::whole(stats.raw)); 24];
         bound[4] = Bound::Uniform(BufferRange::whole(uniforms.raw));
         bound[6] = Bound::UniformTexel(group_texels.view);
         bound[7] = Bound::UniformTexel(ball_texels.view);

@@ -587,9 +587,10 @@ impl Pass for MetaballsPass {
             Binding::Bound(views[2]),
             Binding::Bound(Bound::Storage(bin_groups)),
         ];
-        let (lists, state) = written.split_at(7);
+        let (lists, rest) = written.split_at(7);
         bindings.extend(lists.iter().map(|&b| Binding::Written(b, Reader::Compute)));
-        bindings.push(Binding::Written(state[0], Reader::Host));
+        bindings.push(Binding::Written(rest[0], Reader::Host));
+        bindings.push(Binding::Written(rest[1], Reader::Compute));
         Ok(bindings)
     }
 
@@ -604,7 +605,7 @@ impl Pass for MetaballsPass {
         // The tile lists, then one 8×8 workgroup per tile that holds any ball, TILES_PER_ROW
         // tiles per row (the bin state's first words: the scan or the host wrote them).
         if self.binning == Binning::Device {
-            let bin_sets: Vec<vk::DescriptorSet> = (2..8).map(|i| pass.set(i)).collect();
+            let bin_sets: Vec<vk::DescriptorSet> = (2..7).map(|i| pass.set(i)).collect();
             crate::passes::metaballs_bin::record(rec, &self.bin, &bin_sets, &self.bin_params);
         }
         rec.bind_pipeline(&self.pipeline, pass.set(0));

@@ -138,37 +138,34 @@ impl BinSizes {
     }
 }
 
-/// The stages' pipelines: bounds, sort within blocks, count, scan, fill, sort across blocks.
+/// The stages' pipelines (shaders/metaballs_bin.comp, `MB_BIN_STAGE`).
 pub struct BinPipelines {
-    stages: [Pipeline; 6],
+    bounds: Pipeline,
+    sort: Pipeline,
+    scan: Pipeline,
+    fill: Pipeline,
+    merge: Pipeline,
 }
 
 impl BinPipelines {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
         let push = std::mem::size_of::<BinParams>() as u32;
-        let names = [
-            "metaballs bounds",
-            "metaballs sort",
-            "metaballs count",
-            "metaballs scan",
-            "metaballs fill",
-            "metaballs merge",
-        ];
-        let mut stages = Vec::with_capacity(names.len());
-        for (i, name) in names.iter().enumerate() {
-            let stage = i.to_string();
-            let spirv = compiler.compile("metaballs_bin.comp", &[("MB_BIN_STAGE", stage.as_str())])?;
-            stages.push(create_compute_pipeline(ctx, name, &spirv, push)?);
-        }
-        let stages = stages.try_into().map_err(|_| GpuError::Shader {
-            name: "metaballs_bin.comp".into(),
-            message: "six stages".into(),
-        })?;
-        Ok(BinPipelines { stages })
+        let mut stage = |name: &str, stage: &str| -> GpuResult<Pipeline> {
+            let spirv = compiler.compile("metaballs_bin.comp", &[("MB_BIN_STAGE", stage)])?;
+            create_compute_pipeline(ctx, name, &spirv, push)
+        };
+        Ok(BinPipelines {
+            bounds: stage("metaballs bounds", "0")?,
+            sort: stage("metaballs sort", "1")?,
+            scan: stage("metaballs scan", "3")?,
+            fill: stage("metaballs fill", "4")?,
+            merge: stage("metaballs merge", "5")?,
+        })
     }
 
+    /// In the order of the sets [`record`] takes.
     pub fn all(&self) -> Vec<&Pipeline> {
-        self.stages.iter().collect()
+        vec![&self.bounds, &self.sort, &self.scan, &self.fill, &self.merge]
     }
 }
 
@@ -180,6 +177,8 @@ pub struct BinBuffers {
     rects: Buffer,
     counts: Buffer,
     offsets: Buffer,
+    /// The counts' difference grid, zeroed by the host each frame.
+    diff: Buffer,
     pub headers: TexelBuffer,
     pub runs: TexelBuffer,
     pub entries: TexelBuffer,
@@ -208,6 +207,7 @@ impl BinBuffers {
         let capacity = capacity.max(u64::from(sizes.balls)).max(u64::from(sizes.groups)).max(1);
         let tiles = u64::from(sizes.tiles()).max(1);
         let sort = u64::from(sizes.sort_len());
+        let grid = u64::from(sizes.tiles_x + 1) * u64::from(sizes.tiles_y + 1);
         let buffer = |name: &str, bytes: u64| memory.create_buffer(ctx, name, bytes, STORAGE, gpu);
         let state_words = (BIN_GROUPS + 2 * sizes.groups as usize) as u64;
         let usage = STORAGE | vk::BufferUsageFlags::INDIRECT_BUFFER;
@@ -218,6 +218,13 @@ impl BinBuffers {
             rects: buffer("metaballs rects", 8 * u64::from(sizes.balls).max(1))?,
             counts: buffer("metaballs tile counts", 8 * tiles)?,
             offsets: buffer("metaballs tile offsets", 16 * tiles)?,
+            diff: memory.create_buffer(
+                ctx,
+                "metaballs count grid",
+                4 * grid,
+                STORAGE,
+                MemoryLocation::CpuToGpu,
+            )?,
             headers: TexelBuffer::device(ctx, memory, "metaballs headers", 16 * tiles, Texels::U32x4, gpu)?,
             runs: TexelBuffer::device(ctx, memory, "metaballs runs", 16 * capacity, Texels::U32x4, gpu)?,
             entries: TexelBuffer::device(ctx, memory, "metaballs entries", 4 * capacity, Texels::U32, gpu)?,
@@ -235,10 +242,17 @@ impl BinBuffers {
         self.capacity
     }
 
-    /// Zeroes the state (the slot's previous frame has finished).
+    /// Zeroes the state and the count grid (the slot's previous frame has finished).
     pub fn reset(&mut self) -> GpuResult<()> {
-        let words = vec![0u8; self.state.size as usize];
-        self.state.write(0, &words)
+        for buffer in [&mut self.state, &mut self.diff] {
+            let name = buffer.name.clone();
+            let bytes = buffer.mapped_mut().ok_or_else(|| GpuError::BufferWrite {
+                buffer: name,
+                message: "not host-visible".into(),
+            })?;
+            bytes.fill(0);
+        }
+        Ok(())
     }
 
     /// The host built the lists: the pass's dispatch over `active` tiles.
@@ -282,8 +296,8 @@ impl BinBuffers {
     }
 
     /// The storage buffers the stages write, in binding order from binding 15 on (elements,
-    /// rects, counts, offsets, headers, runs, entries, state).
-    pub fn written(&self) -> [BufferRange; 8] {
+    /// rects, counts, offsets, headers, runs, entries, state, count grid).
+    pub fn written(&self) -> [BufferRange; 9] {
         [
             BufferRange::whole(self.elements.raw),
             BufferRange::whole(self.rects.raw),
@@ -293,6 +307,7 @@ impl BinBuffers {
             BufferRange::whole(self.runs.buffer.raw),
             BufferRange::whole(self.entries.buffer.raw),
             BufferRange::whole(self.state.raw),
+            BufferRange::whole(self.diff.raw),
         ]
     }
 
@@ -402,13 +417,12 @@ pub fn check_ball_count(balls: usize, groups: usize) -> GpuResult<()> {
 /// Sort keys per block of the sort within blocks (keep in sync with shaders/metaballs_bin.comp).
 const SORT_BLOCK: u32 = 512;
 
-/// Records the stages with `sets` (one per pipeline of [`BinPipelines::all`]) bound, each
-/// dispatch followed by a barrier; the pass's dispatch may then read the state's arguments and
-/// the lists' views.
+/// Records the stages with `sets` (one per pipeline of [`BinPipelines::all`], in its order)
+/// bound, each dispatch followed by a barrier; the pass's dispatch may then read the state's
+/// arguments and the lists' views.
 pub fn record(rec: &Recorder, pipelines: &BinPipelines, sets: &[vk::DescriptorSet], params: &BinParams) {
     let set = |i: usize| sets.get(i).copied().unwrap_or_default();
-    let run = |i: usize, p: &BinParams, (x, y): (u32, u32)| {
-        let pipeline = &pipelines.stages[i];
+    let run = |i: usize, pipeline: &Pipeline, p: &BinParams, (x, y): (u32, u32)| {
         rec.bind_pipeline(pipeline, set(i));
         rec.push_constants(pipeline, bytemuck::bytes_of(p));
         rec.dispatch_groups(x, y);
@@ -416,22 +430,22 @@ pub fn record(rec: &Recorder, pipelines: &BinPipelines, sets: &[vk::DescriptorSe
     };
     let n = params.sizes[2];
     let blocks = (params.caps[2].div_ceil(8), params.caps[3].div_ceil(8));
-    run(0, params, (n.div_ceil(256), 1));
+    run(0, &pipelines.bounds, params, (n.div_ceil(256), 1));
     // Bitonic: each block sorted in shared memory, then every merge wider than a block as its
     // steps across blocks (one dispatch each) and the rest within blocks.
     let block_groups = n.div_ceil(SORT_BLOCK);
-    run(1, params, (block_groups, 1));
+    run(1, &pipelines.sort, params, (block_groups, 1));
     let mut k = 2 * SORT_BLOCK;
     while k <= n {
         let mut j = k / 2;
         while j >= SORT_BLOCK {
-            run(5, &BinParams { sort: [k, j, 0, 0], ..*params }, ((n / 2).div_ceil(256), 1));
+            let step = BinParams { sort: [k, j, 0, 0], ..*params };
+            run(4, &pipelines.merge, &step, ((n / 2).div_ceil(256), 1));
             j /= 2;
         }
-        run(1, &BinParams { sort: [k, 0, 0, 0], ..*params }, (block_groups, 1));
+        run(1, &pipelines.sort, &BinParams { sort: [k, 0, 0, 0], ..*params }, (block_groups, 1));
         k *= 2;
     }
-    run(2, params, blocks);
-    run(3, params, (1, 1));
-    run(4, params, blocks);
+    run(2, &pipelines.scan, params, (1, 1));
+    run(3, &pipelines.fill, params, blocks);
 }

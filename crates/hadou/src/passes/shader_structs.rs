@@ -69,7 +69,7 @@ fn table() -> Vec<Row> {
     let bin =
         |g: bool| [vec![BinParams::layout()], if g { vec![BinGroup::layout()] } else { vec![] }].concat();
     rows.push(("metaballs_bin.comp", vec![("MB_BIN_STAGE", "0")], [frame(), bin(true)].concat()));
-    for (stage, groups) in [("1", false), ("2", false), ("3", true), ("4", true), ("5", false)] {
+    for (stage, groups) in [("1", false), ("3", true), ("4", true), ("5", false)] {
         rows.push(("metaballs_bin.comp", vec![("MB_BIN_STAGE", stage)], bin(groups)));
     }
     for defines in
