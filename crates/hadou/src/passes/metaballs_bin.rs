@@ -1,5 +1,5 @@
 //! The metaballs pass's tile lists built on the device (shaders/metaballs_bin.comp: bounds, sort,
-//! count, scan, fill) when the pass runs with [`Binning::Device`](super::metaballs::Binning), so
+//! scan, fill) when the pass runs with [`Binning::Device`](super::metaballs::Binning), so
 //! the host's per-frame work does not grow with the balls' screen coverage (and balls a game
 //! writes on the GPU would need no read-back). Not the default: on lavapipe these dispatches cost
 //! the pass more than the host's binning costs the CPU (docs/PERFORMANCE.md, Metaballs).
@@ -33,14 +33,14 @@ use crate::scene::camera::Camera;
 
 use super::metaballs::{sphere_tiles, TileLists, RUN_TRACE, TILE, TILES_PER_ROW};
 
-/// The most balls (all groups together) one frame bins: the sort's workgroup stays within
-/// 17 bits of the sort key (and the count and fill stages within lavapipe's loop budget of
-/// 65,535 iterations per invocation: ~26 per chunk of 64 balls).
+/// The most balls (all groups together) one frame bins: 17 bits of the sort key (and the fill
+/// stays within lavapipe's loop budget of 65,535 iterations per invocation: ~20 per chunk of 64
+/// balls, one per group).
 pub const BIN_MAX_BALLS: u32 = 1 << 17;
 
 /// Words of the bin state buffer (keep in sync with BIN_* in shaders/metaballs_bin.comp): the
-/// pass's dispatch (x, y, z), then whether the lists overflowed, the totals the device needed,
-/// the visible balls and the blocks cut by lavapipe's loop budget; per group from word 12 on:
+/// pass's dispatch (x, y, z), then whether the lists overflowed, the entries the device needed
+/// (runs: 0, they share the entries' offsets), the tiles with headers, the visible balls and the blocks cut by lavapipe's loop budget; per group from word 12 on:
 /// whether RUN_LONE_BOUND is lost, and its visible balls.
 pub const BIN_OVERFLOW: usize = 3;
 pub const BIN_ENTRIES: usize = 4;
@@ -246,10 +246,9 @@ impl BinBuffers {
     pub fn reset(&mut self) -> GpuResult<()> {
         for buffer in [&mut self.state, &mut self.diff] {
             let name = buffer.name.clone();
-            let bytes = buffer.mapped_mut().ok_or_else(|| GpuError::BufferWrite {
-                buffer: name,
-                message: "not host-visible".into(),
-            })?;
+            let bytes = buffer
+                .mapped_mut()
+                .ok_or_else(|| GpuError::BufferWrite { buffer: name, message: "not host-visible".into() })?;
             bytes.fill(0);
         }
         Ok(())
@@ -383,8 +382,10 @@ pub fn estimate(groups: &[MetaballGroupParams], camera: &Camera, extent: vk::Ext
     total
 }
 
-/// The most groups one frame bins (15 bits of the sort key).
-pub const BIN_MAX_GROUPS: u32 = 1 << 15;
+/// The most groups one frame bins: the fill walks each group's chunks apart, so with
+/// [`BIN_MAX_BALLS`] it stays within lavapipe's loop budget (~20 iterations a chunk, a chunk at
+/// least per group). The sort key would hold 2^15.
+pub const BIN_MAX_GROUPS: u32 = 1 << 10;
 
 /// The refusal past [`BIN_MAX_BALLS`] balls or [`BIN_MAX_GROUPS`] groups.
 pub fn check_ball_count(balls: usize, groups: usize) -> GpuResult<()> {
