@@ -535,8 +535,9 @@ impl Pass for MetaballsPass {
         let stats = &mut self.stats[frame.slot];
         stats.write(0, &[0u8; 4 * STAT_COUNT])?;
         let stats = BufferRange::whole(stats.raw);
-        // The streamed dispatch's buffers, for every tile (any may be active).
-        let tiles = u64::from(sizes.tiles()).max(1);
+        // The streamed dispatch's buffers: for the host's active tiles, or for every tile (any
+        // may be active).
+        let tiles = u64::from(host_lists.as_ref().map_or(sizes.tiles(), |l| l.active)).max(1);
         let pending_bytes = tiles * 64 * std::mem::size_of::<PendingRecord>() as u64;
         let dispatch_bytes = (4 + tiles) * 4;
         while self.pending.len() <= frame.slot {
