@@ -47,13 +47,18 @@ layout(set = 0, binding = 5, std430) readonly buffer Materials { MaterialData ma
 // (crates/hadou-gpu/src/texel_buffer.rs).
 layout(set = 0, binding = 6) uniform usamplerBuffer group_texels;
 layout(set = 0, binding = 7) uniform usamplerBuffer ball_texels;
-// Keep in sync with `TileLists` in crates/hadou/src/passes/metaballs.rs: tiles[0 .. active) are the headers of
-// the tiles holding any ball (x: index of the tile's first run in this array, y: run count,
-// z, w: the tile's column and row); the runs follow (x: group, y: first entry in `entries`,
-// z: entry count, w: RUN_* flags), one per group present in the tile; each run's entries sorted
-// by ‖c − o‖ − R (object space, o the camera).
+// Built on the device by shaders/metaballs_bin.comp (layouts: `TileLists` in
+// crates/hadou/src/passes/metaballs.rs, its CPU twin): the headers of the tiles holding any ball
+// (x: index of the tile's first run in `run_texels`, y: run count, z, w: the tile's column and
+// row), then per tile its runs (x: group, y: first entry in `entries`, z: entry count, w: RUN_*
+// flags), one per group present in the tile; each run's entries sorted by ‖c − o‖ − R (object
+// space, o the camera).
 layout(set = 0, binding = 8) uniform usamplerBuffer tile_texels;
 layout(set = 0, binding = 9) uniform usamplerBuffer entry_texels;
+layout(set = 0, binding = 13) uniform usamplerBuffer run_texels;
+// Keep in sync with BIN_ACTIVE in crates/hadou/src/passes/metaballs_bin.rs: the tiles with headers.
+layout(set = 0, binding = 22, std430) readonly buffer BinState { uint bin_state[]; };
+#define BIN_ACTIVE 6
 // Keep in sync with the STAT_* indices in crates/hadou/src/passes/metaballs.rs.
 layout(set = 0, binding = 10, std430) buffer Stats { uint stats[]; };
 // Keep in sync with `PendingRecord` and `StreamDispatch` in crates/hadou/src/passes/metaballs.rs. Per pixel of
@@ -94,6 +99,7 @@ MetaGroup load_group(uint i) {
 }
 
 uvec4 tiles(uint i) { return texelFetch(tile_texels, int(i)); }
+uvec4 run_at(uint i) { return texelFetch(run_texels, int(i)); }
 uint entries(uint k) { return texelFetch(entry_texels, int(k)).x; }
 
 // A lower bound of the distance t′ at which a ray from o enters the support of entry k of the run
@@ -109,7 +115,7 @@ float chunk_key(uvec4 run, uint k, vec3 o) { return mb_entry_key(load_ball(entri
 // Keep in sync with MetaballParams in crates/hadou/src/passes/metaballs.rs. The camera's ray frame, the far
 // distance (ray_forward.w) and the frame's size (counts.yz) are the frame's uniforms.
 layout(push_constant) uniform MetaballParams {
-    uvec4 counts;  // x: active tiles, y: instance id of group 0 (scene instances)
+    uvec4 counts;  // x: 0, y: instance id of group 0 (scene instances)
     vec4 near;     // x: the camera's near distance (a view depth; not in FrameUniforms)
 } params;
 
@@ -257,7 +263,7 @@ void main() {
                 } else {
                     some = false;
                 }
-                uvec4 run = tiles(header.x + r);
+                uvec4 run = run_at(header.x + r);
                 MetaGroup g = load_group(run.x);
                 MetaRay mr = mb_object_ray(g, origin, u);
                 MetaHit h;
@@ -291,11 +297,12 @@ void main() {
     // One 8×8 workgroup per active tile (a tile holding any ball): every subgroup shares its
     // tile, so the loops over the tile's runs and balls are uniform.
     uint tile = gl_WorkGroupID.y * TILES_PER_ROW + gl_WorkGroupID.x;
+    uint active_tiles = bin_state[BIN_ACTIVE];
     uvec4 header = uvec4(0u);
-    if (tile < params.counts.x) header = tiles(tile);
+    if (tile < active_tiles) header = tiles(tile);
     uint lane = gl_LocalInvocationIndex;
     uvec2 p = tile_pixel(header, lane);
-    bool inside = tile < params.counts.x && p.x < frame.counts.y && p.y < frame.counts.z;
+    bool inside = tile < active_tiles && p.x < frame.counts.y && p.y < frame.counts.z;
     uint dropped = 0u;
     uint streamed = 0u;
     // Runs (groups of the tile) whose cast is crowded, streamed after the rounds (below).
@@ -315,7 +322,7 @@ void main() {
     float t_min = params.near.x / dot(u, frame.ray_forward.xyz);
 
     for (uint r = 0u; r < header.y; ++r) {
-        uvec4 run = tiles(header.x + r);
+        uvec4 run = run_at(header.x + r);
         MetaGroup g = load_group(run.x);
         // The ray in the group's object space, as metaball_cast computes it.
         vec3 o = (g.to_object * vec4(origin, 1.0)).xyz;

@@ -156,6 +156,20 @@ impl Recorder<'_> {
         cmd_barriers(self.device(), self.cmd, &[], &[b]);
     }
 
+    /// Makes one compute dispatch's storage writes visible to the next dispatches' storage reads
+    /// and writes, their texel-buffer reads and their indirect arguments.
+    pub fn compute_to_texel_and_indirect_barrier(&self) {
+        use super::barriers::{cmd_barriers, memory_barrier};
+        let (stage, access) =
+            (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE);
+        let reads = vk::AccessFlags2::SHADER_STORAGE_READ
+            | vk::AccessFlags2::SHADER_STORAGE_WRITE
+            | vk::AccessFlags2::SHADER_SAMPLED_READ
+            | vk::AccessFlags2::INDIRECT_COMMAND_READ;
+        let b = memory_barrier(stage, access, stage | vk::PipelineStageFlags2::DRAW_INDIRECT, reads);
+        cmd_barriers(self.device(), self.cmd, &[], &[b]);
+    }
+
     /// A compute dispatch whose workgroup counts are read from `buffer` at `offset`.
     pub fn dispatch_indirect(&self, buffer: vk::Buffer, offset: u64) {
         // SAFETY: recording with a compute pipeline bound; the caller's buffer is live until the

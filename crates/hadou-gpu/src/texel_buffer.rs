@@ -69,6 +69,34 @@ impl TexelBuffer {
         bytes: u64,
         texels: Texels,
     ) -> GpuResult<TexelBuffer> {
+        let usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+        TexelBuffer::with(ctx, memory, name, bytes, texels, usage, MemoryLocation::CpuToGpu)
+    }
+
+    /// A buffer that compute shaders write as a storage buffer and later dispatches read through
+    /// its texel view (the metaballs pass's tile lists, built on the device), in `location`
+    /// (`GpuOnly`; `GpuToCpu` where a test reads it back).
+    pub fn device(
+        ctx: &GpuContext,
+        memory: &Memory,
+        name: &str,
+        bytes: u64,
+        texels: Texels,
+        location: MemoryLocation,
+    ) -> GpuResult<TexelBuffer> {
+        let usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER;
+        TexelBuffer::with(ctx, memory, name, bytes, texels, usage, location)
+    }
+
+    fn with(
+        ctx: &GpuContext,
+        memory: &Memory,
+        name: &str,
+        bytes: u64,
+        texels: Texels,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> GpuResult<TexelBuffer> {
         let texel = texels.bytes();
         let size = bytes.max(texel).div_ceil(texel) * texel;
         let limit = u64::from(ctx.limits.max_texel_buffer_elements);
@@ -85,8 +113,7 @@ impl TexelBuffer {
                 ),
             });
         }
-        let usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
-        let buffer = memory.create_buffer(ctx, name, size, usage, MemoryLocation::CpuToGpu)?;
+        let buffer = memory.create_buffer(ctx, name, size, usage, location)?;
         let info = vk::BufferViewCreateInfo::default()
             .buffer(buffer.raw)
             .format(texels.format())

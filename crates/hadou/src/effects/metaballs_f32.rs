@@ -181,12 +181,38 @@ pub fn gpu_group(group: &MetaballGroupParams, first_ball: u32, material: u32) ->
 
 /// The group's balls for the GPU, in order; the lone-ball radius ρ*·R is solved here in f64.
 pub fn gpu_balls(group: &MetaballGroupParams) -> Vec<GpuMetaBall> {
+    gpu_balls_cached(group, &mut IsoCache::default())
+}
+
+/// The lone-ball radii ρ* of a group's balls by kernel and T/q, kept from frame to frame: solving
+/// ρ* (a bisection) was most of the host's per-ball work, and a moving ball keeps its q.
+#[derive(Clone, Debug, Default)]
+pub struct IsoCache(Vec<(super::metaballs::Kernel, u64, Option<f64>)>);
+
+impl IsoCache {
+    fn rho(&mut self, i: usize, kernel: super::metaballs::Kernel, q: f64, threshold: f64) -> Option<f64> {
+        let key = (threshold / q).to_bits();
+        if self.0.len() <= i {
+            self.0.resize(i + 1, (kernel, !key, None));
+        }
+        let slot = &mut self.0[i];
+        if slot.0 != kernel || slot.1 != key {
+            *slot = (kernel, key, iso_radius(kernel, q, threshold));
+        }
+        slot.2
+    }
+}
+
+/// [`gpu_balls`], with ρ* from `cache` where the ball's kernel and T/q are as before.
+pub fn gpu_balls_cached(group: &MetaballGroupParams, cache: &mut IsoCache) -> Vec<GpuMetaBall> {
     let gamma = group.kernel.max_slope();
     group
         .balls
         .iter()
-        .map(|b| {
-            let iso = iso_radius(group.kernel, b.q, group.threshold).map_or(0.0, |rho| rho * b.radius);
+        .enumerate()
+        .map(|(i, b)| {
+            let rho = cache.rho(i, group.kernel, b.q, group.threshold);
+            let iso = rho.map_or(0.0, |rho| rho * b.radius);
             GpuMetaBall {
                 centre_radius: [b.centre.x as f32, b.centre.y as f32, b.centre.z as f32, b.radius as f32],
                 coeffs: [b.q as f32, iso as f32, (b.q.abs() * gamma / b.radius) as f32, 0.0],

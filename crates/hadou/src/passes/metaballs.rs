@@ -2,13 +2,16 @@
 //! shaders/common/metaballs.glsl), depth-tested against the raster, and writes the nearest surface
 //! into HDR colour, `distance`, `normal` and `ids` so later passes (energy wave, AOVs) see it.
 //!
-//! # Binning (CPU, every frame, [`bin_balls`])
+//! # Binning (every frame, on the host by default: [`bin_balls`]; on the device: [`Binning`])
 //! Each ball's world bounding sphere ([`world_bound`]) is projected to a conservative rectangle of
 //! 8×8-pixel tiles ([`sphere_tiles`]): exact tangent planes through the camera, padded by a
 //! pixel; a sphere crossing the near plane covers the whole screen, one entirely nearer than the
 //! near plane (behind the camera included) or beyond the far plane is skipped. The lists are
 //! exact and variable-length ([`TileLists`]), so nothing is cut short; they go through the frame
-//! slot's upload ring, which grows when a frame needs more.
+//! slot's upload ring, which grows when a frame needs more. [`Binning::Device`] builds the same
+//! lists by compute instead (`passes::metaballs_bin`, the same image bit for bit); either way the
+//! headers and the runs reach the shader as two texel buffers, and the pass's dispatch is
+//! indirect, its arguments in the bin state buffer.
 //!
 //! Per pixel the shader casts each group present in its tile over that tile's run of balls: the
 //! subgroup gathers the support chords its rays cross into at most 32 shared slots per round
@@ -49,13 +52,18 @@ use glam::DVec3;
 
 use super::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::effects::metaballs::{CastMethod, MetaballGroupParams};
-use crate::effects::metaballs_f32::{gpu_balls, gpu_group, world_bound, GpuMetaBall, GpuMetaGroup};
+use crate::effects::metaballs_f32::{
+    gpu_balls_cached, gpu_group, world_bound, GpuMetaBall, GpuMetaGroup, IsoCache,
+};
 use crate::frame::FrameStats;
 use crate::gpu::memory::Buffer;
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::texel_buffer::Texels;
 use crate::gpu::{vk, GpuContext, GpuResult};
+use crate::passes::metaballs_bin::{
+    check_ball_count, estimate, BinBuffers, BinGroup, BinParams, BinPipelines, BinSizes, Wanted,
+};
 use crate::scene::camera::Camera;
 use crate::scene::Scene;
 use crate::targets::Target;
@@ -82,8 +90,8 @@ pub struct PendingRecord {
 /// average (max 164) against 92 (max 264) with 16×16 tiles (measured: 0.93× the pass time).
 pub const TILE: u32 = 8;
 /// Active tiles per row of the dispatch (one workgroup each: within maxComputeWorkGroupCount[0]).
-/// Keep in sync with shaders/metaballs.comp.
-const TILES_PER_ROW: u32 = 8192;
+/// Keep in sync with shaders/metaballs.comp and shaders/metaballs_bin.comp.
+pub const TILES_PER_ROW: u32 = 8192;
 
 /// Push constants of shaders/metaballs.comp (size checked against the shader at pipeline creation).
 /// The camera's ray frame, the far distance and the frame's size are the frame's uniforms
@@ -92,7 +100,8 @@ const TILES_PER_ROW: u32 = 8192;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct MetaballParams {
-    /// x: active tiles; y: the instance id of group 0 (= the scene's instance count); z, w: 0.
+    /// x: 0 (the active tiles are in the bin state); y: the instance id of group 0 (= the scene's
+    /// instance count); z, w: 0.
     pub counts: [u32; 4],
     /// x: the camera's near distance (a view depth); y, z, w: 0.
     pub near: [f32; 4],
@@ -111,10 +120,10 @@ const STAT_STREAMED: usize = 4;
 const STAT_COUNT: usize = 5;
 
 impl MetaballParams {
-    /// The parameters of a frame of `scene` with `active` tiles.
-    pub fn new(scene: &Scene, active: u32) -> Self {
+    /// The parameters of a frame of `scene`.
+    pub fn new(scene: &Scene) -> Self {
         MetaballParams {
-            counts: [active, scene.instances.len() as u32, 0, 0],
+            counts: [0, scene.instances.len() as u32, 0, 0],
             near: [scene.camera.near as f32, 0.0, 0.0, 0.0],
         }
     }
@@ -347,9 +356,45 @@ pub struct MetaballsPass {
     /// The frame being recorded's `stream_dispatch` buffer.
     frame_dispatch: vk::Buffer,
     params: MetaballParams,
+    /// The tile lists, built on the device (`metaballs_bin`): the stages, each slot's buffers,
+    /// the capacity finished frames asked for, and the frame being recorded's state buffer and
+    /// push constants.
+    bin: BinPipelines,
+    binning: Binning,
+    /// Per group, the lone-ball radii of its balls (`gpu_balls_cached`).
+    iso: Vec<IsoCache>,
+    bin_buffers: Vec<Option<BinBuffers>>,
+    wanted: Wanted,
+    estimated_for: Option<BinSizes>,
+    frame_state: vk::Buffer,
+    bin_params: BinParams,
     /// The previous finished frame's dropped count: a frame repeating it does not warn again (the
     /// count is in `FrameStats` every frame).
     warned_dropped: std::sync::atomic::AtomicU64,
+}
+
+/// Where the tile lists are built.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Binning {
+    /// On the host, every frame ([`bin_balls`]): the default. On lavapipe the device's binning
+    /// costs the pass more than the host's costs the CPU (docs/PERFORMANCE.md, Metaballs).
+    #[default]
+    Host,
+    /// On the device ([`crate::passes::metaballs_bin`]): the host's work no longer grows with
+    /// the balls' screen coverage; the same lists, the same image.
+    Device,
+}
+
+impl Binning {
+    /// `HADOU_METABALLS_BINNING=device` picks [`Binning::Device`] (an experiment's switch until
+    /// the device's binning is cheaper than the host's everywhere).
+    pub fn from_env() -> Binning {
+        match std::env::var("HADOU_METABALLS_BINNING").as_deref() {
+            Ok("device") => Binning::Device,
+            _ => Binning::Host,
+        }
+    }
 }
 
 /// Which casts the scene's groups use: (Bézier clipping, sphere tracing).
@@ -375,7 +420,16 @@ impl MetaballsPass {
         let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, push)?;
         let spirv = compiler.compile("metaballs.comp", &[defines[0], defines[1], ("MB_STREAM_PASS", "1")])?;
         let stream = create_compute_pipeline(ctx, "metaballs streamed", &spirv, push)?;
+        let bin = BinPipelines::new(ctx, compiler)?;
         Ok(MetaballsPass {
+            bin,
+            binning: Binning::from_env(),
+            iso: Vec::new(),
+            bin_buffers: Vec::new(),
+            wanted: Wanted::default(),
+            estimated_for: None,
+            frame_state: vk::Buffer::null(),
+            bin_params: BinParams::default(),
             pipeline,
             stream,
             stats: Vec::new(),
@@ -413,16 +467,64 @@ impl Pass for MetaballsPass {
         let extent = frame.extent;
         let mut gpu_groups: Vec<GpuMetaGroup> = Vec::with_capacity(scene.metaballs().len());
         let mut balls: Vec<GpuMetaBall> = Vec::new();
-        let mut bins = Vec::with_capacity(scene.metaballs().len());
-        for group in scene.metaballs() {
-            let params = group.at(frame.time);
+        let mut bin_groups = Vec::with_capacity(scene.metaballs().len());
+        let groups: Vec<MetaballGroupParams> = scene.metaballs().iter().map(|g| g.at(frame.time)).collect();
+        self.iso.resize_with(groups.len(), IsoCache::default);
+        for ((group, params), iso) in scene.metaballs().iter().zip(&groups).zip(&mut self.iso) {
             let first = balls.len() as u32;
-            gpu_groups.push(gpu_group(&params, first, group.material as u32));
-            balls.extend(gpu_balls(&params));
-            bins.push(GroupBins::new(&params, &scene.camera, extent));
+            gpu_groups.push(gpu_group(params, first, group.material as u32));
+            balls.extend(gpu_balls_cached(params, iso));
+            bin_groups.push(BinGroup::new(params, first, &scene.camera));
         }
-        let lists = bin_balls(&scene.camera, extent, &bins);
-        self.params = MetaballParams::new(scene, lists.active);
+        let sizes = BinSizes::new(balls.len() as u32, gpu_groups.len() as u32, extent);
+        let host_lists = match self.binning {
+            Binning::Host => {
+                let bins: Vec<GroupBins> =
+                    groups.iter().map(|g| GroupBins::new(g, &scene.camera, extent)).collect();
+                Some(bin_balls(&scene.camera, extent, &bins))
+            }
+            Binning::Device => {
+                check_ball_count(balls.len(), gpu_groups.len())?;
+                None
+            }
+        };
+        // Before the device has reported how many entries lists of these sizes take: a bound
+        // from the host (its only per-ball work, once per size).
+        if host_lists.is_none() && self.estimated_for != Some(sizes) {
+            self.wanted.at_least(estimate(&groups, &scene.camera, extent));
+            self.estimated_for = Some(sizes);
+        }
+        self.params = MetaballParams::new(scene);
+        // The slot's binning buffers, remade when the frame's size or ball count changed or
+        // finished frames needed more entries than they hold.
+        let capacity = if host_lists.is_some() { 1 } else { self.wanted.capacity(sizes) };
+        while self.bin_buffers.len() <= frame.slot {
+            self.bin_buffers.push(None);
+        }
+        let slot_bins = &mut self.bin_buffers[frame.slot];
+        if !slot_bins.as_ref().is_some_and(|b| b.fits(sizes, capacity)) {
+            *slot_bins = Some(BinBuffers::new(frame.ctx, frame.memory, sizes, capacity)?);
+        }
+        let Some(bins) = slot_bins.as_mut() else { unreachable!("made above") };
+        bins.reset()?;
+        self.bin_params = bins.params(&scene.camera, extent);
+        self.frame_state = bins.state.raw;
+        let written = bins.written();
+        let views = match &host_lists {
+            None => bins.views(),
+            Some(lists) => {
+                // The host's lists in the device's layout: headers and runs apart.
+                bins.set_active(lists.active)?;
+                let active = lists.active as usize;
+                let heads: Vec<[u32; 4]> =
+                    lists.tiles[..active].iter().map(|h| [h[0] - lists.active, h[1], h[2], h[3]]).collect();
+                [
+                    frame.texels("metaballs headers", &heads, Texels::U32x4)?,
+                    frame.texels("metaballs entries", &lists.entries, Texels::U32)?,
+                    frame.texels("metaballs runs", &lists.tiles[active..], Texels::U32x4)?,
+                ]
+            }
+        };
         // The slot's counters: its previous frame has finished and was reported.
         while self.stats.len() <= frame.slot {
             let name = format!("metaballs stats {}", self.stats.len());
@@ -433,8 +535,9 @@ impl Pass for MetaballsPass {
         let stats = &mut self.stats[frame.slot];
         stats.write(0, &[0u8; 4 * STAT_COUNT])?;
         let stats = BufferRange::whole(stats.raw);
-        // The streamed dispatch's buffers, grown to this frame's active tiles.
-        let tiles = lists.active.max(1) as u64;
+        // The streamed dispatch's buffers: for the host's active tiles, or for every tile (any
+        // may be active).
+        let tiles = u64::from(host_lists.as_ref().map_or(sizes.tiles(), |l| l.active)).max(1);
         let pending_bytes = tiles * 64 * std::mem::size_of::<PendingRecord>() as u64;
         let dispatch_bytes = (4 + tiles) * 4;
         while self.pending.len() <= frame.slot {
@@ -466,8 +569,9 @@ impl Pass for MetaballsPass {
         let pending = BufferRange::whole(self.pending[frame.slot].raw);
         self.frame_dispatch = self.stream_dispatch[frame.slot].raw;
         let dispatch = BufferRange::whole(self.frame_dispatch);
-        let (quad, word) = (Texels::U32x4, Texels::U32);
-        Ok(vec![
+        let quad = Texels::U32x4;
+        let bin_groups = frame.upload(&bin_groups)?;
+        let mut bindings = vec![
             Binding::read_write(Target::Distance),
             Binding::read_write(Target::Hdr),
             Binding::read_write(Target::Normal),
@@ -476,36 +580,49 @@ impl Pass for MetaballsPass {
             Binding::Bound(Bound::Storage(frame.materials)),
             Binding::Bound(frame.texels("metaballs groups", &gpu_groups, quad)?),
             Binding::Bound(frame.texels("metaballs balls", &balls, quad)?),
-            Binding::Bound(frame.texels("metaballs tiles", &lists.tiles, quad)?),
-            Binding::Bound(frame.texels("metaballs entries", &lists.entries, word)?),
+            Binding::Bound(views[0]),
+            Binding::Bound(views[1]),
             Binding::Written(stats, Reader::Host),
             Binding::Written(pending, Reader::Compute),
             Binding::Written(dispatch, Reader::Indirect),
-        ])
+            Binding::Bound(views[2]),
+            Binding::Bound(Bound::Storage(bin_groups)),
+        ];
+        let (lists, rest) = written.split_at(7);
+        bindings.extend(lists.iter().map(|&b| Binding::Written(b, Reader::Compute)));
+        bindings.push(Binding::Written(rest[0], Reader::Host));
+        bindings.push(Binding::Written(rest[1], Reader::Compute));
+        Ok(bindings)
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
-        vec![&self.pipeline, &self.stream]
+        let mut all = vec![&self.pipeline, &self.stream];
+        all.extend(self.bin.all());
+        all
     }
 
     fn record(&self, pass: &PassRecording) {
         let rec = pass.rec;
+        // The tile lists, then one 8×8 workgroup per tile that holds any ball, TILES_PER_ROW
+        // tiles per row (the bin state's first words: the scan or the host wrote them).
+        if self.binning == Binning::Device {
+            let bin_sets: Vec<vk::DescriptorSet> = (2..7).map(|i| pass.set(i)).collect();
+            crate::passes::metaballs_bin::record(rec, &self.bin, &bin_sets, &self.bin_params);
+        }
         rec.bind_pipeline(&self.pipeline, pass.set(0));
         rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
-        // One 8×8 workgroup per tile that holds any ball, TILES_PER_ROW tiles per row.
-        let active = self.params.counts[0];
-        if active > 0 {
-            let rows = active.div_ceil(TILES_PER_ROW);
-            rec.dispatch_2d(8 * active.min(TILES_PER_ROW), 8 * rows, (8, 8));
-            // The tiles with a crowded pixel, listed by the first dispatch.
-            rec.compute_to_indirect_barrier();
-            rec.bind_pipeline(&self.stream, pass.set(1));
-            rec.push_constants(&self.stream, bytemuck::bytes_of(&self.params));
-            rec.dispatch_indirect(self.frame_dispatch, 0);
-        }
+        rec.dispatch_indirect(self.frame_state, 0);
+        // The tiles with a crowded pixel, listed by the first dispatch.
+        rec.compute_to_indirect_barrier();
+        rec.bind_pipeline(&self.stream, pass.set(1));
+        rec.push_constants(&self.stream, bytemuck::bytes_of(&self.params));
+        rec.dispatch_indirect(self.frame_dispatch, 0);
     }
 
     fn finished(&self, slot: usize, stats: &mut FrameStats) {
+        if let (Binning::Device, Some(Some(bins))) = (self.binning, self.bin_buffers.get(slot)) {
+            self.wanted.note(bins);
+        }
         let c = self.counts(slot);
         stats.add(DROPPED, c.dropped);
         stats.add(HITS, c.hits);

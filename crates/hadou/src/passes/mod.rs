@@ -13,6 +13,7 @@ pub mod energy_wave;
 pub mod gpu_structs;
 pub mod light_id;
 pub mod metaballs;
+pub mod metaballs_bin;
 pub mod peel;
 pub mod pipeline_memo;
 pub mod raster;

@@ -11,6 +11,7 @@ use crate::gpu::shader::ShaderCompiler;
 use crate::passes::energy_wave::{EnergyWaveParams, WaveStyle};
 use crate::passes::gpu_structs::{FrameUniforms, GpuLight, InstanceData, MaterialData};
 use crate::passes::metaballs::MetaballParams;
+use crate::passes::metaballs_bin::{BinGroup, BinParams};
 use crate::passes::translucency::{LightViewData, TranslucencyParams};
 use std::mem::size_of;
 
@@ -63,6 +64,13 @@ fn table() -> Vec<Row> {
         let defines = vec![("MB_WITH_CLIP", clip), ("MB_WITH_TRACE", trace)];
         rows.push(("metaballs.comp", defines.clone(), uses.clone()));
         rows.push(("metaballs.comp", [defines, vec![("MB_STREAM_PASS", "1")]].concat(), uses));
+    }
+    // Each stage declares what it reads (bounds: the frame's camera; scan and fill: the groups).
+    let bin =
+        |g: bool| [vec![BinParams::layout()], if g { vec![BinGroup::layout()] } else { vec![] }].concat();
+    rows.push(("metaballs_bin.comp", vec![("MB_BIN_STAGE", "0")], [frame(), bin(true)].concat()));
+    for (stage, groups) in [("1", false), ("3", true), ("4", true), ("5", false)] {
+        rows.push(("metaballs_bin.comp", vec![("MB_BIN_STAGE", stage)], bin(groups)));
     }
     for defines in
         [vec![("WITH_LUT", "1")], vec![("WITH_PEEL", "1")], vec![("WITH_LUT", "1"), ("WITH_PEEL", "1")]]
