@@ -359,7 +359,8 @@ pub struct MetaballsPass {
     /// The tile lists, built on the device (`metaballs_bin`): the stages, each slot's buffers,
     /// the capacity finished frames asked for, and the frame being recorded's state buffer and
     /// push constants.
-    bin: BinPipelines,
+    /// Made only when the device bins (`Binning::Device`): the host's binning runs none of them.
+    bin: Option<BinPipelines>,
     binning: Binning,
     /// Per group, the lone-ball radii of its balls (`gpu_balls_cached`).
     iso: Vec<IsoCache>,
@@ -420,10 +421,14 @@ impl MetaballsPass {
         let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, push)?;
         let spirv = compiler.compile("metaballs.comp", &[defines[0], defines[1], ("MB_STREAM_PASS", "1")])?;
         let stream = create_compute_pipeline(ctx, "metaballs streamed", &spirv, push)?;
-        let bin = BinPipelines::new(ctx, compiler)?;
+        let binning = Binning::from_env();
+        let bin = match binning {
+            Binning::Device => Some(BinPipelines::new(ctx, compiler)?),
+            Binning::Host => None,
+        };
         Ok(MetaballsPass {
             bin,
-            binning: Binning::from_env(),
+            binning,
             iso: Vec::new(),
             bin_buffers: Vec::new(),
             wanted: Wanted::default(),
@@ -597,7 +602,7 @@ impl Pass for MetaballsPass {
 
     fn pipelines(&self) -> Vec<&Pipeline> {
         let mut all = vec![&self.pipeline, &self.stream];
-        all.extend(self.bin.all());
+        all.extend(self.bin.iter().flat_map(BinPipelines::all));
         all
     }
 
@@ -605,9 +610,9 @@ impl Pass for MetaballsPass {
         let rec = pass.rec;
         // The tile lists, then one 8×8 workgroup per tile that holds any ball, TILES_PER_ROW
         // tiles per row (the bin state's first words: the scan or the host wrote them).
-        if self.binning == Binning::Device {
+        if let Some(bin) = &self.bin {
             let bin_sets: Vec<vk::DescriptorSet> = (2..7).map(|i| pass.set(i)).collect();
-            crate::passes::metaballs_bin::record(rec, &self.bin, &bin_sets, &self.bin_params);
+            crate::passes::metaballs_bin::record(rec, bin, &bin_sets, &self.bin_params);
         }
         rec.bind_pipeline(&self.pipeline, pass.set(0));
         rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
