@@ -1,20 +1,20 @@
-//! The metaballs pass with its tile lists built on the device (`HADOU_METABALLS_BINNING=device`,
-//! the opt-in of passes::metaballs::Binning) renders every byte as the default host binning does:
-//! the colour and the HDR, normal and depth AOVs of scenes with one group, 4,096 balls and a
-//! showcase world. One test in its own binary: it sets the variable before each renderer is made
-//! (the pass reads it when it is built), with no other test running beside it.
+//! The metaballs effect with its tile lists built on the device (`Metaballs::with_binning(
+//! Binning::Device)`, the opt-in) renders every byte as the default host binning does: the colour
+//! and the HDR, normal and depth AOVs of scenes with one group, 4,096 balls and a showcase world.
 
 mod common;
 
+use hadou::effect::{Binning, Effects, EnergyWave, Metaballs, Translucency};
 use hadou::{Aov, FrameRequest};
 
-fn render(scene: &str, device: bool) -> (Vec<u8>, Vec<u32>) {
-    if device {
-        std::env::set_var("HADOU_METABALLS_BINNING", "device");
-    } else {
-        std::env::remove_var("HADOU_METABALLS_BINNING");
-    }
-    let mut rt = common::runtime();
+fn render(scene: &str, binning: Binning) -> (Vec<u8>, Vec<u32>) {
+    // hadou's own effects in their order, the metaballs configured.
+    let effects = Effects::none()
+        .with(Metaballs::with_binning(binning))
+        .and_then(|e| e.with(Translucency))
+        .and_then(|e| e.with(EnergyWave))
+        .unwrap();
+    let mut rt = common::runtime_with_effects(effects);
     rt.load_scene(hadou::builtin::load(scene.as_ref()).unwrap()).unwrap();
     let mut request = FrameRequest::new(160, 120);
     request.time = 1.5;
@@ -30,11 +30,10 @@ fn render(scene: &str, device: bool) -> (Vec<u8>, Vec<u32>) {
 #[test]
 fn device_binning_renders_every_byte_as_host_binning() {
     for scene in ["builtin:metaballs", "builtin:metaballs_4096", "builtin:showcase"] {
-        let (host, device) = (render(scene, false), render(scene, true));
+        let (host, device) = (render(scene, Binning::Host), render(scene, Binning::Device));
         let colour = host.0.iter().zip(&device.0).filter(|(a, b)| a != b).count();
         let values = host.1.iter().zip(&device.1).filter(|(a, b)| a != b).count();
         assert_eq!(host.0.len(), device.0.len());
         assert!(colour == 0 && values == 0, "{scene}: {colour} colour bytes and {values} AOV values differ");
     }
-    std::env::remove_var("HADOU_METABALLS_BINNING");
 }

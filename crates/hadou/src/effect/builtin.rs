@@ -33,7 +33,7 @@ pub(super) fn core_passes() -> Vec<EffectPass> {
 }
 
 pub(super) fn effects() -> Vec<Arc<dyn Effect>> {
-    vec![Arc::new(Metaballs), Arc::new(Translucency), Arc::new(EnergyWave)]
+    vec![Arc::new(Metaballs::default()), Arc::new(Translucency), Arc::new(EnergyWave)]
 }
 
 /// Seed 003: translucent materials, exp(−σ·d) with d from the thickness LUT, shadow maps or peel.

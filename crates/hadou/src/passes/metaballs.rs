@@ -388,8 +388,8 @@ pub enum Binning {
 }
 
 impl Binning {
-    /// `HADOU_METABALLS_BINNING=device` picks [`Binning::Device`] (an experiment's switch until
-    /// the device's binning is cheaper than the host's everywhere).
+    /// `HADOU_METABALLS_BINNING=device` picks [`Binning::Device`], anything else the host's (the
+    /// command line's switch; a game sets `effect::Metaballs::binning`).
     pub fn from_env() -> Binning {
         match std::env::var("HADOU_METABALLS_BINNING").as_deref() {
             Ok("device") => Binning::Device,
@@ -411,7 +411,12 @@ pub fn variant(scene: &Scene) -> String {
 }
 
 impl MetaballsPass {
-    pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler, scene: &Scene) -> GpuResult<Self> {
+    pub fn new(
+        ctx: &GpuContext,
+        compiler: &mut ShaderCompiler,
+        scene: &Scene,
+        binning: Binning,
+    ) -> GpuResult<Self> {
         // Only the casts the scene's groups use are compiled in.
         let (clip, trace) = casts(scene);
         let with = |b: bool| if b { "1" } else { "0" };
@@ -421,7 +426,6 @@ impl MetaballsPass {
         let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, push)?;
         let spirv = compiler.compile("metaballs.comp", &[defines[0], defines[1], ("MB_STREAM_PASS", "1")])?;
         let stream = create_compute_pipeline(ctx, "metaballs streamed", &spirv, push)?;
-        let binning = Binning::from_env();
         let bin = match binning {
             Binning::Device => Some(BinPipelines::new(ctx, compiler)?),
             Binning::Host => None,

@@ -40,8 +40,9 @@ pub const BIN_MAX_BALLS: u32 = 1 << 17;
 
 /// Words of the bin state buffer (keep in sync with BIN_* in shaders/metaballs_bin.comp): the
 /// pass's dispatch (x, y, z), then whether the lists overflowed, the entries the device needed
-/// (runs: 0, they share the entries' offsets), the tiles with headers, the visible balls and the blocks cut by lavapipe's loop budget; per group from word 12 on:
-/// whether RUN_LONE_BOUND is lost, and its visible balls.
+/// (runs: 0, they share the entries' offsets), the tiles with headers, the visible balls and the
+/// blocks cut by lavapipe's loop budget; per group from word 12 on: whether RUN_LONE_BOUND is
+/// lost, and its visible balls.
 pub const BIN_OVERFLOW: usize = 3;
 pub const BIN_ENTRIES: usize = 4;
 pub const BIN_RUNS: usize = 5;

@@ -5,13 +5,32 @@
 
 use super::file;
 use crate::effect::{Effect, EffectPass, EffectState, SceneFile};
-use crate::passes::metaballs::{self, MetaballsPass};
+use crate::passes::metaballs::{self, Binning, MetaballsPass};
 use crate::scene::file_schema::Tables;
 use crate::scene::{MetaballGroup, Scene, SceneError};
 
 /// Seed 000: `[[metaballs]]` groups ray-cast with Bézier clipping.
 #[derive(Clone, Copy, Debug)]
-pub struct Metaballs;
+#[non_exhaustive]
+pub struct Metaballs {
+    /// Where the tile lists are built: on the host (the default) or on the device.
+    pub binning: Binning,
+}
+
+impl Default for Metaballs {
+    /// Host binning, or the device's with `HADOU_METABALLS_BINNING=device` in the environment
+    /// (how the command line picks it, e.g. for `hadou profile`).
+    fn default() -> Self {
+        Metaballs { binning: Binning::from_env() }
+    }
+}
+
+impl Metaballs {
+    /// The effect with its tile lists built where `binning` says.
+    pub fn with_binning(binning: Binning) -> Self {
+        Metaballs { binning }
+    }
+}
 
 /// The metaballs' world data: the groups of the file (in file order), then those spawned.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -40,10 +59,11 @@ impl Effect for Metaballs {
     }
 
     fn passes(&self) -> Vec<EffectPass> {
+        let binning = self.binning;
         vec![EffectPass::new(
             "metaballs",
             |s| !s.metaballs().is_empty(),
-            |b| Ok(Box::new(MetaballsPass::new(b.ctx, b.compiler, b.scene)?)),
+            move |b| Ok(Box::new(MetaballsPass::new(b.ctx, b.compiler, b.scene, binning)?)),
         )
         .with_variant(metaballs::variant)]
     }
