@@ -8,7 +8,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitStatus, Stdio};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 use common::cli::{s, scratch};
@@ -25,6 +25,26 @@ fn temporaries(dir: &Path) -> Vec<PathBuf> {
 }
 
 /// Is `sig` ignored in this process (inherited by the child, which then keeps ignoring it)?
+/// The first temporary to appear in `dir` (made by the run, maybe later) while `child` runs;
+/// panics naming `what` if the child ends first or none appears within 300 s.
+fn first_temporary(child: &mut Child, log: &Path, dir: &Path, what: &str) -> PathBuf {
+    let deadline = Instant::now() + Duration::from_secs(300);
+    loop {
+        if let Some(t) = dir.is_dir().then(|| temporaries(dir)).and_then(|t| t.first().cloned()) {
+            return t;
+        }
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("render ended ({status}) before {what} appeared:\n{}", read(log));
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("no {what} within 300 s:\n{}", read(log));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
 fn ignored_here(sig: u32) -> bool {
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     let mask = status.lines().find_map(|l| l.strip_prefix("SigIgn:")).map(str::trim).unwrap_or("0");
@@ -52,21 +72,7 @@ fn interrupt_render(signal: &str, number: u32) {
         .expect("run hadou");
     // The render itself (device, pipelines, one frame on lavapipe) takes seconds; 300 s is a
     // hang guard, not a performance bound.
-    let deadline = Instant::now() + Duration::from_secs(300);
-    let first = loop {
-        if let Some(t) = temporaries(&dir).first() {
-            break t.clone();
-        }
-        if let Some(status) = child.try_wait().unwrap() {
-            panic!("render ended ({status}) before a temporary appeared:\n{}", read(&log));
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("no temporary within 300 s:\n{}", read(&log));
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    };
+    let first = first_temporary(&mut child, &log, &dir, "a temporary");
     assert!(first.file_name().unwrap().to_string_lossy().starts_with(".out.png."), "{first:?}");
     let sent = Command::new("kill").arg(format!("-{signal}")).arg(child.id().to_string()).status().unwrap();
     assert!(sent.success(), "kill -{signal}");
@@ -167,21 +173,7 @@ fn sigterm_during_the_pipeline_cache_save_removes_its_temporary() {
         .stderr(std::fs::File::create(&log).unwrap())
         .spawn()
         .expect("run hadou");
-    let deadline = Instant::now() + Duration::from_secs(300);
-    let first = loop {
-        if let Some(t) = cache.is_dir().then(|| temporaries(&cache)).and_then(|t| t.first().cloned()) {
-            break t;
-        }
-        if let Some(status) = child.try_wait().unwrap() {
-            panic!("render ended ({status}) before the pipeline cache's temporary appeared:\n{}", read(&log));
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("no pipeline cache temporary within 300 s:\n{}", read(&log));
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
+    let first = first_temporary(&mut child, &log, &cache, "the pipeline cache's temporary");
     assert!(first.file_name().unwrap().to_string_lossy().starts_with("pipelines-"), "{first:?}");
     let sent = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap();
     assert!(sent.success(), "kill -TERM");
