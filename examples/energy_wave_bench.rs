@@ -1,13 +1,14 @@
-//! Speed against error for the energy-wave pass at three sizes: the analytic closed form with and
-//! without occluders, then the ray-marched baseline at several step counts, each compared per
-//! pixel with the f64 reference. The measurement is `hadou_cli::report::energy_wave::measure`, the
+//! Speed against error for the energy-wave pass at three sizes: the analytic closed form (every
+//! pixel exact) with and without occluders, the same with a tolerance (1e-2, 1e-3, 1e-4; the
+//! seed's scene and a distant wave that covers few pixels), then the ray-marched baseline at
+//! several step counts, each compared per pixel with the f64 reference. The measurement is `hadou_cli::report::energy_wave::measure`, the
 //! same code `hadou report` runs; this prints markdown tables.
 //!
 //! cargo run --release --example energy_wave_bench [-- --frames N]
 
 use hadou::scene::WaveMethod;
 use hadou::{Runtime, RuntimeOptions};
-use hadou_cli::report::energy_wave::{measure, with_method, TIME};
+use hadou_cli::report::energy_wave::{measure, with_method, with_tolerance, TIME, TOLERANCES};
 
 const WARMUP: usize = 3;
 
@@ -17,8 +18,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
     let info = runtime.device_info().clone();
     println!("device: {} ({}), {frames} frames per row after {WARMUP} warm-up\n", info.name, info.driver);
-    let occluded = hadou::scene::load_scene("assets/scenes/energy_wave.toml".as_ref())?;
-    let open = hadou::scene::load_scene("assets/scenes/energy_wave_open.toml".as_ref())?;
+    let exact = |path: &str| hadou::scene::load_scene(path.as_ref()).map(|s| with_tolerance(&s, 0.0));
+    let occluded = exact("assets/scenes/energy_wave.toml")?;
+    let open = exact("assets/scenes/energy_wave_open.toml")?;
+    // The seed's wave (as at time 1) 20 times farther from the camera, its beam cut to 2,000:
+    // under a tenth of the image's width.
+    let mut distant = occluded.clone();
+    let camera = distant.camera.position;
+    for wave in distant.waves_mut() {
+        let at = wave.at(TIME);
+        wave.origin = camera + (at.origin - camera) * 20.0;
+        wave.length = 2000.0;
+        wave.keyframes.clear();
+    }
+    distant.camera.far = 40000.0;
 
     println!("| size | no occluder (ms) | with occluders (ms) | max rel err | p99 rel err |");
     println!("|---|---:|---:|---:|---:|");
@@ -34,6 +47,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             a.max_rel.max(b.max_rel),
             a.p99_rel.max(b.p99_rel)
         );
+    }
+
+    println!("\nwith a tolerance (every wave at τ), with occluders; speed-up over exact in the same run:\n");
+    println!("| scene | size | exact ms | τ | ms | speed-up | max rel err |");
+    println!("|---|---|---:|---:|---:|---:|---:|");
+    for (name, scene) in [("seed 004", &occluded), ("distant wave", &distant)] {
+        for size in [(512, 512), (1920, 1080)] {
+            let base = measure(&mut runtime, scene, size, WARMUP, frames, TIME)?;
+            for tolerance in TOLERANCES {
+                let m = measure(&mut runtime, &with_tolerance(scene, tolerance), size, WARMUP, frames, TIME)?;
+                println!(
+                    "| {name} | {}×{} | {:.3} | {tolerance:e} | {:.3} | {:.2}× | {:.1e} |",
+                    size.0,
+                    size.1,
+                    base.p50_ms,
+                    m.p50_ms,
+                    base.p50_ms / m.p50_ms,
+                    m.max_rel
+                );
+            }
+        }
     }
 
     println!("\nraymarch baseline vs analytic, 512×512, with occluders (time {TIME}):\n");

@@ -13,6 +13,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 struct WaveStyle {
     vec4 emission;  // rgb: colour × intensity; w: cutoff (H below it emits nothing)
     uvec4 method;   // x: 0 analytic, 1 raymarch; y: steps; z: jitter
+    vec4 adaptive;  // x: the tolerance (read by energy_wave_classify.comp)
 };
 
 layout(set = 0, binding = 0, r32f) uniform readonly image2D distance_image;
@@ -26,8 +27,30 @@ layout(set = 0, binding = 5, std140) uniform FrameBlock { FrameUniforms frame; }
 
 // EnergyWaveParams in crates/hadou/src/passes/energy_wave.rs (size checked at pipeline creation).
 layout(push_constant) uniform EnergyWaveParams {
-    uvec4 counts;  // x: wave count
+    uvec4 counts;  // x: wave count; with TILE_LIST y, z: tiles_x, tiles_y, w: the tile size T
 } params;
+
+#ifdef TILE_LIST
+// With a tolerance: only the tiles energy_wave_classify.comp listed as exact, (8/T)² per 8×8
+// workgroup, WAVE_TILES_PER_ROW workgroups per row of the indirect dispatch.
+#include "common/energy_wave_tiles.glsl"
+layout(set = 0, binding = 7, std430) readonly buffer Lists { uint tiles[]; };
+layout(set = 0, binding = 8, std430) readonly buffer State { uint state[8]; };
+
+uvec2 pixel_of_invocation(out bool listed) {
+    uint size_t = params.counts.w;
+    uint slot = wave_list_slot(size_t);
+    uint count = state[7];
+    listed = slot < count;
+    uint tile = tiles[params.counts.y * params.counts.z + min(slot, max(count, 1u) - 1u)];
+    return uvec2(tile % params.counts.y, tile / params.counts.y) * size_t + wave_tile_offset(size_t);
+}
+#else
+uvec2 pixel_of_invocation(out bool listed) {
+    listed = true;
+    return gl_GlobalInvocationID.xy;
+}
+#endif
 
 // Largest finite RGBA16F value: emission is clamped so HDR never holds Inf.
 const float HALF_MAX = 65504.0;
@@ -55,9 +78,10 @@ void main() {
     //   with a count of 0: `live` keeps the result right then.
     Wave wave0 = waves[0];
     WaveStyle style0 = styles[0];
-    uvec2 p = gl_GlobalInvocationID.xy;
+    bool listed;
+    uvec2 p = pixel_of_invocation(listed);
     uvec2 size = frame.counts.yz;
-    bool inside = p.x < size.x && p.y < size.y;
+    bool inside = listed && p.x < size.x && p.y < size.y;
     ivec2 pix = ivec2(min(p, size - 1u));
     // The ray through the pixel centre, as Camera::pixel_ray builds it.
     vec3 u = camera_pixel_ray(pix, size, frame.ray_right, frame.ray_up, frame.ray_forward.xyz);

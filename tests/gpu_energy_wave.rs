@@ -18,6 +18,10 @@ use hadou::{Aov, FrameRequest};
 /// the GPU's own depth (so this measures the integration, not the raster; depth has its own test):
 /// every pixel compared (NaN-aware), and the errors themselves for the p99.
 fn energy_errors(scene: &Scene, w: u32, h: u32, time: f64) -> (Comparison, Vec<f64>) {
+    // The exact pass (tolerance 0); tests/energy_wave_tolerance.rs checks the tolerance.
+    let mut scene = scene.clone();
+    scene.waves_mut().iter_mut().for_each(|wave| wave.tolerance = Some(0.0));
+    let scene = &scene;
     let mut rt = common::runtime();
     rt.load_scene(scene.clone()).unwrap();
     assert!(rt.pass_names().contains(&"energy_wave"));

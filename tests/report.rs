@@ -80,7 +80,7 @@ fn quick_report_has_every_row() {
     }
 
     let energy = Csv::read(&out.join("energy_wave.csv"));
-    let mut labels = vec!["analytic".to_string()];
+    let mut labels = vec!["analytic, exact".to_string()];
     labels.extend(opts.raymarch_steps.iter().map(|n| format!("raymarch N = {n}")));
     for label in &labels {
         let row = energy.row("variant", label);
@@ -88,10 +88,20 @@ fn quick_report_has_every_row() {
             finite(row, column);
         }
     }
-    assert_eq!(energy.rows.len(), labels.len());
+    // The tolerance rows: time and error (no ceiling fraction: their arithmetic depends on how
+    // many tiles are interpolated), each within its tolerance (plus the exact pass's 1e-4).
+    for tolerance in hadou_cli::report::energy_wave::TOLERANCES {
+        let row = energy.row("variant", &format!("tolerance {tolerance:e}"));
+        finite(row, "pass ms p50");
+        assert!(
+            finite(row, "max rel err") <= (tolerance + 1e-4) * (1.0 + tolerance),
+            "tolerance {tolerance:e}"
+        );
+    }
+    assert_eq!(energy.rows.len(), labels.len() + hadou_cli::report::energy_wave::TOLERANCES.len());
     // The closed form is accurate to f32 rounding of the pixel ray (docs/PERFORMANCE.md: 6e-6 at
     // most): 1e-4 only catches a broken measurement, not a regression of the pass.
-    assert!(finite(energy.row("variant", "analytic"), "max rel err") < 1e-4);
+    assert!(finite(energy.row("variant", "analytic, exact"), "max rel err") < 1e-4);
 
     let tl = Csv::read(&out.join("translucency.csv"));
     let mut labels: Vec<String> = opts.voxel_res.iter().map(|r| format!("lut {r}")).collect();

@@ -115,6 +115,8 @@ const BAD: &[(&str, usize, usize, &str)] = &[
     ),
     ("wave_steps_zero.toml", 11, 9, "wave 1 `steps`: expected an integer in 1..=65536, found 0"),
     ("wave_steps_with_analytic.toml", 10, 1, "`steps` is a field of method = \"raymarch\" only"),
+    ("wave_tolerance_one.toml", 10, 13, "wave 1 `tolerance`: expected a number in [0, 1)"),
+    ("wave_tolerance_with_raymarch.toml", 11, 1, "`tolerance` is a field of method = \"analytic\" only"),
     (
         "wave_opposite_directions.toml",
         22,

@@ -91,7 +91,7 @@ impl ReportOptions {
 
     /// How many steps `run` reports through its progress callback.
     pub fn step_count(&self) -> usize {
-        2 + (1 + self.raymarch_steps.len())
+        2 + (1 + energy_wave::TOLERANCES.len() + self.raymarch_steps.len())
             + (self.voxel_res.len() + self.peel_res.len() + self.pairs_res.len() + 2)
             + metaballs::STEPS
             + self.frame_sizes.len()

@@ -10,6 +10,7 @@ pub mod depth_import;
 pub mod depth_out;
 pub mod energy_probe;
 pub mod energy_wave;
+pub mod energy_wave_tiles;
 pub mod gpu_structs;
 pub mod light_id;
 pub mod metaballs;

@@ -110,6 +110,7 @@ impl Renderer {
             intensity: desc.intensity,
             cutoff: desc.cutoff,
             method: WaveMethod::Analytic,
+            tolerance: None,
             keyframes: Vec::new(),
         });
         loaded.wave_ids.push(id);
@@ -129,6 +130,20 @@ impl Renderer {
         wave.velocity = DVec3::ZERO;
         wave.keyframes.clear();
         Ok(())
+    }
+
+    /// Sets the relative error of H per pixel the energy pass may trade for speed for a wave
+    /// (spawned or from the scene file): 0 evaluates every pixel exactly, None restores the
+    /// default (`Wave::effective_tolerance`); in [0, 1).
+    pub fn set_wave_tolerance(&mut self, id: WaveId, tolerance: Option<f64>) -> Result<(), Error> {
+        if let Some(t) = tolerance {
+            if !(0.0..1.0).contains(&t) {
+                return Err(invalid(format!("wave tolerance {t}"), "a number in [0, 1)"));
+            }
+        }
+        let index = self.wave_index(id)?;
+        self.loaded.as_mut().ok_or(Error::NoScene)?.scene.waves_mut()[index].tolerance = tolerance;
+        self.sync_passes()
     }
 
     /// Removes a wave (spawned or from the scene file); the energy pass goes out with the last wave.

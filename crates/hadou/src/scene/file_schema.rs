@@ -140,6 +140,7 @@ pub(crate) struct WaveDef {
     pub color: Option<Spanned<Array<Num, 3>>>,
     pub intensity: Option<Spanned<Num>>,
     pub cutoff: Option<Spanned<Num>>,
+    pub tolerance: Option<Spanned<Num>>,
     pub method: Option<Spanned<String>>,
     pub steps: Option<Spanned<Int>>,
     pub jitter: Option<Spanned<bool>>,

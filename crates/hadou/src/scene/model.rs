@@ -404,6 +404,9 @@ pub struct Wave {
     pub cutoff: f64,
     /// How the pass integrates the wave along each view ray.
     pub method: WaveMethod,
+    /// The relative error of H per pixel the pass may trade for speed (0: every pixel exact);
+    /// None: the default, `Wave::effective_tolerance`. See `effects::energy_wave::tolerance`.
+    pub tolerance: Option<f64>,
     /// Sorted by time, strictly increasing.
     pub keyframes: Vec<WaveKeyframe>,
 }

@@ -29,6 +29,18 @@ pub struct WaveState {
 }
 
 impl Wave {
+    /// The tolerance the energy pass uses: the one given, else
+    /// `effects::energy_wave::tolerance::DEFAULT_TOLERANCE` (the tonemapped image changes by
+    /// under half an 8-bit step) for a wave without a cutoff, and 0 (exact) for one with a cutoff
+    /// (the emitted colour × (H − cutoff) has no relative bound near the cutoff).
+    pub fn effective_tolerance(&self) -> f64 {
+        match self.tolerance {
+            Some(t) => t,
+            None if self.cutoff == 0.0 => crate::effects::energy_wave::tolerance::DEFAULT_TOLERANCE,
+            None => 0.0,
+        }
+    }
+
     /// The wave at `time` (seconds; any finite value, negative included). For a validated wave the
     /// result has no NaN for any finite `time` (extreme velocity × time can overflow to ±∞).
     pub fn at(&self, time: f64) -> WaveState {
@@ -123,6 +135,7 @@ mod tests {
             intensity: 0.25,
             cutoff: 0.0,
             method: WaveMethod::Analytic,
+            tolerance: None,
             keyframes: Vec::new(),
         }
     }

@@ -5,7 +5,7 @@
 
 use super::file;
 use crate::effect::{Effect, EffectPass, EffectState, SceneFile};
-use crate::passes::energy_wave::EnergyWavePass;
+use crate::passes::energy_wave::{variant, EnergyWavePass};
 use crate::scene::file_schema::{Tables, WaveDef};
 use crate::scene::{Scene, SceneError, Wave};
 
@@ -38,8 +38,12 @@ impl Effect for EnergyWave {
         vec![EffectPass::new(
             "energy_wave",
             |s| !s.waves().is_empty(),
-            |b| Ok(Box::new(EnergyWavePass::new(b.ctx, b.compiler)?)),
-        )]
+            |b| {
+                let tolerance = !variant(b.scene).is_empty();
+                Ok(Box::new(EnergyWavePass::new(b.ctx, b.compiler, tolerance)?))
+            },
+        )
+        .with_variant(variant)]
     }
 }
 

@@ -9,13 +9,16 @@ use toml::Spanned;
 
 use crate::scene::error::SceneError;
 use crate::scene::file_check::{
-    one_of, show, show_vec, show_vec_approx, Ctx, Owner, ANY, NON_NEGATIVE, POSITIVE,
+    one_of, show, show_vec, show_vec_approx, Ctx, Owner, Rule, ANY, NON_NEGATIVE, POSITIVE,
 };
 use crate::scene::file_schema::{Array, KeyframeDef, Num, Tables, WaveDef};
 use crate::scene::model::{Wave, WaveKeyframe, WaveMethod};
 
 /// The integration methods, as `method` spells them; the first is the default.
 const METHODS: &[&str] = &["analytic", "raymarch"];
+/// A wave's tolerance: a relative error, 0 (exact) up to but not including 1.
+const TOLERANCE: Rule =
+    Rule { ok: |v| (0.0..1.0).contains(&v), bound: "in [0, 1) (a relative error; 0: exact)" };
 /// Raymarch samples per ray: default and most.
 pub const DEFAULT_STEPS: u32 = 64;
 pub const MAX_STEPS: u32 = 65536;
@@ -49,6 +52,7 @@ fn wave(o: &Owner, d: &WaveDef) -> Result<Wave, SceneError> {
     let intensity = o.num("intensity", d.intensity.as_ref(), 1.0, NON_NEGATIVE)?;
     let cutoff = o.num("cutoff", d.cutoff.as_ref(), 0.0, NON_NEGATIVE)?;
     let method = method(o, d)?;
+    let tolerance = d.tolerance.as_ref().map(|t| o.check_num("tolerance", t, TOLERANCE)).transpose()?;
     let keyframes = keyframes(o, &d.keyframe)?;
     check_strength(o, d, a, b, &keyframes)?;
     check_emission(o, d, color, intensity, &keyframes)?;
@@ -65,6 +69,7 @@ fn wave(o: &Owner, d: &WaveDef) -> Result<Wave, SceneError> {
         intensity,
         cutoff,
         method,
+        tolerance,
         keyframes,
     })
 }
@@ -89,6 +94,14 @@ fn method(o: &Owner, d: &WaveDef) -> Result<WaveMethod, SceneError> {
         },
     };
     if name == "raymarch" {
+        if let Some(t) = &d.tolerance {
+            let span = t.span();
+            let message = format!(
+                "{}: `tolerance` is a field of method = \"analytic\" only (the ray march is evaluated at every pixel)",
+                o.label
+            );
+            return Err(o.ctx.err(o.ctx.key_start(&span)..span.end, message));
+        }
         let steps = o.count("steps", d.steps.as_ref(), DEFAULT_STEPS, 1, MAX_STEPS)?;
         let jitter = d.jitter.as_ref().is_some_and(|j| *j.get_ref());
         return Ok(WaveMethod::Raymarch { steps, jitter });

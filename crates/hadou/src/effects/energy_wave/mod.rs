@@ -61,6 +61,7 @@
 
 mod effect;
 pub mod file;
+pub mod tolerance;
 
 pub use effect::{EnergyWave, Waves};
 

@@ -1,0 +1,162 @@
+//! The energy wave with a tolerance (`effects::energy_wave::tolerance`): four dispatches instead
+//! of one per pixel — the exact H at the corners of T×T-pixel tiles (T = 4 or 8)
+//! (shaders/energy_wave_corners.comp), one invocation per tile deciding from the error bound
+//! whether it may be interpolated (energy_wave_classify.comp, appending it to one of two lists),
+//! then the interpolated tiles (energy_wave_interp.comp) and the exact ones (energy_wave.comp
+//! with `TILE_LIST`), each an indirect dispatch over its list. Every pixel is written by exactly
+//! one of the last two.
+
+use crate::gpu::memory::{Buffer, Memory, MemoryLocation};
+use crate::gpu::pipeline::{create_compute_pipeline, BufferRange, Pipeline};
+use crate::gpu::recorder::Recorder;
+use crate::gpu::shader::ShaderCompiler;
+use crate::gpu::{vk, GpuContext, GpuResult};
+
+/// Workgroups per row of the indirect dispatches (WAVE_TILES_PER_ROW in
+/// common/energy_wave_tiles.glsl).
+pub const TILES_PER_ROW: u32 = 64;
+
+/// Words of the tile state: the interpolated tiles' dispatch (x, y, z) and count, then the exact
+/// tiles' (keep in sync with the shaders' `state`).
+const STATE_INTERPOLATED: usize = 3;
+const STATE_EXACT: usize = 7;
+/// The state at the start of a frame: no tile listed, rows of `TILES_PER_ROW` (none yet).
+const STATE_START: [u32; 8] = [TILES_PER_ROW, 0, 1, 0, TILES_PER_ROW, 0, 1, 0];
+
+/// The tile grid of a frame of `extent` with tiles of `size` pixels a side.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TileGrid {
+    pub tiles_x: u32,
+    pub tiles_y: u32,
+    pub size: u32,
+}
+
+impl TileGrid {
+    pub fn of(extent: vk::Extent2D, size: u32) -> TileGrid {
+        TileGrid { tiles_x: extent.width.div_ceil(size), tiles_y: extent.height.div_ceil(size), size }
+    }
+
+    pub fn tiles(self) -> u32 {
+        self.tiles_x * self.tiles_y
+    }
+
+    /// Corners: (tiles_x + 1) × (tiles_y + 1).
+    pub fn corners(self) -> u64 {
+        u64::from(self.tiles_x + 1) * u64::from(self.tiles_y + 1)
+    }
+}
+
+pub struct TilePipelines {
+    corners: Pipeline,
+    classify: Pipeline,
+    interpolate: Pipeline,
+    exact: Pipeline,
+}
+
+impl TilePipelines {
+    pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler, push: u32) -> GpuResult<TilePipelines> {
+        let mut make = |name: &str, file: &str, defines: &[(&str, &str)]| {
+            let spirv = compiler.compile(file, defines)?;
+            create_compute_pipeline(ctx, name, &spirv, push)
+        };
+        Ok(TilePipelines {
+            corners: make("energy_wave corners", "energy_wave_corners.comp", &[])?,
+            classify: make("energy_wave classify", "energy_wave_classify.comp", &[])?,
+            interpolate: make("energy_wave interpolate", "energy_wave_interp.comp", &[])?,
+            exact: make("energy_wave exact tiles", "energy_wave.comp", &[("TILE_LIST", "1")])?,
+        })
+    }
+
+    /// In the order of the sets `record` takes (after the pass's own pipeline).
+    pub fn all(&self) -> Vec<&Pipeline> {
+        vec![&self.corners, &self.classify, &self.interpolate, &self.exact]
+    }
+}
+
+/// One frame slot's buffers.
+pub struct TileBuffers {
+    grid: TileGrid,
+    waves: u32,
+    /// Per corner: L, then H per wave.
+    pub corners: Buffer,
+    /// The interpolated tiles from 0, the exact ones from `tiles`.
+    pub lists: Buffer,
+    /// Host-visible: the two dispatches and counts (`STATE_START` each frame).
+    pub state: Buffer,
+}
+
+impl TileBuffers {
+    pub fn new(ctx: &GpuContext, memory: &Memory, grid: TileGrid, waves: u32) -> GpuResult<TileBuffers> {
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let corner_bytes = 4 * grid.corners() * u64::from(waves + 1);
+        let gpu = MemoryLocation::GpuOnly;
+        Ok(TileBuffers {
+            grid,
+            waves,
+            corners: memory.create_buffer(ctx, "energy_wave corners", corner_bytes, storage, gpu)?,
+            lists: memory.create_buffer(
+                ctx,
+                "energy_wave tiles",
+                8 * u64::from(grid.tiles()).max(1),
+                storage,
+                gpu,
+            )?,
+            state: memory.create_buffer(
+                ctx,
+                "energy_wave tile state",
+                32,
+                storage | vk::BufferUsageFlags::INDIRECT_BUFFER,
+                MemoryLocation::GpuToCpu,
+            )?,
+        })
+    }
+
+    pub fn fits(&self, grid: TileGrid, waves: u32) -> bool {
+        self.grid == grid && self.waves == waves
+    }
+
+    /// The frame starts with empty lists (the slot's previous frame has finished).
+    pub fn reset(&mut self) -> GpuResult<()> {
+        self.state.write(0, bytemuck::cast_slice(&STATE_START))
+    }
+
+    pub fn ranges(&self) -> [BufferRange; 3] {
+        [self.corners.raw, self.lists.raw, self.state.raw].map(BufferRange::whole)
+    }
+
+    /// (interpolated, exact) tiles of the slot's last finished frame.
+    pub fn counts(&self) -> (u64, u64) {
+        let Some(bytes) = self.state.mapped() else { return (0, 0) };
+        let word = |i: usize| u32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().unwrap_or([0; 4])) as u64;
+        (word(STATE_INTERPOLATED), word(STATE_EXACT))
+    }
+}
+
+/// Records the four dispatches; `sets` are those of `TilePipelines::all`, `push` the pass's
+/// push constants, `state` the slot's state buffer.
+pub fn record(
+    rec: &Recorder,
+    p: &TilePipelines,
+    sets: &[vk::DescriptorSet],
+    push: &[u8],
+    grid: TileGrid,
+    state: vk::Buffer,
+) {
+    let set = |i: usize| sets.get(i).copied().unwrap_or_default();
+    rec.bind_pipeline(&p.corners, set(0));
+    rec.push_constants(&p.corners, push);
+    rec.dispatch_2d(grid.tiles_x + 1, grid.tiles_y + 1, (8, 8));
+    rec.compute_to_compute_barrier();
+    rec.bind_pipeline(&p.classify, set(1));
+    rec.push_constants(&p.classify, push);
+    rec.dispatch_groups(grid.tiles().div_ceil(64), 1);
+    rec.compute_to_indirect_barrier();
+    rec.bind_pipeline(&p.interpolate, set(2));
+    rec.push_constants(&p.interpolate, push);
+    rec.dispatch_indirect(state, 0);
+    // The two write disjoint pixels of the same images: ordered for the validation layers.
+    rec.compute_to_compute_barrier();
+    rec.bind_pipeline(&p.exact, set(3));
+    rec.push_constants(&p.exact, push);
+    rec.dispatch_indirect(state, 16);
+}
