@@ -43,7 +43,7 @@ uvec2 pixel_of_invocation(out bool listed) {
     uint count = state[7];
     listed = slot < count;
     uint tile = tiles[params.counts.y * params.counts.z + min(slot, max(count, 1u) - 1u)];
-    return uvec2(tile % params.counts.y, tile / params.counts.y) * size_t + wave_tile_offset(size_t);
+    return wave_tile_xy(tile, params.counts.y) * size_t + wave_tile_offset(size_t);
 }
 #else
 uvec2 pixel_of_invocation(out bool listed) {

@@ -2,7 +2,8 @@
 // energy_wave_classify: one invocation per T×T-pixel tile decides whether the tile's pixels may
 // be interpolated from its corners (every wave's error bound, common/energy_wave_tiles.glsl, at
 // most τ/(1 + τ) of its smallest corner H) or must be evaluated exactly, and appends the tile to
-// that list; a list's dispatch grows by a row every WAVE_TILES_PER_ROW workgroups' tiles.
+// that list (the smooth ones are only marked: energy_wave_interp.comp runs over the whole frame);
+// a list's dispatch grows by a row every WAVE_TILES_PER_ROW workgroups' tiles.
 #include "common/camera.glsl"
 #include "common/energy_wave.glsl"
 #include "common/energy_wave_tiles.glsl"
@@ -21,9 +22,10 @@ layout(set = 0, binding = 3, std430) readonly buffer Waves { Wave waves[]; };
 layout(set = 0, binding = 4, std430) readonly buffer Styles { WaveStyle styles[]; };
 layout(set = 0, binding = 5, std140) uniform FrameBlock { FrameUniforms frame; };
 layout(set = 0, binding = 6, std430) readonly buffer Corners { float corners[]; };
-// The interpolated tiles from 0, the exact ones from tiles_x·tiles_y.
+// Per tile, 1 when it is interpolated; the exact tiles' list from tiles_x·tiles_y.
 layout(set = 0, binding = 7, std430) writeonly buffer Lists { uint tiles[]; };
-// Two indirect dispatches (x = WAVE_TILES_PER_ROW, y = rows, z = 1) each followed by its count.
+// The interpolated tiles' count (word 3), the exact tiles' indirect dispatch (x =
+// WAVE_TILES_PER_ROW, y = rows, z = 1) and count (word 7).
 layout(set = 0, binding = 8, std430) buffer State { uint state[8]; };
 
 layout(push_constant) uniform EnergyWaveParams {
@@ -41,7 +43,7 @@ void main() {
     if (tile >= tiles_total) {
         return;
     }
-    uvec2 t = uvec2(tile % params.counts.y, tile / params.counts.y);
+    uvec2 t = wave_tile_xy(tile, params.counts.y);
     uvec2 size = frame.counts.yz;
     float h = float(size_t);
     // The corners' L: (0, 0), (h, 0), (0, h), (h, h).
@@ -94,9 +96,12 @@ void main() {
     }
     uint list = smooth_tile ? 0u : 4u;
     uint slot = atomicAdd(state[list + 3u], 1u);
-    uint per = 8u / size_t;
-    if (slot % (WAVE_TILES_PER_ROW * per * per) == 0u) {
-        atomicAdd(state[list + 1u], 1u);
+    uint per_shift = 3u - wave_tile_shift(size_t);
+    if (!smooth_tile && (slot & ((WAVE_TILES_PER_ROW << (2u * per_shift)) - 1u)) == 0u) {
+        atomicAdd(state[5], 1u);
     }
-    tiles[(smooth_tile ? 0u : tiles_total) + slot] = tile;
+    tiles[tile] = smooth_tile ? 1u : 0u;
+    if (!smooth_tile) {
+        tiles[tiles_total + slot] = tile;
+    }
 }

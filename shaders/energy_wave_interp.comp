@@ -1,7 +1,10 @@
 #version 460
-// energy_wave_interp: the tiles energy_wave_classify listed as smooth, (8/T)² per 8×8 workgroup:
-// every wave's H interpolated bilinearly from the tile's corners (within the wave's tolerance,
+// energy_wave_interp: every pixel of the tiles energy_wave_classify marked smooth: each wave's H
+// interpolated bilinearly from the tile's corners (within the wave's tolerance,
 // crates/hadou/src/effects/energy_wave/tolerance.rs), then written as energy_wave.comp writes it.
+// Dispatched over the whole frame, not over a list: on lavapipe a store whose pixel comes from a
+// list costs ~1.6× one whose pixel is the invocation's own (measured at 1920×1080), and the
+// pixels of exact tiles only skip their stores.
 #include "common/energy_wave_tiles.glsl"
 #include "common/frame.glsl"
 
@@ -18,8 +21,8 @@ layout(set = 0, binding = 2, r32f) uniform writeonly image2D energy;
 layout(set = 0, binding = 4, std430) readonly buffer Styles { WaveStyle styles[]; };
 layout(set = 0, binding = 5, std140) uniform FrameBlock { FrameUniforms frame; };
 layout(set = 0, binding = 6, std430) readonly buffer Corners { float corners[]; };
+// Per tile, 1 when it is interpolated (then the exact tiles' list, not read here).
 layout(set = 0, binding = 7, std430) readonly buffer Lists { uint tiles[]; };
-layout(set = 0, binding = 8, std430) readonly buffer State { uint state[8]; };
 
 layout(push_constant) uniform EnergyWaveParams {
     uvec4 counts;  // x: waves, y: tiles_x, z: tiles_y, w: the tile size T
@@ -27,36 +30,41 @@ layout(push_constant) uniform EnergyWaveParams {
 
 const float HALF_MAX = 65504.0;
 
-float corner_at(uvec2 c, uint k) {
-    return corners[(c.y * (params.counts.y + 1u) + c.x) * (params.counts.x + 1u) + k];
-}
-
 void main() {
     uint size_t = params.counts.w;
-    uint slot = wave_list_slot(size_t);
-    bool listed = slot < state[3];
-    uint tile = tiles[min(slot, max(state[3], 1u) - 1u)];
-    uvec2 t = uvec2(tile % params.counts.y, tile / params.counts.y);
-    uvec2 offset = wave_tile_offset(size_t);
-    uvec2 p = t * size_t + offset;
     uvec2 size = frame.counts.yz;
-    bool inside = listed && p.x < size.x && p.y < size.y;
+    uvec2 p = min(gl_GlobalInvocationID.xy, size - 1u);
+    uint shift = wave_tile_shift(size_t);
+    uvec2 t = p >> shift;
+    uvec2 offset = p - (t << shift);
+    bool listed = tiles[t.y * params.counts.y + t.x] != 0u;
+    bool inside = listed && gl_GlobalInvocationID.x < size.x && gl_GlobalInvocationID.y < size.y;
     float fx = float(offset.x) / float(size_t);
     float fy = float(offset.y) / float(size_t);
+    // As in energy_wave.comp (lavapipe): the first wave's values are read before any loop or
+    // branch (inside one, lavapipe loads a buffer value lane by lane: this pass cost more than
+    // the exact one before), and the loop is a do-while.
+    uint n = params.counts.x;
+    uvec4 at = (uvec4(t.y, t.y, t.y + 1u, t.y + 1u) * (params.counts.y + 1u) + uvec4(t.x, t.x + 1u, t.x, t.x + 1u))
+               * (n + 1u) + 1u;
+    vec4 c = vec4(corners[at.x], corners[at.y], corners[at.z], corners[at.w]);
+    WaveStyle style0 = styles[0];
     float total = 0.0;
     vec3 emitted = vec3(0.0);
-    for (uint i = 0u; i < params.counts.x; ++i) {
-        float c0 = corner_at(t, 1u + i);
-        float c1 = corner_at(t + uvec2(1u, 0u), 1u + i);
-        float c2 = corner_at(t + uvec2(0u, 1u), 1u + i);
-        float c3 = corner_at(t + uvec2(1u), 1u + i);
-        float top = c0 + (c1 - c0) * fx;
-        float bottom = c2 + (c3 - c2) * fx;
+    uint i = 0u;
+    do {
+        WaveStyle style = style0;
+        if (i > 0u) {
+            c = vec4(corners[at.x + i], corners[at.y + i], corners[at.z + i], corners[at.w + i]);
+            style = styles[i];
+        }
+        float top = c.x + (c.y - c.x) * fx;
+        float bottom = c.z + (c.w - c.z) * fx;
         float H = top + (bottom - top) * fy;
-        WaveStyle style = styles[i];
         total += H;
         emitted += style.emission.rgb * max(H - style.emission.w, 0.0);
-    }
+        ++i;
+    } while (i < n);
     if (inside) {
         ivec2 pix = ivec2(p);
         imageStore(energy, pix, vec4(total, 0.0, 0.0, 0.0));

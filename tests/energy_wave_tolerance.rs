@@ -149,3 +149,37 @@ fn seed_scene_with_occluders_stays_within_the_tolerance() {
         assert!(smooth > 0 && exact > 0, "{smooth} interpolated, {exact} exact");
     }
 }
+
+/// The tolerance is a run-time setting: a game turns it on and off per wave
+/// (`Renderer::set_wave_tolerance`); 0 gives back the exact pass's image bit for bit, and a value
+/// outside [0, 1) is refused naming it.
+#[test]
+fn tolerance_is_set_at_run_time() {
+    let mut scene = hadou::scene::load_scene("assets/scenes/energy_wave.toml".as_ref()).unwrap();
+    scene.waves_mut()[0].tolerance = Some(0.0);
+    let mut rt = common::runtime();
+    rt.load_scene(scene).unwrap();
+    let mut req = FrameRequest::new(512, 512);
+    req.aovs = vec![Aov::Energy];
+    let energy = |rt: &mut hadou::Runtime, req: &FrameRequest| {
+        let frame = rt.render(req).unwrap();
+        let tiles = frame.stats.counter(TILES_INTERPOLATED);
+        (frame.aov(Aov::Energy).unwrap().data.clone(), tiles)
+    };
+    let (exact, none) = energy(&mut rt, &req);
+    assert_eq!(none, 0);
+    let id = rt.renderer().wave_ids()[0];
+    rt.renderer().set_wave_tolerance(id, Some(1e-2)).unwrap();
+    let (tolerant, tiles) = energy(&mut rt, &req);
+    assert!(tiles > 0, "no tile interpolated at 1e-2");
+    assert_ne!(exact, tolerant);
+    rt.renderer().set_wave_tolerance(id, Some(0.0)).unwrap();
+    let (again, _) = energy(&mut rt, &req);
+    assert!(
+        exact.iter().zip(&again).all(|(a, b)| a.to_bits() == b.to_bits()),
+        "tolerance 0 is not the exact image"
+    );
+    let err = rt.renderer().set_wave_tolerance(id, Some(1.0)).unwrap_err().to_string();
+    assert!(err.contains("wave tolerance 1") && err.contains("[0, 1)"), "{err}");
+    rt.finish();
+}

@@ -214,7 +214,7 @@ impl Pass for EnergyWavePass {
             let sets: Vec<vk::DescriptorSet> = (1..5).map(|i| pass.set(i)).collect();
             let [_, tiles_x, tiles_y, size] = self.params.counts;
             let grid = TileGrid { tiles_x, tiles_y, size };
-            energy_wave_tiles::record(pass.rec, tiles, &sets, push, grid, buffers.state.raw);
+            energy_wave_tiles::record(pass.rec, tiles, &sets, push, grid, self.extent, buffers.state.raw);
             return;
         }
         let vk::Extent2D { width, height } = self.extent;

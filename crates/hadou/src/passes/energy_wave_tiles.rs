@@ -1,10 +1,11 @@
 //! The energy wave with a tolerance (`effects::energy_wave::tolerance`): four dispatches instead
 //! of one per pixel — the exact H at the corners of T×T-pixel tiles (T = 4 or 8)
 //! (shaders/energy_wave_corners.comp), one invocation per tile deciding from the error bound
-//! whether it may be interpolated (energy_wave_classify.comp, appending it to one of two lists),
-//! then the interpolated tiles (energy_wave_interp.comp) and the exact ones (energy_wave.comp
-//! with `TILE_LIST`), each an indirect dispatch over its list. Every pixel is written by exactly
-//! one of the last two.
+//! whether it may be interpolated (energy_wave_classify.comp: a flag per tile, and the exact
+//! tiles appended to a list), then the interpolated tiles (energy_wave_interp.comp, over the whole
+//! frame: the pixels of exact tiles skip their stores) and the exact ones (energy_wave.comp with
+//! `TILE_LIST`, an indirect dispatch over the list). Every pixel is written by exactly one of the
+//! last two.
 
 use crate::gpu::memory::{Buffer, Memory, MemoryLocation};
 use crate::gpu::pipeline::{create_compute_pipeline, BufferRange, Pipeline};
@@ -16,12 +17,12 @@ use crate::gpu::{vk, GpuContext, GpuResult};
 /// common/energy_wave_tiles.glsl).
 pub const TILES_PER_ROW: u32 = 64;
 
-/// Words of the tile state: the interpolated tiles' dispatch (x, y, z) and count, then the exact
-/// tiles' (keep in sync with the shaders' `state`).
+/// Words of the tile state: the interpolated tiles' count (word 3), the exact tiles' indirect
+/// dispatch (x, y, z: words 4–6) and count (keep in sync with the shaders' `state`).
 const STATE_INTERPOLATED: usize = 3;
 const STATE_EXACT: usize = 7;
-/// The state at the start of a frame: no tile listed, rows of `TILES_PER_ROW` (none yet).
-const STATE_START: [u32; 8] = [TILES_PER_ROW, 0, 1, 0, TILES_PER_ROW, 0, 1, 0];
+/// The state at the start of a frame: no tile counted, rows of `TILES_PER_ROW` (none yet).
+const STATE_START: [u32; 8] = [0, 0, 0, 0, TILES_PER_ROW, 0, 1, 0];
 
 /// The tile grid of a frame of `extent` with tiles of `size` pixels a side.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -79,9 +80,9 @@ pub struct TileBuffers {
     waves: u32,
     /// Per corner: L, then H per wave.
     pub corners: Buffer,
-    /// The interpolated tiles from 0, the exact ones from `tiles`.
+    /// A flag per tile (1: interpolated), then the list of the exact tiles.
     pub lists: Buffer,
-    /// Host-visible: the two dispatches and counts (`STATE_START` each frame).
+    /// Host-visible: the counts and the exact tiles' dispatch (`STATE_START` each frame).
     pub state: Buffer,
 }
 
@@ -140,6 +141,7 @@ pub fn record(
     sets: &[vk::DescriptorSet],
     push: &[u8],
     grid: TileGrid,
+    extent: vk::Extent2D,
     state: vk::Buffer,
 ) {
     let set = |i: usize| sets.get(i).copied().unwrap_or_default();
@@ -151,9 +153,10 @@ pub fn record(
     rec.push_constants(&p.classify, push);
     rec.dispatch_groups(grid.tiles().div_ceil(64), 1);
     rec.compute_to_indirect_barrier();
+    // The interpolated tiles: the whole frame, each pixel of an exact tile skipping its stores.
     rec.bind_pipeline(&p.interpolate, set(2));
     rec.push_constants(&p.interpolate, push);
-    rec.dispatch_indirect(state, 0);
+    rec.dispatch_2d(extent.width, extent.height, (8, 8));
     // The two write disjoint pixels of the same images: ordered for the validation layers.
     rec.compute_to_compute_barrier();
     rec.bind_pipeline(&p.exact, set(3));
