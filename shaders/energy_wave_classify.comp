@@ -96,8 +96,7 @@ void main() {
     }
     uint list = smooth_tile ? 0u : 4u;
     uint slot = atomicAdd(state[list + 3u], 1u);
-    uint per_shift = 3u - wave_tile_shift(size_t);
-    if (!smooth_tile && (slot & ((WAVE_TILES_PER_ROW << (2u * per_shift)) - 1u)) == 0u) {
+    if (!smooth_tile && slot % WAVE_TILES_PER_ROW == 0u) {
         atomicAdd(state[5], 1u);
     }
     tiles[tile] = smooth_tile ? 1u : 0u;

@@ -2,13 +2,14 @@
 // energy_wave_interp: every pixel of the tiles energy_wave_classify marked smooth: each wave's H
 // interpolated bilinearly from the tile's corners (within the wave's tolerance,
 // crates/hadou/src/effects/energy_wave/tolerance.rs), then written as energy_wave.comp writes it.
-// Dispatched over the whole frame, not over a list: on lavapipe a store whose pixel comes from a
-// list costs ~1.6× one whose pixel is the invocation's own (measured at 1920×1080), and the
-// pixels of exact tiles only skip their stores.
+// Dispatched over the whole frame, one T×T workgroup per tile (WAVE_TILE: 4 or 8, a variant per
+// size): the tile's flag and corners are the same for the whole workgroup, which lavapipe then
+// loads once instead of gathering them lane by lane, and the pixels of exact tiles skip their
+// stores. (Over a list of tiles, this pass cost as much as the exact one at 1920×1080.)
 #include "common/energy_wave_tiles.glsl"
 #include "common/frame.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = WAVE_TILE, local_size_y = WAVE_TILE) in;
 
 struct WaveStyle {
     vec4 emission;  // rgb: colour × intensity; w: cutoff
@@ -31,16 +32,13 @@ layout(push_constant) uniform EnergyWaveParams {
 const float HALF_MAX = 65504.0;
 
 void main() {
-    uint size_t = params.counts.w;
     uvec2 size = frame.counts.yz;
-    uvec2 p = min(gl_GlobalInvocationID.xy, size - 1u);
-    uint shift = wave_tile_shift(size_t);
-    uvec2 t = p >> shift;
-    uvec2 offset = p - (t << shift);
+    uvec2 t = gl_WorkGroupID.xy;
+    uvec2 p = gl_GlobalInvocationID.xy;
     bool listed = tiles[t.y * params.counts.y + t.x] != 0u;
-    bool inside = listed && gl_GlobalInvocationID.x < size.x && gl_GlobalInvocationID.y < size.y;
-    float fx = float(offset.x) / float(size_t);
-    float fy = float(offset.y) / float(size_t);
+    bool inside = listed && p.x < size.x && p.y < size.y;
+    float fx = float(gl_LocalInvocationID.x) * (1.0 / float(WAVE_TILE));
+    float fy = float(gl_LocalInvocationID.y) * (1.0 / float(WAVE_TILE));
     // As in energy_wave.comp (lavapipe): the first wave's values are read before any loop or
     // branch (inside one, lavapipe loads a buffer value lane by lane: this pass cost more than
     // the exact one before), and the loop is a do-while.

@@ -11,33 +11,15 @@
 
 #include "common/energy_wave.glsl"
 
-// Workgroups per row of the indirect dispatches over the tile lists. A workgroup is 8×8
-// invocations and covers (8/T)² tiles of side T (4 or 8: the pass's push constant counts.w).
+// Workgroups per row of the indirect dispatch over the exact tiles' list.
 #define WAVE_TILES_PER_ROW 64u
 
-// No integer division or remainder by a value the compiler cannot see: lavapipe runs a vector
-// division lane by lane (with `/` and `%` the interpolation pass cost ~1.5× as much at 1080p).
-// T is a power of two; a tile index is split with a float division, exact for indices below 2^22
-// (the +0.5 keeps the quotient at least 0.5/tiles_x from an integer).
-uint wave_tile_shift(uint tile_size) {
-    return uint(findLSB(tile_size));
-}
-
+// A tile index split into (x, y) without an integer division (lavapipe runs a vector division
+// lane by lane): with a float division, exact for indices below 2^22 (the +0.5 keeps the
+// quotient at least 0.5/tiles_x from an integer).
 uvec2 wave_tile_xy(uint tile, uint tiles_x) {
     uint y = uint((float(tile) + 0.5) / float(tiles_x));
     return uvec2(tile - y * tiles_x, y);
-}
-
-// The list slot of this invocation's tile and its pixel offset in it.
-uint wave_list_slot(uint tile_size) {
-    uint shift = wave_tile_shift(tile_size);
-    uint per_shift = 3u - shift;
-    uint q = ((gl_LocalInvocationID.y >> shift) << per_shift) + (gl_LocalInvocationID.x >> shift);
-    return ((gl_WorkGroupID.y * WAVE_TILES_PER_ROW + gl_WorkGroupID.x) << (2u * per_shift)) + q;
-}
-
-uvec2 wave_tile_offset(uint tile_size) {
-    return gl_LocalInvocationID.xy & (tile_size - 1u);
 }
 
 const float WAVE_ANGLE_GROW = 1.001953125;    // 1 + 2^-9

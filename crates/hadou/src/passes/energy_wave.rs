@@ -211,7 +211,7 @@ impl Pass for EnergyWavePass {
         let push = bytemuck::bytes_of(&self.params);
         let buffers = self.buffers.get(self.slot).and_then(Option::as_ref);
         if let (Some(tiles), Some(buffers), true) = (&self.tiles, buffers, self.params.counts[3] > 0) {
-            let sets: Vec<vk::DescriptorSet> = (1..5).map(|i| pass.set(i)).collect();
+            let sets: Vec<vk::DescriptorSet> = (1..7).map(|i| pass.set(i)).collect();
             let [_, tiles_x, tiles_y, size] = self.params.counts;
             let grid = TileGrid { tiles_x, tiles_y, size };
             energy_wave_tiles::record(pass.rec, tiles, &sets, push, grid, self.extent, buffers.state.raw);

@@ -7,6 +7,7 @@
 //! `TILE_LIST`, an indirect dispatch over the list). Every pixel is written by exactly one of the
 //! last two.
 
+use crate::effects::energy_wave::tolerance::TILE_SIZES;
 use crate::gpu::memory::{Buffer, Memory, MemoryLocation};
 use crate::gpu::pipeline::{create_compute_pipeline, BufferRange, Pipeline};
 use crate::gpu::recorder::Recorder;
@@ -50,8 +51,9 @@ impl TileGrid {
 pub struct TilePipelines {
     corners: Pipeline,
     classify: Pipeline,
-    interpolate: Pipeline,
-    exact: Pipeline,
+    /// Per tile size (`TILE_SIZES`): the workgroup is one tile.
+    interpolate: [Pipeline; 2],
+    exact: [Pipeline; 2],
 }
 
 impl TilePipelines {
@@ -60,17 +62,26 @@ impl TilePipelines {
             let spirv = compiler.compile(file, defines)?;
             create_compute_pipeline(ctx, name, &spirv, push)
         };
+        let [small, large] = TILE_SIZES.map(|t| t.to_string());
         Ok(TilePipelines {
             corners: make("energy_wave corners", "energy_wave_corners.comp", &[])?,
             classify: make("energy_wave classify", "energy_wave_classify.comp", &[])?,
-            interpolate: make("energy_wave interpolate", "energy_wave_interp.comp", &[])?,
-            exact: make("energy_wave exact tiles", "energy_wave.comp", &[("TILE_LIST", "1")])?,
+            interpolate: [
+                make("energy_wave interpolate 4", "energy_wave_interp.comp", &[("WAVE_TILE", small.as_str())])?,
+                make("energy_wave interpolate 8", "energy_wave_interp.comp", &[("WAVE_TILE", large.as_str())])?,
+            ],
+            exact: [
+                make("energy_wave exact tiles 4", "energy_wave.comp", &[("TILE_LIST", "1"), ("WAVE_TILE", small.as_str())])?,
+                make("energy_wave exact tiles 8", "energy_wave.comp", &[("TILE_LIST", "1"), ("WAVE_TILE", large.as_str())])?,
+            ],
         })
     }
 
     /// In the order of the sets `record` takes (after the pass's own pipeline).
     pub fn all(&self) -> Vec<&Pipeline> {
-        vec![&self.corners, &self.classify, &self.interpolate, &self.exact]
+        let [i4, i8] = &self.interpolate;
+        let [e4, e8] = &self.exact;
+        vec![&self.corners, &self.classify, i4, i8, e4, e8]
     }
 }
 
@@ -153,13 +164,15 @@ pub fn record(
     rec.push_constants(&p.classify, push);
     rec.dispatch_groups(grid.tiles().div_ceil(64), 1);
     rec.compute_to_indirect_barrier();
+    // The variants of this frame's tile size.
+    let v = usize::from(grid.size == TILE_SIZES[1]);
     // The interpolated tiles: the whole frame, each pixel of an exact tile skipping its stores.
-    rec.bind_pipeline(&p.interpolate, set(2));
-    rec.push_constants(&p.interpolate, push);
-    rec.dispatch_2d(extent.width, extent.height, (8, 8));
+    rec.bind_pipeline(&p.interpolate[v], set(2 + v));
+    rec.push_constants(&p.interpolate[v], push);
+    rec.dispatch_2d(extent.width, extent.height, (grid.size, grid.size));
     // The two write disjoint pixels of the same images: ordered for the validation layers.
     rec.compute_to_compute_barrier();
-    rec.bind_pipeline(&p.exact, set(3));
-    rec.push_constants(&p.exact, push);
+    rec.bind_pipeline(&p.exact[v], set(4 + v));
+    rec.push_constants(&p.exact[v], push);
     rec.dispatch_indirect(state, 16);
 }
