@@ -7,11 +7,7 @@
 #include "common/energy_wave.glsl"
 #include "common/frame.glsl"
 
-#ifdef TILE_LIST
-layout(local_size_x = WAVE_TILE, local_size_y = WAVE_TILE) in;
-#else
 layout(local_size_x = 8, local_size_y = 8) in;
-#endif
 
 // WaveStyle in crates/hadou/src/passes/energy_wave.rs (size checked when bound: gpu::reflect).
 struct WaveStyle {
@@ -35,18 +31,19 @@ layout(push_constant) uniform EnergyWaveParams {
 } params;
 
 #ifdef TILE_LIST
-// With a tolerance: only the tiles energy_wave_classify.comp listed as exact, one T×T workgroup
-// each (WAVE_TILE: a variant per size), WAVE_TILES_PER_ROW per row of the indirect dispatch.
+// With a tolerance: only the tiles energy_wave_classify.comp listed as exact, (8/T)² per 8×8
+// workgroup (WAVE_TILE: a variant per size), WAVE_TILES_PER_ROW workgroups per row of the
+// indirect dispatch.
 #include "common/energy_wave_tiles.glsl"
 layout(set = 0, binding = 7, std430) readonly buffer Lists { uint tiles[]; };
 layout(set = 0, binding = 8, std430) readonly buffer State { uint state[8]; };
 
 uvec2 pixel_of_invocation(out bool listed) {
-    uint slot = gl_WorkGroupID.y * WAVE_TILES_PER_ROW + gl_WorkGroupID.x;
+    uint slot = wave_list_slot();
     uint count = state[7];
     listed = slot < count;
     uint tile = tiles[params.counts.y * params.counts.z + min(slot, max(count, 1u) - 1u)];
-    return wave_tile_xy(tile, params.counts.y) * uint(WAVE_TILE) + gl_LocalInvocationID.xy;
+    return wave_tile_xy(tile, params.counts.y) * uint(WAVE_TILE) + wave_tile_offset();
 }
 #else
 uvec2 pixel_of_invocation(out bool listed) {

@@ -96,7 +96,9 @@ void main() {
     }
     uint list = smooth_tile ? 0u : 4u;
     uint slot = atomicAdd(state[list + 3u], 1u);
-    if (!smooth_tile && slot % WAVE_TILES_PER_ROW == 0u) {
+    // (8/T)² tiles per workgroup of the exact tiles' dispatch: T is 4 or 8.
+    uint per_row = size_t == 8u ? WAVE_TILES_PER_ROW : 4u * WAVE_TILES_PER_ROW;
+    if (!smooth_tile && (slot & (per_row - 1u)) == 0u) {
         atomicAdd(state[5], 1u);
     }
     tiles[tile] = smooth_tile ? 1u : 0u;

@@ -2,14 +2,14 @@
 // energy_wave_interp: every pixel of the tiles energy_wave_classify marked smooth: each wave's H
 // interpolated bilinearly from the tile's corners (within the wave's tolerance,
 // crates/hadou/src/effects/energy_wave/tolerance.rs), then written as energy_wave.comp writes it.
-// Dispatched over the whole frame, one T×T workgroup per tile (WAVE_TILE: 4 or 8, a variant per
-// size): the tile's flag and corners are the same for the whole workgroup, which lavapipe then
-// loads once instead of gathering them lane by lane, and the pixels of exact tiles skip their
-// stores. (Over a list of tiles, this pass cost as much as the exact one at 1920×1080.)
+// Dispatched over the whole frame in 8×8 workgroups (WAVE_TILE: 4 or 8, a variant per size; with
+// 8 the tile's flag and corners are the same for the whole workgroup, which lavapipe then loads
+// once instead of gathering them lane by lane); the pixels of exact tiles skip their stores.
+// (Over a list of tiles, this pass cost as much as the exact one at 1920×1080.)
 #include "common/energy_wave_tiles.glsl"
 #include "common/frame.glsl"
 
-layout(local_size_x = WAVE_TILE, local_size_y = WAVE_TILE) in;
+layout(local_size_x = 8, local_size_y = 8) in;
 
 struct WaveStyle {
     vec4 emission;  // rgb: colour × intensity; w: cutoff
@@ -33,12 +33,13 @@ const float HALF_MAX = 65504.0;
 
 void main() {
     uvec2 size = frame.counts.yz;
-    uvec2 t = gl_WorkGroupID.xy;
+    uvec2 t = wave_frame_tile();
     uvec2 p = gl_GlobalInvocationID.xy;
     bool listed = tiles[t.y * params.counts.y + t.x] != 0u;
     bool inside = listed && p.x < size.x && p.y < size.y;
-    float fx = float(gl_LocalInvocationID.x) * (1.0 / float(WAVE_TILE));
-    float fy = float(gl_LocalInvocationID.y) * (1.0 / float(WAVE_TILE));
+    uvec2 offset = p % uint(WAVE_TILE);
+    float fx = float(offset.x) * (1.0 / float(WAVE_TILE));
+    float fy = float(offset.y) * (1.0 / float(WAVE_TILE));
     // As in energy_wave.comp (lavapipe): the first wave's values are read before any loop or
     // branch (inside one, lavapipe loads a buffer value lane by lane: this pass cost more than
     // the exact one before), and the loop is a do-while.

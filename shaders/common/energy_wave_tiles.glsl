@@ -14,6 +14,38 @@
 // Workgroups per row of the indirect dispatch over the exact tiles' list.
 #define WAVE_TILES_PER_ROW 64u
 
+#ifdef WAVE_TILE
+// The passes over tiles run 8×8 workgroups (lavapipe pays per workgroup: 4×4 ones made the
+// exact tiles cost 2.5× as much per pixel). With T = 8 a workgroup is one tile, the same for all
+// its invocations, so lavapipe loads the tile's values once; with T = 4 it covers 2×2 tiles.
+#define WAVE_TILES_PER_GROUP ((8 / WAVE_TILE) * (8 / WAVE_TILE))
+
+// The tile of this invocation in a dispatch over the whole frame.
+uvec2 wave_frame_tile() {
+#if WAVE_TILE == 8
+    return gl_WorkGroupID.xy;
+#else
+    return gl_GlobalInvocationID.xy / uint(WAVE_TILE);
+#endif
+}
+
+// The slot of this invocation's tile in a dispatch over a list.
+uint wave_list_slot() {
+    uint group = gl_WorkGroupID.y * WAVE_TILES_PER_ROW + gl_WorkGroupID.x;
+#if WAVE_TILE == 8
+    return group;
+#else
+    uvec2 q = gl_LocalInvocationID.xy / uint(WAVE_TILE);
+    return group * uint(WAVE_TILES_PER_GROUP) + q.y * uint(8 / WAVE_TILE) + q.x;
+#endif
+}
+
+// This invocation's pixel offset in its tile.
+uvec2 wave_tile_offset() {
+    return gl_LocalInvocationID.xy % uint(WAVE_TILE);
+}
+#endif
+
 // A tile index split into (x, y) without an integer division (lavapipe runs a vector division
 // lane by lane): with a float division, exact for indices below 2^22 (the +0.5 keeps the
 // quotient at least 0.5/tiles_x from an integer).

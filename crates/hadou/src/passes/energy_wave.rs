@@ -8,7 +8,7 @@
 //! when every wave is analytic with a tolerance, the tile path of `energy_wave_tiles` (corners
 //! exact, smooth tiles interpolated within the tolerance, the rest exact).
 
-use super::energy_wave_tiles::{self, TileBuffers, TileGrid, TilePipelines};
+use super::energy_wave_tiles::{self, PathChoice, TileBuffers, TileGrid, TilePipelines};
 use super::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::effects::energy_wave::tolerance::tile_size;
 use crate::effects::energy_wave::WaveParams;
@@ -108,6 +108,9 @@ pub struct EnergyWavePass {
     extent: vk::Extent2D,
     /// The slot this frame records into.
     slot: usize,
+    /// Whether this frame and each slot's last frame took the tile path.
+    path: PathChoice,
+    tiled_slots: Vec<bool>,
 }
 
 impl EnergyWavePass {
@@ -125,6 +128,8 @@ impl EnergyWavePass {
             params: EnergyWaveParams::default(),
             extent,
             slot: 0,
+            path: PathChoice::default(),
+            tiled_slots: Vec::new(),
         })
     }
 
@@ -166,7 +171,13 @@ impl Pass for EnergyWavePass {
             .iter()
             .map(|(s, m, t)| wave_style(&WaveState { emission: s.emission * p, ..*s }, *m, *t))
             .collect();
-        let tiled = self.tiles.is_some() && !waves.is_empty();
+        // The tile pipelines' sets need the tile buffers even in a frame that runs exact.
+        let tile_buffers = self.tiles.is_some() && !waves.is_empty();
+        let tiled = tile_buffers && self.path.tiled();
+        if self.tiled_slots.len() <= frame.slot {
+            self.tiled_slots.resize(frame.slot + 1, false);
+        }
+        self.tiled_slots[frame.slot] = tiled;
         let least = live.iter().map(|(_, _, t)| *t).fold(f64::INFINITY, f64::min);
         let grid = TileGrid::of(frame.extent, tile_size(pixel_angle(scene, frame.extent), least));
         self.params = if tiled {
@@ -190,8 +201,8 @@ impl Pass for EnergyWavePass {
             Binding::Bound(Bound::Storage(frame.upload(&styles)?)),
             Binding::Bound(Bound::Uniform(frame.uniforms)),
         ];
-        if tiled {
-            let [corners, lists, state] = self.tile_buffers(frame, grid, self.params.counts[0])?.ranges();
+        if tile_buffers {
+            let [corners, lists, state] = self.tile_buffers(frame, grid, waves.len() as u32)?.ranges();
             bindings.extend([
                 Binding::Written(corners, Reader::Compute),
                 Binding::Written(lists, Reader::Compute),
@@ -224,8 +235,10 @@ impl Pass for EnergyWavePass {
     }
 
     fn finished(&self, slot: usize, stats: &mut FrameStats) {
-        if let (Some(_), Some(Some(buffers))) = (&self.tiles, self.buffers.get(slot)) {
+        let tiled = self.tiled_slots.get(slot).copied().unwrap_or(false);
+        if let (true, Some(Some(buffers))) = (tiled, self.buffers.get(slot)) {
             let (interpolated, exact) = buffers.counts();
+            self.path.note(interpolated, exact);
             stats.add(TILES_INTERPOLATED, interpolated);
             stats.add(TILES_EXACT, exact);
         }

@@ -7,6 +7,8 @@
 //! `TILE_LIST`, an indirect dispatch over the list). Every pixel is written by exactly one of the
 //! last two.
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use crate::effects::energy_wave::tolerance::TILE_SIZES;
 use crate::gpu::memory::{Buffer, Memory, MemoryLocation};
 use crate::gpu::pipeline::{create_compute_pipeline, BufferRange, Pipeline};
@@ -24,6 +26,46 @@ const STATE_INTERPOLATED: usize = 3;
 const STATE_EXACT: usize = 7;
 /// The state at the start of a frame: no tile counted, rows of `TILES_PER_ROW` (none yet).
 const STATE_START: [u32; 8] = [0, 0, 0, 0, TILES_PER_ROW, 0, 1, 0];
+
+/// Whether a frame takes the tile path. It pays for itself only where most tiles are
+/// interpolated (corners, classification and a pass over every pixel come first: on lavapipe at
+/// 1920×1080 they cost ~40 % of the exact pass), so after a frame that interpolated fewer than
+/// `BREAK_EVEN_PERMILLE`‰ of its tiles the exact pass runs, and the tile path is tried again every
+/// `PROBE_EVERY` frames (the camera or the waves may have moved). A game's frame is never more
+/// than one probe in `PROBE_EVERY` slower than the exact pass.
+#[derive(Debug)]
+pub struct PathChoice {
+    /// The last tiled frame's interpolated tiles in ‰ (`u32::MAX`: none finished yet).
+    last: AtomicU32,
+    frame: u32,
+}
+
+/// Measured: docs/PERFORMANCE.md, "Energy wave with a tolerance".
+pub const BREAK_EVEN_PERMILLE: u32 = 500;
+pub const PROBE_EVERY: u32 = 30;
+
+impl Default for PathChoice {
+    fn default() -> Self {
+        PathChoice { last: AtomicU32::new(u32::MAX), frame: 0 }
+    }
+}
+
+impl PathChoice {
+    /// This frame's choice.
+    pub fn tiled(&mut self) -> bool {
+        let probe = self.frame % PROBE_EVERY == 0;
+        self.frame = self.frame.wrapping_add(1);
+        let last = self.last.load(Ordering::Relaxed);
+        probe || last == u32::MAX || last >= BREAK_EVEN_PERMILLE
+    }
+
+    /// A tiled frame finished with these counts.
+    pub fn note(&self, interpolated: u64, exact: u64) {
+        if let Some(permille) = (interpolated * 1000).checked_div(interpolated + exact) {
+            self.last.store(permille as u32, Ordering::Relaxed);
+        }
+    }
+}
 
 /// The tile grid of a frame of `extent` with tiles of `size` pixels a side.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -67,12 +109,28 @@ impl TilePipelines {
             corners: make("energy_wave corners", "energy_wave_corners.comp", &[])?,
             classify: make("energy_wave classify", "energy_wave_classify.comp", &[])?,
             interpolate: [
-                make("energy_wave interpolate 4", "energy_wave_interp.comp", &[("WAVE_TILE", small.as_str())])?,
-                make("energy_wave interpolate 8", "energy_wave_interp.comp", &[("WAVE_TILE", large.as_str())])?,
+                make(
+                    "energy_wave interpolate 4",
+                    "energy_wave_interp.comp",
+                    &[("WAVE_TILE", small.as_str())],
+                )?,
+                make(
+                    "energy_wave interpolate 8",
+                    "energy_wave_interp.comp",
+                    &[("WAVE_TILE", large.as_str())],
+                )?,
             ],
             exact: [
-                make("energy_wave exact tiles 4", "energy_wave.comp", &[("TILE_LIST", "1"), ("WAVE_TILE", small.as_str())])?,
-                make("energy_wave exact tiles 8", "energy_wave.comp", &[("TILE_LIST", "1"), ("WAVE_TILE", large.as_str())])?,
+                make(
+                    "energy_wave exact tiles 4",
+                    "energy_wave.comp",
+                    &[("TILE_LIST", "1"), ("WAVE_TILE", small.as_str())],
+                )?,
+                make(
+                    "energy_wave exact tiles 8",
+                    "energy_wave.comp",
+                    &[("TILE_LIST", "1"), ("WAVE_TILE", large.as_str())],
+                )?,
             ],
         })
     }
@@ -169,7 +227,7 @@ pub fn record(
     // The interpolated tiles: the whole frame, each pixel of an exact tile skipping its stores.
     rec.bind_pipeline(&p.interpolate[v], set(2 + v));
     rec.push_constants(&p.interpolate[v], push);
-    rec.dispatch_2d(extent.width, extent.height, (grid.size, grid.size));
+    rec.dispatch_2d(extent.width, extent.height, (8, 8));
     // The two write disjoint pixels of the same images: ordered for the validation layers.
     rec.compute_to_compute_barrier();
     rec.bind_pipeline(&p.exact[v], set(4 + v));
