@@ -4,8 +4,8 @@
 // rectangle where hadou's instances can be rasterized (a buffer copied into that rectangle of the
 // D32 `depth`: lavapipe has no storage D32), so they are depth-tested against the game's scene.
 // The depth is only read by the raster's depth test, which never reaches past its instances'
-// screen bounds: converting it elsewhere (and staging and copying it) was most of this pass's cost
-// (docs/PERFORMANCE.md, "Embedding"). CPU twin (f64):
+// screen bounds: storing it for every pixel and copying the whole image was about a quarter of
+// this pass's cost at 640×360 (docs/PERFORMANCE.md, "Embedding"). CPU twin (f64):
 // crates/hadou/src/passes/depth_import.rs::import_depth.
 #include "common/frame.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
