@@ -2,16 +2,22 @@
 // composite: hadou's HDR result over the game's colour target, premultiplied alpha (the blend is
 // src + (1 − src.a)·dst): α = 1 where hadou drew a surface (over), 0 elsewhere, where only the
 // wave's glow remains (added). Tonemap as in tonemap.comp (CPU twin crates/hadou/src/effects/tonemap.rs).
+// MODE (a define: one pipeline per target format, `composite::mode_for`) picks what is written:
+// 0 tonemapped linear (an _SRGB target encodes), 1 tonemapped and sRGB-encoded (_UNORM), 2 linear
+// HDR × exposure (float targets: the game tonemaps). A define, not a push constant: lavapipe runs
+// both sides of every branch, so the pow() of an encode no target of that format needs was paid
+// by every pixel (docs/PERFORMANCE.md, "Embedding").
 // AUTO_EXPOSURE: the factor from exposure.comp's measurement of this frame (dispatched by the
 // pass before it draws), moved from the adapted luminance of earlier frames (common/exposure.glsl).
 layout(set = 0, binding = 0, rgba16f) uniform readonly image2D hdr;
 layout(location = 0) out vec4 out_color;
 
+#ifndef MODE
+#error "composite.frag needs MODE (0, 1 or 2)"
+#endif
+
 layout(push_constant) uniform Params {
     float exposure;
-    // 0: tonemapped linear (an _SRGB target encodes); 1: tonemapped + sRGB-encoded (_UNORM);
-    // 2: linear HDR × exposure (float targets: the game tonemaps)
-    uint mode;
     // AUTO_EXPOSURE: as tonemap.comp's.
     float pre_log2;
     float history;
@@ -43,8 +49,12 @@ void main() {
     vec3 rgb = c.rgb * exposure;
     if (any(isnan(rgb))) rgb = vec3(0.0);
     rgb = max(rgb, vec3(0.0));
-    if (params.mode != 2u) rgb = aces(min(rgb, vec3(ACES_WHITE)));
-    if (params.mode == 1u) rgb = srgb_encode(rgb);
+#if MODE != 2
+    rgb = aces(min(rgb, vec3(ACES_WHITE)));
+#endif
+#if MODE == 1
+    rgb = srgb_encode(rgb);
+#endif
     float alpha = isnan(c.a) ? 0.0 : clamp(c.a, 0.0, 1.0);
     out_color = vec4(rgb, alpha);
 }

@@ -308,11 +308,16 @@ impl Game {
 
     /// As `new`, with `frames` frames in flight (1 or 2: benchmarks compare them).
     pub fn with_frames_in_flight(vk: GameVk, frames: usize) -> Result<Game, String> {
+        Self::with_effects(vk, frames, hadou::effect::Effects::builtin())
+    }
+
+    /// As `with_frames_in_flight`, with the game's own effects registered beside hadou's.
+    pub fn with_effects(vk: GameVk, frames: usize, effects: hadou::effect::Effects) -> Result<Game, String> {
         let frames = frames.clamp(1, FRAMES_IN_FLIGHT);
         // SAFETY: GameVk's handles are valid and enable EnabledFeatures::REQUIRED; Game::destroy
         // drops hadou before the device is destroyed.
         let ctx = unsafe { hadou::gpu::GpuContext::from_raw(vk.hadou_raw()) }.map_err(|e| e.to_string())?;
-        let options = hadou::RendererOptions { frames_in_flight: frames, ..Default::default() };
+        let options = hadou::RendererOptions { frames_in_flight: frames, effects, ..Default::default() };
         let mut hadou = Renderer::with_options(ctx, &options).map_err(|e| e.to_string())?;
         let scene = hadou::scene::parse_scene(HADOU_SCENE, "game_prototype.toml".as_ref())
             .map_err(|e| e.to_string())?;

@@ -332,18 +332,26 @@ impl Recorder<'_> {
         unsafe { self.device().cmd_draw(self.cmd, 3, 1, 0, 0) };
     }
 
-    /// Copies a buffer of rows of `row_length` texels into the whole depth image (in TRANSFER_DST
-    /// layout).
-    pub fn copy_buffer_to_depth(&self, buffer: &Buffer, row_length: u32, image: &ImageHandles) {
+    /// Copies a buffer of rows of `row_length` texels into the depth image's `region` (in
+    /// TRANSFER_DST layout); the buffer's first texel goes to the region's top-left corner.
+    pub fn copy_buffer_to_depth(
+        &self,
+        buffer: &Buffer,
+        row_length: u32,
+        image: &ImageHandles,
+        region: vk::Rect2D,
+    ) {
+        let vk::Rect2D { offset, extent } = region;
         let region = vk::BufferImageCopy::default()
             .buffer_row_length(row_length)
             .image_subresource(
                 vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::DEPTH).layer_count(1),
             )
-            .image_extent(vk::Extent3D { width: image.extent.width, height: image.extent.height, depth: 1 });
+            .image_offset(vk::Offset3D { x: offset.x, y: offset.y, z: 0 })
+            .image_extent(vk::Extent3D { width: extent.width, height: extent.height, depth: 1 });
         // SAFETY: recording, outside rendering; buffer and image are live until the frame's fence;
-        // the image is in TRANSFER_DST layout and the buffer holds `row_length` × height texels (the
-        // caller's contract).
+        // the image is in TRANSFER_DST layout, the region lies inside it and the buffer holds
+        // `row_length` × its height texels (the caller's contract).
         unsafe {
             self.device().cmd_copy_buffer_to_image(
                 self.cmd,

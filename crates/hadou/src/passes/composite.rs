@@ -20,15 +20,14 @@ use crate::targets::Target;
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct Params {
     exposure: f32,
-    mode: u32,
     pre_log2: f32,
     history: f32,
     weight: f32,
 }
 
-crate::gpu::layout::gpu_layout!(Params as "Params" { exposure, mode, pre_log2, history, weight });
+crate::gpu::layout::gpu_layout!(Params as "Params" { exposure, pre_log2, history, weight });
 
-/// What the shader writes for a colour format (see `ExternalColor`).
+/// What the shader writes for a colour format (see `ExternalColor`): its MODE define.
 pub fn mode_for(format: vk::Format) -> u32 {
     let name = format!("{format:?}");
     if name.ends_with("_SRGB") {
@@ -82,10 +81,13 @@ impl CompositePass {
             return Ok(());
         }
         let vertex = compiler.compile("fullscreen.vert", &[])?;
-        let fragment = compiler.compile("composite.frag", &[])?;
+        // Only the format's own output path is compiled (composite.frag: MODE).
+        let mode = mode_for(format).to_string();
+        let fragment = compiler.compile("composite.frag", &[("MODE", mode.as_str())])?;
         let push = std::mem::size_of::<Params>() as u32;
         let p = create_fullscreen_pipeline(ctx, "composite", &vertex, &fragment, push, format)?;
-        let fragment = compiler.compile("composite.frag", &[("AUTO_EXPOSURE", "1")])?;
+        let fragment =
+            compiler.compile("composite.frag", &[("MODE", mode.as_str()), ("AUTO_EXPOSURE", "1")])?;
         let auto =
             create_fullscreen_pipeline(ctx, "composite (auto exposure)", &vertex, &fragment, push, format)?;
         self.pipelines.push((format, p, auto));
@@ -136,18 +138,17 @@ impl Pass for CompositePass {
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
-        let mode = mode_for(self.format);
         self.auto_frame = frame.scene.render.exposure_mode == ExposureMode::Auto && self.measure.is_some();
         if !self.auto_frame {
             self.state.reset();
             // exposure / pre-exposure: the HDR target is pre-exposed (`effects::tonemap::pre_exposure`).
             let exposure = crate::effects::tonemap::tonemap_factor(frame.scene, frame.pre_exposure) as f32;
-            self.params = Params { exposure, mode, ..Params::default() };
+            self.params = Params { exposure, ..Params::default() };
             return Ok(vec![Binding::Image(ImageUse::new(Target::Hdr, FRAGMENT_STORAGE_READ))]);
         }
         let (auto, buffer) = self.state.prepare(frame)?;
         let (pre_log2, history, weight) = auto;
-        self.params = Params { exposure: 0.0, mode, pre_log2, history, weight };
+        self.params = Params { exposure: 0.0, pre_log2, history, weight };
         self.measure_params =
             super::tonemap::Params::measurement(frame.extent.width, frame.extent.height, auto);
         // Binding 1 is exposure.comp's and tonemap.comp's `ldr`, unused here: the HDR again.

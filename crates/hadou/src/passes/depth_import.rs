@@ -11,7 +11,8 @@ use crate::gpu::sampler::Sampler;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::renderer::DepthConvention;
-use crate::scene::camera::Camera;
+use crate::scene::camera::{Camera, PixelRect};
+use crate::scene::Scene;
 use crate::targets::Target;
 
 /// What one stored depth value becomes: (distance along the pixel's view ray, +inf for the far
@@ -42,8 +43,9 @@ pub fn store_depth(z: f64, convention: DepthConvention) -> f64 {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct Params {
-    /// x: 1 if the game's depth is reverse-Z; y: the staging buffer's row length (the width
-    /// rounded up to whole 8-pixel workgroups).
+    /// x: 1 if the game's depth is reverse-Z; y: the staging buffer's row length (the depth
+    /// rectangle's width rounded up to whole 8-pixel workgroups); z, w: the rectangle's first
+    /// column and row.
     dims: [u32; 4],
     /// The game's projection (stored d = −A + B / z): A, B; hadou's near distance.
     planes: [f32; 4],
@@ -51,32 +53,82 @@ pub(crate) struct Params {
 
 crate::gpu::layout::gpu_layout!(Params as "Params" { dims, planes });
 
+/// hadou's own scene passes (the core raster and the built-in effects'). Of these only the
+/// raster reads `depth`, as its depth attachment, inside its instances' screen bounds; a frame
+/// that runs any other pass (a game's effect may bind `depth`) gets the whole image.
+const OWN_PASSES: [&str; 6] = ["raster", "metaballs", "light_id", "peel", "translucency", "energy_wave"];
+
+/// Whether a frame running the scene passes `names` needs hadou's `depth` imported only where
+/// the raster can draw (`DepthImportPass::set_whole_depth` takes the negation).
+pub fn only_raster_reads_depth<'a>(mut names: impl Iterator<Item = &'a str>) -> bool {
+    names.all(|n| OWN_PASSES.contains(&n))
+}
+
+/// The pixels whose depth the raster can test: the screen bounds of the corners of every
+/// instance's transformed mesh box (`Camera::pixel_bounds`, conservative: the box's hull holds the
+/// mesh, and a box reaching past the near plane gives the whole frame). None: no instance.
+pub fn raster_pixels(
+    scene: &Scene,
+    mesh_bounds: &[(glam::DVec3, glam::DVec3)],
+    extent: vk::Extent2D,
+) -> Option<PixelRect> {
+    let corners: Vec<glam::DVec3> = scene
+        .instances
+        .iter()
+        .flat_map(|inst| {
+            let (lo, hi) = mesh_bounds[inst.mesh];
+            (0..8).map(move |c| {
+                let p =
+                    glam::DVec3::new([lo.x, hi.x][c & 1], [lo.y, hi.y][(c >> 1) & 1], [lo.z, hi.z][c >> 2]);
+                inst.transform.transform_point(p)
+            })
+        })
+        .collect();
+    scene.camera.pixel_bounds(&corners, extent.width, extent.height)
+}
+
 /// Runs first in an embedded frame whose game hands its depth (`FrameInputs::depth`). The game's
 /// depth image is the frame's `GameDepth` target, imported for that frame only: its view is bound
-/// into the slot's descriptor set each frame, never cached by handle.
+/// into the slot's descriptor set each frame, never cached by handle. Two dispatches: `distance`
+/// over the whole frame (the energy wave reads every pixel of it), and hadou's own `depth` only
+/// over `raster_pixels` (staged in a buffer and copied into that rectangle).
 pub struct DepthImportPass {
+    /// `distance`, every pixel.
     pipeline: Pipeline,
+    /// `depth` (HADOU_DEPTH) into the staging buffer, over `rect`.
+    depth_pipeline: Pipeline,
     sampler: Sampler,
     /// hadou's reverse-Z depth as f32 texels, copied into the D32 `depth` (lavapipe has no
-    /// storage D32); sized to the frame. Frames in flight share it: the runner orders each frame's
-    /// write after the previous frame's copy.
+    /// storage D32); grown to the largest rectangle seen (rows padded to whole workgroups), never
+    /// shrunk, so moving instances do not reallocate it. Frames in flight share it: the runner
+    /// orders each frame's write after the previous frame's copy.
     staging: Option<Buffer>,
     params: Params,
-    /// The frame's size: the dispatch.
+    /// The frame's size: the distance dispatch.
     extent: vk::Extent2D,
+    /// This frame's depth rectangle; None: no instance, no depth written.
+    rect: Option<PixelRect>,
+    /// The whole `depth` is imported (a pass other than hadou's own runs).
+    whole_depth: bool,
     convention: DepthConvention,
 }
 
 impl DepthImportPass {
     pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
-        let spirv = compiler.compile("depth_import.comp", &[])?;
         let push = std::mem::size_of::<Params>() as u32;
+        let spirv = compiler.compile("depth_import.comp", &[])?;
+        let pipeline = create_compute_pipeline(ctx, "depth_import", &spirv, push)?;
+        let spirv = compiler.compile("depth_import.comp", &[("HADOU_DEPTH", "1")])?;
+        let depth_pipeline = create_compute_pipeline(ctx, "depth_import (depth)", &spirv, push)?;
         Ok(DepthImportPass {
-            pipeline: create_compute_pipeline(ctx, "depth_import", &spirv, push)?,
+            pipeline,
+            depth_pipeline,
             sampler: Sampler::nearest(ctx, "depth_import sampler")?,
             staging: None,
             params: Params::default(),
             extent: vk::Extent2D::default(),
+            rect: None,
+            whole_depth: false,
             convention: DepthConvention::ReverseZ { near: 1.0, far: 2.0 },
         })
     }
@@ -84,6 +136,12 @@ impl DepthImportPass {
     /// This frame's depth convention (the game's projection may change per frame).
     pub fn set_convention(&mut self, convention: DepthConvention) {
         self.convention = convention;
+    }
+
+    /// Whether this frame imports the whole `depth` rather than the raster's rectangle
+    /// (`only_raster_reads_depth`).
+    pub fn set_whole_depth(&mut self, whole: bool) {
+        self.whole_depth = whole;
     }
 }
 
@@ -98,19 +156,25 @@ impl Pass for DepthImportPass {
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let extent = frame.extent;
+        self.rect = if self.whole_depth {
+            Some(PixelRect::full(extent.width, extent.height))
+        } else {
+            raster_pixels(frame.scene, &frame.scene_gpu.mesh_bounds(), extent)
+        };
+        let r = self.rect.unwrap_or(PixelRect { x0: 0, y0: 0, x1: 1, y1: 1 });
         // Whole 8×8 workgroups: every lane stores into the buffer, the copy skips the padding.
-        let (row, rows) = (extent.width.next_multiple_of(8), extent.height.next_multiple_of(8));
+        let (row, rows) = (r.width().next_multiple_of(8), r.height().next_multiple_of(8));
         let size = row as u64 * rows as u64 * 4;
-        if self.staging.as_ref().is_none_or(|b| b.size != size.max(4)) {
+        if self.staging.as_ref().is_none_or(|b| b.size < size) {
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
             let name = "depth_import staging";
-            // A resize retires the old buffer with the frame.
+            // The old buffer retires with the frame.
             self.staging =
                 Some(frame.memory.create_buffer(frame.ctx, name, size, usage, MemoryLocation::GpuOnly)?);
         }
         let (a, b) = self.convention.coefficients();
         self.params = Params {
-            dims: [u32::from(self.convention.reversed()), row, 0, 0],
+            dims: [u32::from(self.convention.reversed()), row, r.x0, r.y0],
             planes: [a as f32, b as f32, frame.scene.camera.near as f32, 0.0],
         };
         self.extent = extent;
@@ -127,7 +191,7 @@ impl Pass for DepthImportPass {
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
-        vec![&self.pipeline]
+        vec![&self.pipeline, &self.depth_pipeline]
     }
 
     fn record(&self, pass: &PassRecording) {
@@ -136,10 +200,16 @@ impl Pass for DepthImportPass {
         rec.bind_pipeline(&self.pipeline, pass.set(0));
         rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
         rec.dispatch_2d(width, height, (8, 8));
+        let (Some(r), Some(staging)) = (self.rect, &self.staging) else { return };
+        rec.bind_pipeline(&self.depth_pipeline, pass.set(1));
+        rec.push_constants(&self.depth_pipeline, bytemuck::bytes_of(&self.params));
+        rec.dispatch_2d(r.width(), r.height(), (8, 8));
         rec.compute_to_copy_barrier();
-        if let Some(staging) = &self.staging {
-            rec.copy_buffer_to_depth(staging, self.params.dims[1], &pass.targets.image(Target::Depth));
-        }
+        let region = vk::Rect2D {
+            offset: vk::Offset2D { x: r.x0 as i32, y: r.y0 as i32 },
+            extent: vk::Extent2D { width: r.width(), height: r.height() },
+        };
+        rec.copy_buffer_to_depth(staging, self.params.dims[1], &pass.targets.image(Target::Depth), region);
     }
 }
 

@@ -39,14 +39,19 @@ fn table() -> Vec<Row> {
             vec![super::tonemap::Params::layout(), super::tonemap::Measured::layout()],
         ),
         ("exposure.comp", vec![], vec![super::tonemap::Params::layout(), super::tonemap::Measured::layout()]),
-        ("composite.frag", vec![], vec![super::composite::Params::layout()]),
+        ("composite.frag", vec![("MODE", "0")], vec![super::composite::Params::layout()]),
         (
             "composite.frag",
-            vec![("AUTO_EXPOSURE", "1")],
+            vec![("MODE", "1"), ("AUTO_EXPOSURE", "1")],
             vec![super::composite::Params::layout(), super::tonemap::Measured::layout()],
         ),
         ("depth_out.frag", vec![], [frame(), vec![super::depth_out::Params::layout()]].concat()),
         ("depth_import.comp", vec![], [frame(), vec![super::depth_import::Params::layout()]].concat()),
+        (
+            "depth_import.comp",
+            vec![("HADOU_DEPTH", "1")],
+            [frame(), vec![super::depth_import::Params::layout()]].concat(),
+        ),
         ("raster.vert", vec![], [frame(), vec![InstanceData::layout(), MaterialData::layout()]].concat()),
         ("raster.frag", vec![], frame()),
         (
