@@ -6,6 +6,9 @@
 // 8 the tile's flag and corners are the same for the whole workgroup, which lavapipe then loads
 // once instead of gathering them lane by lane); the pixels of exact tiles skip their stores.
 // (Over a list of tiles, this pass cost as much as the exact one at 1920×1080.)
+#ifndef WAVE_TILE
+#define WAVE_TILE 8
+#endif
 #include "common/energy_wave_tiles.glsl"
 #include "common/frame.glsl"
 

@@ -14,6 +14,8 @@
 // Workgroups per row of the indirect dispatch over the exact tiles' list.
 #define WAVE_TILES_PER_ROW 64u
 
+// The pass defines WAVE_TILE (4 or 8) for the shaders over tiles; energy_wave_interp.comp
+// defaults to 8 so the file compiles on its own (the viewer's shader check).
 #ifdef WAVE_TILE
 // The passes over tiles run 8×8 workgroups (lavapipe pays per workgroup: 4×4 ones made the
 // exact tiles cost 2.5× as much per pixel). With T = 8 a workgroup is one tile, the same for all

@@ -441,7 +441,8 @@ impl ApplicationHandler for App {
     }
 }
 
-/// Compiles every shader stage hadou has from `HADOU_SHADER_DIR` (none takes `#define`s).
+/// Compiles every shader stage hadou has from `HADOU_SHADER_DIR`, each without `#define`s (a
+/// file whose pass defines something compiles on its own with a default).
 fn check_shaders() -> Result<(), String> {
     let mut compiler = hadou::gpu::shader::ShaderCompiler::new(hadou::SHADERS).map_err(|e| e.to_string())?;
     for (name, _) in hadou::SHADERS {
