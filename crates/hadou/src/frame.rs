@@ -188,7 +188,10 @@ pub(crate) fn record_passes(
     let names: Vec<&'static str> = passes.iter().map(|p| p.name()).collect();
     crate::effect::check_reads(names.iter().copied().zip(prepared.iter().map(|p| p.uses.as_slice())))?;
     let rec = Recorder { ctx: f.ctx, cmd: f.cmd };
-    for (pass, p) in passes.iter().zip(&prepared) {
+    // Every pass's images, by pass, for `PassRecording::used_later_by`.
+    let uses: Vec<(&'static str, Vec<Target>)> =
+        names.iter().zip(&prepared).map(|(n, p)| (*n, p.uses.iter().map(|u| u.target).collect())).collect();
+    for (index, (pass, p)) in passes.iter().zip(&prepared).enumerate() {
         // A history image with no previous frame to read is cleared to zeros first.
         let targets: Vec<Target> = p.uses.iter().map(|u| u.target).collect();
         f.targets.clear_fresh_history(&rec, &targets);
@@ -214,6 +217,7 @@ pub(crate) fn record_passes(
             pre_exposure: f.pre_exposure,
             embedded: f.embedded,
             depth_imported: f.depth_imported,
+            later: &uses[index + 1..],
         };
         scopes.push(record_scope(f.ctx, f.cmd, timestamps, pass.name(), &barriers, || {
             cmd_barriers(&f.ctx.device, f.cmd, &[], &before);

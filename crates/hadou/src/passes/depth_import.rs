@@ -53,17 +53,6 @@ pub(crate) struct Params {
 
 crate::gpu::layout::gpu_layout!(Params as "Params" { dims, planes });
 
-/// hadou's own scene passes (the core raster and the built-in effects'). Of these only the
-/// raster reads `depth`, as its depth attachment, inside its instances' screen bounds; a frame
-/// that runs any other pass (a game's effect may bind `depth`) gets the whole image.
-const OWN_PASSES: [&str; 6] = ["raster", "metaballs", "light_id", "peel", "translucency", "energy_wave"];
-
-/// Whether a frame running the scene passes `names` needs hadou's `depth` imported only where
-/// the raster can draw (`DepthImportPass::set_whole_depth` takes the negation).
-pub fn only_raster_reads_depth<'a>(mut names: impl Iterator<Item = &'a str>) -> bool {
-    names.all(|n| OWN_PASSES.contains(&n))
-}
-
 /// The pixels whose depth the raster can test: the screen bounds of the corners of every
 /// instance's transformed mesh box (`Camera::pixel_bounds`, conservative: the box's hull holds the
 /// mesh, and a box reaching past the near plane gives the whole frame). None: no instance.
@@ -91,7 +80,9 @@ pub fn raster_pixels(
 /// depth image is the frame's `GameDepth` target, imported for that frame only: its view is bound
 /// into the slot's descriptor set each frame, never cached by handle. Two dispatches: `distance`
 /// over the whole frame (the energy wave reads every pixel of it), and hadou's own `depth` only
-/// over `raster_pixels` (staged in a buffer and copied into that rectangle).
+/// over `raster_pixels` (staged in a buffer and copied into that rectangle) when the raster is the
+/// only later pass that declares `depth` (its depth attachment, inside its instances' bounds);
+/// when any other pass declares it (an effect may read it anywhere) the whole image.
 pub struct DepthImportPass {
     /// `distance`, every pixel.
     pipeline: Pipeline,
@@ -99,17 +90,15 @@ pub struct DepthImportPass {
     depth_pipeline: Pipeline,
     sampler: Sampler,
     /// hadou's reverse-Z depth as f32 texels, copied into the D32 `depth` (lavapipe has no
-    /// storage D32); grown to the largest rectangle seen (rows padded to whole workgroups), never
-    /// shrunk, so moving instances do not reallocate it. Frames in flight share it: the runner
-    /// orders each frame's write after the previous frame's copy.
+    /// storage D32); sized for the whole frame (rows padded to whole workgroups: whether the
+    /// rectangle or the whole image is imported is known when the pass records). Frames in flight
+    /// share it: the runner orders each frame's write after the previous frame's copy.
     staging: Option<Buffer>,
     params: Params,
     /// The frame's size: the distance dispatch.
     extent: vk::Extent2D,
-    /// This frame's depth rectangle; None: no instance, no depth written.
+    /// This frame's depth rectangle for the raster; None: no instance.
     rect: Option<PixelRect>,
-    /// The whole `depth` is imported (a pass other than hadou's own runs).
-    whole_depth: bool,
     convention: DepthConvention,
 }
 
@@ -128,7 +117,6 @@ impl DepthImportPass {
             params: Params::default(),
             extent: vk::Extent2D::default(),
             rect: None,
-            whole_depth: false,
             convention: DepthConvention::ReverseZ { near: 1.0, far: 2.0 },
         })
     }
@@ -136,12 +124,6 @@ impl DepthImportPass {
     /// This frame's depth convention (the game's projection may change per frame).
     pub fn set_convention(&mut self, convention: DepthConvention) {
         self.convention = convention;
-    }
-
-    /// Whether this frame imports the whole `depth` rather than the raster's rectangle
-    /// (`only_raster_reads_depth`).
-    pub fn set_whole_depth(&mut self, whole: bool) {
-        self.whole_depth = whole;
     }
 }
 
@@ -156,14 +138,9 @@ impl Pass for DepthImportPass {
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
         let extent = frame.extent;
-        self.rect = if self.whole_depth {
-            Some(PixelRect::full(extent.width, extent.height))
-        } else {
-            raster_pixels(frame.scene, &frame.scene_gpu.mesh_bounds(), extent)
-        };
-        let r = self.rect.unwrap_or(PixelRect { x0: 0, y0: 0, x1: 1, y1: 1 });
+        self.rect = raster_pixels(frame.scene, &frame.scene_gpu.mesh_bounds(), extent);
         // Whole 8×8 workgroups: every lane stores into the buffer, the copy skips the padding.
-        let (row, rows) = (r.width().next_multiple_of(8), r.height().next_multiple_of(8));
+        let (row, rows) = (extent.width.next_multiple_of(8), extent.height.next_multiple_of(8));
         let size = row as u64 * rows as u64 * 4;
         if self.staging.as_ref().is_none_or(|b| b.size < size) {
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
@@ -174,7 +151,7 @@ impl Pass for DepthImportPass {
         }
         let (a, b) = self.convention.coefficients();
         self.params = Params {
-            dims: [u32::from(self.convention.reversed()), row, r.x0, r.y0],
+            dims: [u32::from(self.convention.reversed()), row, 0, 0],
             planes: [a as f32, b as f32, frame.scene.camera.near as f32, 0.0],
         };
         self.extent = extent;
@@ -200,16 +177,21 @@ impl Pass for DepthImportPass {
         rec.bind_pipeline(&self.pipeline, pass.set(0));
         rec.push_constants(&self.pipeline, bytemuck::bytes_of(&self.params));
         rec.dispatch_2d(width, height, (8, 8));
-        let (Some(r), Some(staging)) = (self.rect, &self.staging) else { return };
+        // A later pass other than the raster that declares `depth` may read it anywhere.
+        let whole = pass.used_later_by(Target::Depth).any(|name| name != "raster");
+        let rect = if whole { Some(PixelRect::full(width, height)) } else { self.rect };
+        let (Some(r), Some(staging)) = (rect, &self.staging) else { return };
+        let params =
+            Params { dims: [self.params.dims[0], r.width().next_multiple_of(8), r.x0, r.y0], ..self.params };
         rec.bind_pipeline(&self.depth_pipeline, pass.set(1));
-        rec.push_constants(&self.depth_pipeline, bytemuck::bytes_of(&self.params));
+        rec.push_constants(&self.depth_pipeline, bytemuck::bytes_of(&params));
         rec.dispatch_2d(r.width(), r.height(), (8, 8));
         rec.compute_to_copy_barrier();
         let region = vk::Rect2D {
             offset: vk::Offset2D { x: r.x0 as i32, y: r.y0 as i32 },
             extent: vk::Extent2D { width: r.width(), height: r.height() },
         };
-        rec.copy_buffer_to_depth(staging, self.params.dims[1], &pass.targets.image(Target::Depth), region);
+        rec.copy_buffer_to_depth(staging, params.dims[1], &pass.targets.image(Target::Depth), region);
     }
 }
 

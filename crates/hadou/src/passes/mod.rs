@@ -179,9 +179,17 @@ pub struct PassRecording<'a> {
     pub embedded: bool,
     /// See `FrameContext::depth_imported`.
     pub depth_imported: bool,
+    /// The passes recorded after this one this frame and the images each declared.
+    pub later: &'a [(&'static str, Vec<Target>)],
 }
 
 impl PassRecording<'_> {
+    /// The names of the passes after this one that declared `target` this frame (however they use
+    /// it): what an edge pass can leave out of an image depends on who reads it.
+    pub fn used_later_by(&self, target: Target) -> impl Iterator<Item = &'static str> + '_ {
+        self.later.iter().filter(move |(_, t)| t.contains(&target)).map(|(n, _)| *n)
+    }
+
     /// The set of the pass's `i`-th pipeline.
     pub fn set(&self, i: usize) -> vk::DescriptorSet {
         self.sets.get(i).copied().unwrap_or_default()

@@ -225,9 +225,6 @@ impl Renderer {
             targets.import(Target::GameDepth, depth.image, depth.view, depth.format, last);
             if let (Some(p), Some(convention)) = (&mut self.edges.depth_import, convention) {
                 p.set_convention(convention);
-                // A game's pass may read `depth` anywhere: then it is imported whole.
-                let names = loaded.passes.running.iter().map(|a| a.name);
-                p.set_whole_depth(!crate::passes::depth_import::only_raster_reads_depth(names));
             }
         }
         if let Some(color) = &inputs.color {
