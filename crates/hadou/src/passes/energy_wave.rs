@@ -203,10 +203,12 @@ impl Pass for EnergyWavePass {
         ];
         if tile_buffers {
             let [corners, lists, state] = self.tile_buffers(frame, grid, waves.len() as u32)?.ranges();
+            // The state is also the exact tiles' indirect dispatch (its barrier is recorded by
+            // `energy_wave_tiles::record`); declared for the host, which reads the counts.
             bindings.extend([
                 Binding::Written(corners, Reader::Compute),
                 Binding::Written(lists, Reader::Compute),
-                Binding::Written(state, Reader::Indirect),
+                Binding::Written(state, Reader::Host),
             ]);
         }
         Ok(bindings)

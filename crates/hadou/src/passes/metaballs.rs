@@ -89,7 +89,7 @@ pub struct PendingRecord {
 /// pixel walks only the balls of its tile: with the 4,096-ball scene at 256², 58 per tile on
 /// average (max 164) against 92 (max 264) with 16×16 tiles (measured: 0.93× the pass time).
 pub const TILE: u32 = 8;
-/// Active tiles per row of the dispatch (one workgroup each: within maxComputeWorkGroupCount[0]).
+/// Active tiles per row of the dispatch (one workgroup each: within maxComputeWorkGroupCount\[0\]).
 /// Keep in sync with shaders/metaballs.comp and shaders/metaballs_bin.comp.
 pub const TILES_PER_ROW: u32 = 8192;
 

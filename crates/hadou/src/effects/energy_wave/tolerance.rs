@@ -13,7 +13,7 @@
 //! interpolation of the corners' L and G(x, y) = H(u(x, y), L̃(x, y)); G equals F at the corners,
 //! so F̃ interpolates G too and
 //!
-//! |F − F̃| ≤ |H(u, L) − H(u, L̃)| + |G − Ĩ[G]| ≤ |L − L̃|·E_max + (h²/8)·(sup|G_xx| + sup|G_yy|),
+//! |F − F̃| ≤ |H(u, L) − H(u, L̃)| + |G − Ĩ\[G\]| ≤ |L − L̃|·E_max + (h²/8)·(sup|G_xx| + sup|G_yy|),
 //!
 //! the first term because E ≤ E_max on every ray of the tile, the second the bilinear
 //! interpolation bound (interpolate in x, then in y: each is linear interpolation, error
