@@ -36,7 +36,8 @@ const float HALF_MAX = 65504.0;
 
 void main() {
     uvec2 size = frame.counts.yz;
-    uvec2 t = wave_frame_tile();
+    // Invocations past the image's edge (the dispatch's last workgroups) stay in the grid.
+    uvec2 t = min(wave_frame_tile(), params.counts.yz - 1u);
     uvec2 p = gl_GlobalInvocationID.xy;
     bool listed = tiles[t.y * params.counts.y + t.x] != 0u;
     bool inside = listed && p.x < size.x && p.y < size.y;

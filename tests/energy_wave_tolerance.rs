@@ -139,11 +139,13 @@ fn hard_scenes_stay_within_the_tolerance() {
     }
 }
 
-/// The seed's scene (occluders: depth edges) at sizes where each tolerance interpolates tiles.
+/// The seed's scene (occluders: depth edges) at sizes where each tolerance interpolates tiles, and
+/// at a size no tile size divides (partial tiles at the right and bottom edges).
 #[test]
 fn seed_scene_with_occluders_stays_within_the_tolerance() {
     let scene = hadou::scene::load_scene("assets/scenes/energy_wave.toml".as_ref()).unwrap();
-    for (tolerance, size) in [(1e-2, (256, 256)), (1e-3, (512, 512)), (1e-4, (960, 540))] {
+    for (tolerance, size) in [(1e-2, (256, 256)), (1e-2, (301, 203)), (1e-3, (512, 512)), (1e-4, (960, 540))]
+    {
         let (smooth, exact) = check("seed 004 with occluders", &scene, tolerance, size);
         println!("seed at {tolerance:e}: {smooth} interpolated, {exact} exact");
         assert!(smooth > 0 && exact > 0, "{smooth} interpolated, {exact} exact");
