@@ -1,5 +1,5 @@
-// The energy wave with a tolerance: the bound on the error of interpolating H bilinearly over an
-// 8×8-pixel tile from its corners. f32 twin of crates/hadou/src/effects/energy_wave/tolerance.rs
+// The energy wave with a tolerance: the bound on the error of interpolating H bilinearly over a
+// T×T-pixel tile from its corners. f32 twin of crates/hadou/src/effects/energy_wave/tolerance.rs
 // (f64), where the argument is written out; this follows it line for line, with margins for f32:
 // every angle that should be small is inflated and every one that should be large deflated by
 // 2^-9 relative (Vulkan allows atan 4096 ulp ≈ 2^-11) plus 2^-22 absolute, sin and asin are
@@ -49,10 +49,12 @@ uvec2 wave_tile_offset() {
 #endif
 
 // A tile index split into (x, y) without an integer division (lavapipe runs a vector division
-// lane by lane): with a float division, exact for indices below 2^22 (the +0.5 keeps the
-// quotient at least 0.5/tiles_x from an integer).
+// lane by lane): a float division (the +0.5 keeps the quotient 0.5/tiles_x from an integer;
+// Vulkan allows it 2.5 ulp, so on grids of millions of tiles it can be one row off), then that
+// row corrected with integer products.
 uvec2 wave_tile_xy(uint tile, uint tiles_x) {
     uint y = uint((float(tile) + 0.5) / float(tiles_x));
+    y = y * tiles_x > tile ? y - 1u : ((y + 1u) * tiles_x <= tile ? y + 1u : y);
     return uvec2(tile - y * tiles_x, y);
 }
 
