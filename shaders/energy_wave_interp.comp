@@ -5,7 +5,7 @@
 // Dispatched over the whole frame in 8×8 workgroups (WAVE_TILE: 4 or 8, a variant per size; with
 // 8 the tile's flag and corners are the same for the whole workgroup, which lavapipe then loads
 // once instead of gathering them lane by lane); the pixels of exact tiles skip their stores.
-// (Over a list of tiles, this pass cost as much as the exact one at 1920×1080.)
+// (Over a list of the smooth tiles the tile path was slower: docs/PERFORMANCE.md.)
 #ifndef WAVE_TILE
 #define WAVE_TILE 8
 #endif
@@ -44,9 +44,9 @@ void main() {
     uvec2 offset = p % uint(WAVE_TILE);
     float fx = float(offset.x) * (1.0 / float(WAVE_TILE));
     float fy = float(offset.y) * (1.0 / float(WAVE_TILE));
-    // As in energy_wave.comp (lavapipe): the first wave's values are read before any loop or
-    // branch (inside one, lavapipe loads a buffer value lane by lane: this pass cost more than
-    // the exact one before), and the loop is a do-while.
+    // Laid out as energy_wave.comp is for lavapipe: the first wave's values read before any loop
+    // or branch, the loop a do-while (here it measured no faster than a plain loop: the pass is
+    // bound by its image stores).
     uint n = params.counts.x;
     uvec4 at = (uvec4(t.y, t.y, t.y + 1u, t.y + 1u) * (params.counts.y + 1u) + uvec4(t.x, t.x + 1u, t.x, t.x + 1u))
                * (n + 1u) + 1u;
