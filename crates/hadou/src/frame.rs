@@ -100,6 +100,8 @@ pub(crate) struct SlotFrame<'a> {
     pub memory: &'a Memory,
     pub cmd: vk::CommandBuffer,
     pub slot: usize,
+    /// The view of the frame (`FrameContext::view`).
+    pub view: usize,
     /// The slot's descriptor pool, reset for this frame.
     pub pool: &'a DescriptorPool,
     pub ring: &'a mut UploadRing,
@@ -147,6 +149,7 @@ pub(crate) fn record_passes(
             pre_exposure: f.pre_exposure,
             extent,
             slot: f.slot,
+            view: f.view,
             embedded: f.embedded,
             depth_imported: f.depth_imported,
             ring: &mut *f.ring,

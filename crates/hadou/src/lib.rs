@@ -45,7 +45,8 @@ pub use renderer::instances::{InstanceId, LightId};
 pub use renderer::world::{GroupId, MetaballsDesc, WaveDesc, WaveId};
 pub use renderer::{
     AovReadback, DepthConvention, Exposure, ExternalColor, ExternalDepth, FrameInputs, FrameTimings,
-    GameMatrix, GameVector, RecordedFrame, Renderer, RendererOptions, WaveUpdate,
+    GameMatrix, GameVector, RecordedFrame, Renderer, RendererOptions, View, ViewCamera, WaveUpdate,
+    MAX_VIEWS,
 };
 pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};
 

@@ -108,9 +108,10 @@ pub struct EnergyWavePass {
     extent: vk::Extent2D,
     /// The slot this frame records into.
     slot: usize,
-    /// Whether this frame and each slot's last frame took the tile path.
-    path: PathChoice,
-    tiled_slots: Vec<bool>,
+    /// Per view (`FrameContext::view`): whether its frames take the tile path, from its own last
+    /// counts. Per slot: whether its last frame took the tile path, and whose view it was.
+    paths: Vec<PathChoice>,
+    tiled_slots: Vec<(bool, usize)>,
 }
 
 impl EnergyWavePass {
@@ -128,7 +129,7 @@ impl EnergyWavePass {
             params: EnergyWaveParams::default(),
             extent,
             slot: 0,
-            path: PathChoice::default(),
+            paths: Vec::new(),
             tiled_slots: Vec::new(),
         })
     }
@@ -173,11 +174,14 @@ impl Pass for EnergyWavePass {
             .collect();
         // The tile pipelines' sets need the tile buffers even in a frame that runs exact.
         let tile_buffers = self.tiles.is_some() && !waves.is_empty();
-        let tiled = tile_buffers && self.path.tiled();
-        if self.tiled_slots.len() <= frame.slot {
-            self.tiled_slots.resize(frame.slot + 1, false);
+        if self.paths.len() <= frame.view {
+            self.paths.resize_with(frame.view + 1, PathChoice::default);
         }
-        self.tiled_slots[frame.slot] = tiled;
+        let tiled = tile_buffers && self.paths[frame.view].tiled();
+        if self.tiled_slots.len() <= frame.slot {
+            self.tiled_slots.resize(frame.slot + 1, (false, 0));
+        }
+        self.tiled_slots[frame.slot] = (tiled, frame.view);
         let least = live.iter().map(|(_, _, t)| *t).fold(f64::INFINITY, f64::min);
         let grid = TileGrid::of(frame.extent, tile_size(pixel_angle(scene, frame.extent), least));
         self.params = if tiled {
@@ -237,10 +241,11 @@ impl Pass for EnergyWavePass {
     }
 
     fn finished(&self, slot: usize, stats: &mut FrameStats) {
-        let tiled = self.tiled_slots.get(slot).copied().unwrap_or(false);
-        if let (true, Some(Some(buffers))) = (tiled, self.buffers.get(slot)) {
+        let (tiled, view) = self.tiled_slots.get(slot).copied().unwrap_or((false, 0));
+        if let (true, Some(Some(buffers)), Some(path)) = (tiled, self.buffers.get(slot), self.paths.get(view))
+        {
             let (interpolated, exact) = buffers.counts();
-            self.path.note(interpolated, exact);
+            path.note(interpolated, exact);
             stats.add(TILES_INTERPOLATED, interpolated);
             stats.add(TILES_EXACT, exact);
         }

@@ -133,8 +133,14 @@ pub struct FrameContext<'a> {
     pub pre_exposure: f64,
     /// The frame's size in pixels.
     pub extent: vk::Extent2D,
-    /// The frame slot being recorded (0..frames_in_flight).
+    /// The slot being recorded: per-slot data (a host-written buffer, a device counter read back
+    /// once the frame finished) is indexed by it. Each view of a frame has a slot of its own, so
+    /// it may exceed `frames_in_flight` (`Renderer::record_views`).
     pub slot: usize,
+    /// Which view of the frame this is (0 for `record_frame`): state a pass keeps from frame to
+    /// frame about what it saw (an adapted exposure, a path chosen from the last frame's counts)
+    /// is kept per view. The view's camera is `scene.camera` while it records.
+    pub view: usize,
     /// Embedded in a game's frame: the background is transparent black (hadou's result is
     /// composited over the game's colour).
     pub embedded: bool,

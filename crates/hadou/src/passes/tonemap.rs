@@ -39,16 +39,17 @@ pub(crate) struct AutoExposure {
     /// Per frame slot: the measurement buffer, and the scene time of the frame that last wrote
     /// it (None once read back, or when that frame had a fixed exposure).
     slots: Vec<(Buffer, Option<f64>)>,
-    /// The adapted log2 luminance and the scene time of the frame it last took in. Adaptation
+    /// Per view (`FrameContext::view`), the adapted log2 luminance and the scene time of the frame
+    /// it last took in: each view adapts to what it sees, as it would rendered alone. Adaptation
     /// follows the frames' scene time (`FrameInputs::time`), not the wall clock: the same frames
     /// give the same pictures on any machine, and a paused game's exposure holds still.
-    adapted: Option<(f64, f64)>,
+    adapted: Vec<Option<(f64, f64)>>,
 }
 
 impl AutoExposure {
     /// A frame with a fixed exposure: the next automatic one starts afresh.
     pub fn reset(&mut self) {
-        self.adapted = None;
+        self.adapted.clear();
         self.slots.iter_mut().for_each(|(_, pending)| *pending = None);
     }
 
@@ -63,13 +64,18 @@ impl AutoExposure {
                 frame.memory.create_buffer(frame.ctx, "exposure", size, usage, MemoryLocation::GpuToCpu)?;
             self.slots.push((buffer, None));
         }
-        self.read_back(frame.slot);
+        if self.adapted.len() <= frame.view {
+            self.adapted.resize(frame.view + 1, None);
+        }
+        // The slot's last frame was this view's (a slot serves one view).
+        let adapted = &mut self.adapted[frame.view];
+        read_back(&mut self.slots[frame.slot], adapted);
         let now = frame.time;
         let pre_log2 = frame.pre_exposure.log2() as f32;
-        let (history, weight) = match self.adapted {
+        let (history, weight) = match *adapted {
             // Time that went back is a new timeline (a reloaded level): the frame's own measurement.
             Some((_, since)) if now < since => {
-                self.adapted = None;
+                *adapted = None;
                 (0.0, 1.0)
             }
             None => (0.0, 1.0),
@@ -79,27 +85,26 @@ impl AutoExposure {
         Ok(((pre_log2, history, weight), BufferRange::whole(self.slots[frame.slot].0.raw)))
     }
 
-    /// The adapted log2 luminance (None before a measurement has been read back).
+    /// The first view's adapted log2 luminance (None before a measurement has been read back).
     pub fn adapted_log2_luminance(&self) -> Option<f64> {
-        self.adapted.map(|(l, _)| l)
+        self.adapted.first().copied().flatten().map(|(l, _)| l)
     }
+}
 
-    /// Folds the measurement of the slot's finished frame into the adapted luminance.
-    fn read_back(&mut self, slot: usize) {
-        let Some((buffer, pending)) = self.slots.get_mut(slot) else { return };
-        let Some(at) = pending.take() else { return };
-        let Some(bytes) = buffer.mapped() else { return };
-        let Some(m) = bytes.get(..std::mem::size_of::<Measured>()) else { return };
-        let measured = bytemuck::pod_read_unaligned::<Measured>(m).log2_average as f64;
-        if !measured.is_finite() {
-            return;
-        }
-        let adapted = match self.adapted {
-            None => measured,
-            Some((a, since)) => adapt(Some(a), measured, at - since),
-        };
-        self.adapted = Some((adapted, at));
+/// Folds the measurement of a slot's finished frame into its view's adapted luminance.
+fn read_back((buffer, pending): &mut (Buffer, Option<f64>), adapted: &mut Option<(f64, f64)>) {
+    let Some(at) = pending.take() else { return };
+    let Some(bytes) = buffer.mapped() else { return };
+    let Some(m) = bytes.get(..std::mem::size_of::<Measured>()) else { return };
+    let measured = bytemuck::pod_read_unaligned::<Measured>(m).log2_average as f64;
+    if !measured.is_finite() {
+        return;
     }
+    let folded = match *adapted {
+        None => measured,
+        Some((a, since)) => adapt(Some(a), measured, at - since),
+    };
+    *adapted = Some((folded, at));
 }
 
 /// Push constants of shaders/tonemap.comp and shaders/exposure.comp (common/exposure.glsl; size

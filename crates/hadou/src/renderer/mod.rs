@@ -34,6 +34,7 @@ mod slots;
 mod timings;
 mod update;
 pub mod view_projection;
+mod views;
 pub mod world;
 
 pub use deform::vertex_normals;
@@ -43,6 +44,7 @@ pub use look::Exposure;
 pub use readback::AovReadback;
 pub use timings::FrameTimings;
 pub use update::WaveUpdate;
+pub use views::{View, ViewCamera, MAX_VIEWS};
 
 use crate::effect::{Effects, ScenePasses};
 use crate::gpu::memory::Memory;
@@ -130,13 +132,18 @@ struct Edges {
 /// it was made with (owning or `from_raw`) is dropped last.
 pub struct Renderer {
     loaded: Option<Loaded>,
-    targets: Option<Targets>,
+    /// Per view (`record_views`; one for `record_frame`): its images.
+    targets: Vec<Targets>,
     edges: Edges,
-    slots: Vec<Slot>,
+    /// Per frame slot, a slot per view its frames recorded (the first is `record_frame`'s). The
+    /// passes see view v of frame slot i as slot i + frames_in_flight·v (`slot_index`).
+    slots: Vec<Vec<Slot>>,
     /// The number the next recorded frame gets.
     next_frame: u64,
-    /// The slot of the frame recorded last (where a read-back recorded after it goes).
+    /// The frame slot of the frame recorded last (where a read-back recorded after it goes).
     current: Option<usize>,
+    /// The views the frame recorded last recorded (a 0 × 0 view is skipped).
+    current_views: Vec<usize>,
     /// Frames up to this one are known to have finished.
     finished_through: Option<u64>,
     latest: Option<FinishedFrame>,
@@ -166,14 +173,15 @@ impl Renderer {
         let dir = options.pipeline_cache_dir.clone().or_else(crate::effects::bake_cache::default_cache_dir);
         let pipeline_cache = PipelineCache::open(&ctx, dir.as_deref())?;
         ctx.set_pipeline_cache(pipeline_cache.raw);
-        let slots = (0..n).map(|i| Slot::new(&ctx, i)).collect::<Result<Vec<_>, _>>()?;
+        let slots = (0..n).map(|i| Ok(vec![Slot::new(&ctx, i)?])).collect::<Result<Vec<_>, Error>>()?;
         Ok(Renderer {
             loaded: None,
-            targets: None,
+            targets: Vec::new(),
             edges: Edges::default(),
             slots,
             next_frame: 0,
             current: None,
+            current_views: Vec::new(),
             finished_through: None,
             latest: None,
             effects: options.effects.clone(),
@@ -219,7 +227,7 @@ impl Renderer {
     /// `record_aov_readback` after it can copy it (the headless colour always can). Before any
     /// frame, nothing else: a pass declares the images it binds when it prepares a frame.
     pub fn produces(&self, target: Target) -> bool {
-        target == Target::Ldr || self.targets.as_ref().is_some_and(|t| t.contains(target))
+        target == Target::Ldr || self.targets.first().is_some_and(|t| t.contains(target))
     }
 
     /// Uploads the scene and builds the passes it needs (pipelines are built here, through the
@@ -267,8 +275,7 @@ impl Renderer {
     pub fn prepare(&mut self, inputs: &FrameInputs) -> Result<(), Error> {
         self.check_inputs(inputs)?;
         self.ensure_edges(inputs)?;
-        let targets = self.targets.get_or_insert_with(|| Targets::new(inputs.extent));
-        targets.extent = inputs.extent;
+        let targets = view_targets(&mut self.targets, 0, inputs.extent);
         let Some(loaded) = &self.loaded else { return Ok(()) };
         let edges = [
             self.edges.depth_import.as_ref().filter(|_| inputs.depth.is_some()).map(|p| p as &dyn Pass),
@@ -295,11 +302,18 @@ impl Renderer {
             return Ok(());
         }
         self.finished_through = Some(frame);
-        for i in 0..self.slots.len() {
-            let passes: Vec<&dyn Pass> = self.loaded.iter().flat_map(|l| l.pass_list()).collect();
-            if let Some(done) = self.slots[i].finish(i, frame, &passes) {
-                if self.latest.as_ref().is_none_or(|l| l.frame < done.frame) {
-                    self.latest = Some(done);
+        let in_flight = self.slots.len();
+        let passes: Vec<&dyn Pass> = self.loaded.iter().flat_map(|l| l.pass_list()).collect();
+        for (i, views) in self.slots.iter_mut().enumerate() {
+            // A frame slot's views all hold the same frame (each began with it).
+            let mut stats = crate::frame::FrameStats::default();
+            let mut done = None;
+            for (v, slot) in views.iter_mut().enumerate() {
+                done = slot.finish(slot_index(i, v, in_flight), v, frame, &passes, &mut stats).or(done);
+            }
+            if let Some(done) = done {
+                if self.latest.as_ref().is_none_or(|l| l.frame < done) {
+                    self.latest = Some(FinishedFrame { frame: done, stats });
                 }
             }
         }
@@ -323,7 +337,7 @@ impl Renderer {
     /// after `record_frame`): its timestamps are not waited for.
     pub fn abandon_frame(&mut self) {
         if let Some(i) = self.current.take() {
-            self.slots[i].abandon();
+            self.slots[i].iter_mut().for_each(Slot::abandon);
         }
     }
 
@@ -347,7 +361,7 @@ impl Drop for Renderer {
             cache.save(&crate::output::interrupt::write_through_temporary);
         }
         self.loaded = None;
-        self.targets = None;
+        self.targets.clear();
         self.edges = Edges::default();
         self.slots.clear();
         self.ctx.set_pipeline_cache(Default::default());
@@ -355,6 +369,21 @@ impl Drop for Renderer {
         self.ctx.destroy_retired();
         // The context (the last field) is dropped after this.
     }
+}
+
+/// The slot the passes see for view `view` of frame slot `frame_slot` (`FrameContext::slot`).
+fn slot_index(frame_slot: usize, view: usize, frames_in_flight: usize) -> usize {
+    frame_slot + frames_in_flight * view
+}
+
+/// View `view`'s images, made on its first frame, sized for this one.
+fn view_targets(targets: &mut Vec<Targets>, view: usize, extent: crate::gpu::vk::Extent2D) -> &mut Targets {
+    while targets.len() <= view {
+        targets.push(Targets::new(extent));
+    }
+    let t = &mut targets[view];
+    t.extent = extent;
+    t
 }
 
 #[cfg(test)]

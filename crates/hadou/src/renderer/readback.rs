@@ -27,6 +27,12 @@ impl AovReadback {
         self.buffers.iter().find(|(t, _)| *t == target).and_then(|(_, b)| b.mapped())
     }
 
+    /// The tonemapped colour, if it was read back (`Renderer::record_view_color_readback`): RGBA8,
+    /// sRGB-encoded, row 0 at the top.
+    pub fn color(&self) -> Option<&[u8]> {
+        self.bytes(Target::Ldr)
+    }
+
     /// An AOV as f32, if it was read back.
     pub fn aov(&self, aov: Aov) -> Option<AovImage> {
         let bytes = self.bytes(aov.target())?;
@@ -41,14 +47,37 @@ impl AovReadback {
 }
 
 impl Renderer {
-    /// Records copies of `aovs` after the frame `record_frame` just recorded into `cmd`.
+    /// Records copies of `aovs` after the frame `record_frame` just recorded into `cmd` (its
+    /// first view's, with `record_views`).
     pub fn record_aov_readback(
         &mut self,
         cmd: vk::CommandBuffer,
         aovs: &[Aov],
     ) -> Result<AovReadback, Error> {
+        self.record_view_aov_readback(cmd, 0, aovs)
+    }
+
+    /// Records copies of view `view`'s `aovs` after the frame `record_views` just recorded into
+    /// `cmd`. `Error::NoFrameRecorded` when that frame did not record the view (none so far, or
+    /// it was 0 × 0).
+    pub fn record_view_aov_readback(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        view: usize,
+        aovs: &[Aov],
+    ) -> Result<AovReadback, Error> {
         let targets: Vec<Target> = aovs.iter().map(|a| a.target()).collect();
-        self.record_readback(cmd, &targets)
+        self.record_view_readback(cmd, view, &targets)
+    }
+
+    /// Records a copy of view `view`'s tonemapped colour (a view without an `ExternalColor`), read
+    /// with `AovReadback::color`; as `record_view_aov_readback` otherwise.
+    pub fn record_view_color_readback(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        view: usize,
+    ) -> Result<AovReadback, Error> {
+        self.record_view_readback(cmd, view, &[Target::Ldr])
     }
 
     /// Records copies of `wanted` targets (e.g. `Target::Ldr` for the headless colour).
@@ -57,11 +86,21 @@ impl Renderer {
         cmd: vk::CommandBuffer,
         wanted: &[Target],
     ) -> Result<AovReadback, Error> {
+        self.record_view_readback(cmd, 0, wanted)
+    }
+
+    fn record_view_readback(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        view: usize,
+        wanted: &[Target],
+    ) -> Result<AovReadback, Error> {
         let mut wanted = wanted.to_vec();
         wanted.sort();
         wanted.dedup();
         let passes = self.pass_names().join(", ");
-        let (Some(targets), Some(slot)) = (&mut self.targets, self.current) else {
+        let recorded = self.current.filter(|_| self.current_views.contains(&view));
+        let (Some(targets), Some(slot)) = (self.targets.get_mut(view), recorded) else {
             return Err(Error::NoFrameRecorded);
         };
         if let Some(&missing) = wanted.iter().find(|t| !targets.contains(**t)) {
@@ -83,7 +122,7 @@ impl Renderer {
         let ctx = &self.ctx;
         let barriers: Vec<_> =
             wanted.iter().filter_map(|&t| targets.transition(t, ImageAccess::TRANSFER_SRC)).collect();
-        let s = &mut self.slots[slot];
+        let s = &mut self.slots[slot][view];
         let mut timestamps: Timestamps = Some(&mut s.timestamps);
         let rec = Recorder { ctx, cmd };
         let scope = record_scope(ctx, cmd, &mut timestamps, "readback", &barriers, || {

@@ -1,9 +1,12 @@
-//! `Renderer::record_frame`: one frame recorded into the caller's command buffer, in the frame's
-//! slot — the game's depth imported, the scene's passes, the output (hadou's tonemapped image, or
-//! a composite into the game's colour).
+//! `Renderer::record_frame` and `record_views`: one frame recorded into the caller's command
+//! buffer, in the frame's slot — the world's tables once, then per view the game's depth
+//! imported, the scene's passes, the output (hadou's tonemapped image, or a composite into the
+//! game's colour).
 
 use super::inputs::{DepthConvention, FrameInputs, RecordedFrame};
-use super::Renderer;
+use super::slots::Slot;
+use super::views::{View, ViewCamera, MAX_VIEWS};
+use super::{slot_index, view_targets, Renderer};
 use crate::frame::{record_passes, SlotFrame, Timestamps};
 use crate::gpu::barriers::{cmd_barriers, ImageAccess};
 use crate::gpu::pipeline::BufferRange;
@@ -85,37 +88,91 @@ impl Renderer {
         cmd: vk::CommandBuffer,
         inputs: &FrameInputs,
     ) -> Result<RecordedFrame, Error> {
-        let extent = inputs.extent;
-        if extent.width == 0 || extent.height == 0 {
+        let view = View {
+            camera: ViewCamera::Renderer,
+            extent: inputs.extent,
+            depth: inputs.depth,
+            color: inputs.color,
+        };
+        self.record_views(cmd, inputs.time, &[view])
+    }
+
+    /// Records one frame of several views of the world into `cmd` (split screen, a headset's two
+    /// eyes): view by view, in order, each with its own camera, size and images, as
+    /// `record_frame` would record it alone — the same pixels — while the world's tables, meshes
+    /// and bakes are uploaded once. It is one frame of the frame contract (`frames_in_flight`).
+    /// Per view: its own images (`record_view_aov_readback` reads them), its own temporal state
+    /// (history images, the adapted exposure). A 0 × 0 view is skipped; with none left nothing is
+    /// recorded (`recorded: false`). Every view is checked before anything is recorded; at most
+    /// `MAX_VIEWS`.
+    pub fn record_views(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        time: f64,
+        views: &[View],
+    ) -> Result<RecordedFrame, Error> {
+        if views.is_empty() || views.len() > MAX_VIEWS {
+            return Err(Error::InvalidUpdate {
+                what: format!("{} views", views.len()),
+                expected: format!("1..={MAX_VIEWS} views a frame"),
+            });
+        }
+        let live: Vec<usize> =
+            (0..views.len()).filter(|&v| views[v].extent.width > 0 && views[v].extent.height > 0).collect();
+        if live.is_empty() {
             return Ok(RecordedFrame { recorded: false, frame: self.next_frame, timed: false });
         }
-        self.check_inputs(inputs)?;
-        self.ensure_edges(inputs)?;
+        let cameras = views.iter().map(|v| self.resolve_camera(&v.camera)).collect::<Result<Vec<_>, _>>()?;
+        for &v in &live {
+            let inputs = views[v].inputs(time);
+            self.with_camera(cameras[v], |r| {
+                r.check_inputs(&inputs)?;
+                r.ensure_edges(&inputs)
+            })?;
+        }
         // A run-time bake that finished goes in before the frame's passes are prepared.
         self.poll_bakes(false)?;
         // `[[mesh]] wobble`: the meshes' shapes at this frame's time.
-        self.apply_wobble(inputs.time);
-        let (frame, slot) = self.begin_frame()?;
-        let result = self.record_in_slot(cmd, inputs, frame, slot);
+        self.apply_wobble(time);
+        let (frame, slot) = self.begin_frame(&live)?;
+        let result = self.record_world(cmd, slot).and_then(|world| {
+            live.iter().try_for_each(|&v| {
+                let inputs = views[v].inputs(time);
+                self.with_camera(cameras[v], |r| {
+                    // The view's formats and depth convention (built above: nothing is built here).
+                    r.ensure_edges(&inputs)?;
+                    r.record_view(cmd, &inputs, &world, slot, v)
+                })
+            })
+        });
         if result.is_err() {
             self.abandon_frame();
         }
         result.map(|()| RecordedFrame { recorded: true, frame, timed: true })
     }
 
-    /// Numbers the next frame and starts its slot: by the frame contract the frame the slot held
-    /// last has finished, so it is reported and what was retired with it is freed.
-    fn begin_frame(&mut self) -> Result<(u64, usize), Error> {
+    /// Numbers the next frame and starts its slot, a slot per view in `views`: by the frame
+    /// contract the frame the slot held last has finished, so it is reported and what was retired
+    /// with it is freed.
+    fn begin_frame(&mut self, views: &[usize]) -> Result<(u64, usize), Error> {
         let frame = self.next_frame;
-        let slots = self.slots.len() as u64;
-        if let Some(done) = frame.checked_sub(slots) {
+        let in_flight = self.slots.len();
+        if let Some(done) = frame.checked_sub(in_flight as u64) {
             self.frame_finished(done)?;
         }
         self.ctx.begin_frame(frame);
-        let slot = (frame % slots) as usize;
-        self.slots[slot].begin(&self.ctx, frame)?;
+        let slot = (frame % in_flight as u64) as usize;
+        let most = views.iter().copied().max().unwrap_or(0);
+        while self.slots[slot].len() <= most {
+            let index = slot_index(slot, self.slots[slot].len(), in_flight);
+            self.slots[slot].push(Slot::new(&self.ctx, index)?);
+        }
+        for &v in views {
+            self.slots[slot][v].begin(&self.ctx, frame)?;
+        }
         self.next_frame += 1;
         self.current = Some(slot);
+        self.current_views = views.to_vec();
         Ok((frame, slot))
     }
 
@@ -126,7 +183,7 @@ impl Renderer {
         cmd: vk::CommandBuffer,
         pass: &mut dyn Pass,
     ) -> Result<u64, Error> {
-        let (frame, slot) = self.begin_frame()?;
+        let (frame, slot) = self.begin_frame(&[0])?;
         let empty;
         let (scene, gpu) = match &self.loaded {
             Some(l) => (&l.scene, Some(&l.gpu)),
@@ -146,7 +203,7 @@ impl Renderer {
                 &gpu_owned
             }
         };
-        let s = &mut self.slots[slot];
+        let s = &mut self.slots[slot][0];
         let none = BufferRange::whole(vk::Buffer::null());
         let mut targets = Targets::new(vk::Extent2D { width: 1, height: 1 });
         let mut f = SlotFrame {
@@ -154,6 +211,7 @@ impl Renderer {
             memory: &self.memory,
             cmd,
             slot,
+            view: 0,
             pool: &s.pool,
             ring: &mut s.ring,
             targets: &mut targets,
@@ -177,18 +235,12 @@ impl Renderer {
         Ok(frame)
     }
 
-    fn record_in_slot(
-        &mut self,
-        cmd: vk::CommandBuffer,
-        inputs: &FrameInputs,
-        frame: u64,
-        slot: usize,
-    ) -> Result<(), Error> {
-        let extent = inputs.extent;
-        let convention = self.frame_convention(inputs)?;
+    /// What every view of the frame shares, recorded once into the first view's slot: the deformed
+    /// meshes' vertices, the materials' texture uploads, the instance and material tables.
+    fn record_world(&mut self, cmd: vk::CommandBuffer, slot: usize) -> Result<WorldFrame, Error> {
         let (ctx, memory) = (&self.ctx, &self.memory);
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
-        let s = &mut self.slots[slot];
+        let s = &mut self.slots[slot][0];
         // Deformed meshes: this slot's vertex buffers (its previous frame has finished).
         loaded.gpu.begin_slot(ctx, memory, &loaded.scene, slot)?;
         // The materials' textures, copied by the first frame after the scene was loaded.
@@ -203,8 +255,6 @@ impl Renderer {
             loaded.gpu.refresh_instances(&loaded.scene);
         }
         loaded.gpu.refresh_materials(&loaded.scene, pre_exposure, changed);
-        let uniforms = FrameUniforms::new(&loaded.scene, extent.width, extent.height, pre_exposure);
-        let uniforms = s.ring.push(ctx, memory, bytemuck::bytes_of(&uniforms))?.range().of::<FrameUniforms>();
         let instances: BufferRange = s
             .ring
             .push(ctx, memory, bytemuck::cast_slice(loaded.gpu.instance_table()))?
@@ -215,9 +265,28 @@ impl Renderer {
             .push(ctx, memory, bytemuck::cast_slice(loaded.gpu.material_table()))?
             .range()
             .of::<crate::passes::gpu_structs::MaterialData>();
+        Ok(WorldFrame { pre_exposure, instances, materials })
+    }
 
-        let targets = self.targets.get_or_insert_with(|| Targets::new(extent));
-        targets.extent = extent;
+    /// Records view `view` of the frame in frame slot `slot`, its camera the scene's.
+    fn record_view(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        inputs: &FrameInputs,
+        world: &WorldFrame,
+        slot: usize,
+        view: usize,
+    ) -> Result<(), Error> {
+        let extent = inputs.extent;
+        let convention = self.frame_convention(inputs)?;
+        let index = slot_index(slot, view, self.slots.len());
+        let (ctx, memory) = (&self.ctx, &self.memory);
+        let Some(loaded) = &self.loaded else { return Err(Error::NoScene) };
+        let s = &mut self.slots[slot][view];
+        let uniforms = FrameUniforms::new(&loaded.scene, extent.width, extent.height, world.pre_exposure);
+        let uniforms = s.ring.push(ctx, memory, bytemuck::bytes_of(&uniforms))?.range().of::<FrameUniforms>();
+
+        let targets = view_targets(&mut self.targets, view, extent);
         targets.advance_history();
         targets.discard_all();
         if let Some(depth) = &inputs.depth {
@@ -236,11 +305,12 @@ impl Renderer {
                 game_access(color.layout),
             );
         }
-        // This frame's passes: the game's depth in, the scene's, the output.
+        // This view's passes: the game's depth in, the scene's, the output.
         let mut passes: Vec<&mut dyn Pass> = Vec::new();
         if let (Some(_), Some(p)) = (&inputs.depth, &mut self.edges.depth_import) {
             passes.push(p);
         }
+        let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         passes.extend(loaded.passes.running.iter_mut().map(|a| a.pass.as_mut() as &mut dyn Pass));
         match (&inputs.color, &mut self.edges.composite, &mut self.edges.tonemap) {
             (Some(_), Some(c), _) => passes.push(c),
@@ -254,17 +324,18 @@ impl Renderer {
             ctx,
             memory,
             cmd,
-            slot,
+            slot: index,
+            view,
             pool: &s.pool,
             ring: &mut s.ring,
             targets,
             scene: &loaded.scene,
             scene_gpu: &loaded.gpu,
             uniforms,
-            instances,
-            materials,
+            instances: world.instances,
+            materials: world.materials,
             time: inputs.time,
-            pre_exposure,
+            pre_exposure: world.pre_exposure,
             embedded: inputs.depth.is_some() || inputs.color.is_some(),
             depth_imported: inputs.depth.is_some(),
         };
@@ -282,9 +353,18 @@ impl Renderer {
         cmd_barriers(&ctx.device, cmd, &release, &[]);
         targets.drop_imports();
         s.record_timestamp_copy(ctx, cmd);
-        log::trace!("frame {frame} recorded in slot {slot}");
+        log::trace!("view {view} recorded in slot {index}");
         Ok(())
     }
+}
+
+/// What the views of one frame share (`record_world`).
+struct WorldFrame {
+    /// `effects::tonemap::pre_exposure` of the frame (no view changes it).
+    pre_exposure: f64,
+    /// The instance and material tables, in the first view's slot ring.
+    instances: BufferRange,
+    materials: BufferRange,
 }
 
 /// Width over height of a frame (1 for an empty one: nothing is recorded for it).

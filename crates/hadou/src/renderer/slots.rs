@@ -1,7 +1,6 @@
 //! A frame slot: what one frame in flight owns — its descriptor pool, its upload ring and its
 //! timestamp queries. A slot is written only when its previous frame has finished.
 
-use super::timings::FinishedFrame;
 use crate::frame::{pass_timings, FrameStats, Scope};
 use crate::gpu::memory::MemoryLocation;
 
@@ -62,18 +61,33 @@ impl Slot {
         self.pending = None;
     }
 
-    /// If this slot's frame is `through` or older: what it measured (the timestamps the GPU copied
-    /// into the slot's buffer: the frame is known finished) and what its passes counted.
-    pub fn finish(&mut self, slot: usize, through: u64, passes: &[&dyn Pass]) -> Option<FinishedFrame> {
+    /// If this slot's frame is `through` or older: adds what it measured (the timestamps the GPU
+    /// copied into the slot's buffer: the frame is known finished) and what its passes counted to
+    /// `stats`, the frame's, and returns the frame. A frame's later views follow its first in
+    /// `stats.passes` (their scopes named "view N/...") and its GPU time.
+    pub fn finish(
+        &mut self,
+        slot: usize,
+        view: usize,
+        through: u64,
+        passes: &[&dyn Pass],
+        stats: &mut FrameStats,
+    ) -> Option<u64> {
         let frame = self.pending.filter(|&f| f <= through)?;
         self.pending = None;
-        let mut stats = FrameStats::default();
         // The frame finished, so the GPU's copy of its timestamps is in the buffer: no driver call.
         let ticks = self.timestamps.ticks_ns(self.ticks.mapped().unwrap_or_default());
         let (timings, gpu_frame_ms) = pass_timings(&self.scopes, &ticks);
-        stats.passes = timings;
-        stats.gpu_frame_ms = gpu_frame_ms;
-        passes.iter().for_each(|p| p.finished(slot, &mut stats));
-        Some(FinishedFrame { frame, stats })
+        let before = stats.gpu_frame_ms;
+        stats.passes.extend(timings.into_iter().map(|mut t| {
+            if view > 0 {
+                t.name = format!("view {view}/{}", t.name);
+            }
+            t.start_ms += before;
+            t
+        }));
+        stats.gpu_frame_ms += gpu_frame_ms;
+        passes.iter().for_each(|p| p.finished(slot, stats));
+        Some(frame)
     }
 }

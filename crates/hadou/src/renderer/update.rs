@@ -38,6 +38,28 @@ fn lens_ok(camera: &Camera) -> bool {
     }
 }
 
+/// Why `camera` cannot be rendered from, if it cannot.
+pub(super) fn check_camera(camera: &Camera) -> Result<(), Error> {
+    let finite = [camera.position, camera.look_at, camera.up].iter().all(|v| v.is_finite());
+    let forward = camera.look_at - camera.position;
+    if !finite
+        || forward.length() == 0.0
+        || forward.cross(camera.up).length() == 0.0
+        || !(camera.fov_y_deg > 0.0 && camera.fov_y_deg < 180.0)
+        || !(camera.near > 0.0 && camera.near.is_finite() && camera.far > camera.near)
+        || !lens_ok(camera)
+    {
+        return Err(Error::InvalidUpdate {
+            what: format!("camera {camera:?}"),
+            expected: "finite vectors, look_at ≠ position, up not along the view, 0 < fov_y_deg < 180, \
+                       0 < near < far, far finite unless the lens is a matrix, a matrix lens's scales \
+                       finite > 0 and shifts finite"
+                .into(),
+        });
+    }
+    Ok(())
+}
+
 impl Renderer {
     fn loaded_mut(&mut self) -> Result<&mut super::Loaded, Error> {
         self.loaded.as_mut().ok_or(Error::NoScene)
@@ -45,23 +67,7 @@ impl Renderer {
 
     /// The camera of the following frames (the game's camera, so hadou's pixels line up with its).
     pub fn set_camera(&mut self, camera: Camera) -> Result<(), Error> {
-        let finite = [camera.position, camera.look_at, camera.up].iter().all(|v| v.is_finite());
-        let forward = camera.look_at - camera.position;
-        if !finite
-            || forward.length() == 0.0
-            || forward.cross(camera.up).length() == 0.0
-            || !(camera.fov_y_deg > 0.0 && camera.fov_y_deg < 180.0)
-            || !(camera.near > 0.0 && camera.near.is_finite() && camera.far > camera.near)
-            || !lens_ok(&camera)
-        {
-            return Err(Error::InvalidUpdate {
-                what: format!("camera {camera:?}"),
-                expected: "finite vectors, look_at ≠ position, up not along the view, 0 < fov_y_deg < 180, \
-                           0 < near < far, far finite unless the lens is a matrix, a matrix lens's scales \
-                           finite > 0 and shifts finite"
-                    .into(),
-            });
-        }
+        check_camera(&camera)?;
         let loaded = self.loaded_mut()?;
         loaded.scene.camera = camera;
         // The game's projection no longer describes the camera.
