@@ -76,7 +76,7 @@ const AOVS: [Aov; 5] = [Aov::Depth, Aov::Energy, Aov::Normal, Aov::Hdr, Aov::Thi
 /// One frame of the current state, waited for: its colour bytes and its AOVs as bits.
 fn frame(g: &mut Game, e: vk::Extent2D) -> (Vec<u8>, Vec<(Aov, Vec<u32>)>) {
     let f = g.offscreen_frame(e, &AOVS).unwrap();
-    let bits = f.aovs.iter().map(|(a, img)| (*a, img.data.iter().map(|v| v.to_bits()).collect())).collect();
+    let bits = f.aovs().iter().map(|(a, img)| (*a, img.data.iter().map(|v| v.to_bits()).collect())).collect();
     (f.color, bits)
 }
 

@@ -24,7 +24,18 @@ use hadou::Aov;
 /// gpu_energy_wave's: f32 pixel rays (≈ 3e-7) enter H only logarithmically, and the closed form
 /// is a few f32 ulps. Where it is 0 (off the wave) the GPU's energy itself is the error, same bound.
 fn check_energy(frame: &game::OffscreenFrame, e: vk::Extent2D, energy_cmp: &mut Comparison) {
-    let aov = |a: Aov| frame.aovs.iter().find(|(x, _)| *x == a).map(|(_, img)| &img.data);
+    check_view_energy(frame, 0, &game::camera(), e, energy_cmp);
+}
+
+/// As `check_energy`, for view `view` of the frame, seen by `camera` at `e`.
+fn check_view_energy(
+    frame: &game::OffscreenFrame,
+    view: usize,
+    camera: &painter::GameCamera,
+    e: vk::Extent2D,
+    energy_cmp: &mut Comparison,
+) {
+    let aov = |a: Aov| frame.views[view].iter().find(|(x, _)| *x == a).map(|(_, img)| &img.data);
     // The wave of the state this frame was rendered from (it finished two frames later); with no
     // wave the energy pass did not run and the AOV was not produced.
     let Some(w) = frame.state.wave_desc() else {
@@ -40,7 +51,7 @@ fn check_energy(frame: &game::OffscreenFrame, e: vk::Extent2D, energy_cmp: &mut 
         core: 0.05,
         length: w.length,
     };
-    let cam = game::camera().for_hadou();
+    let cam = camera.for_hadou();
     let t = frame.state.time;
     for y in 0..e.height {
         for x in 0..e.width {
@@ -87,7 +98,7 @@ fn headless_game_loop_charges_fires_and_hits() {
     assert_eq!(finished.len(), 26);
     for frame in &finished {
         check_energy(frame, e, &mut energy_cmp);
-        let energy = frame.aovs.iter().find(|(a, _)| *a == Aov::Energy).map(|(_, img)| &img.data);
+        let energy = frame.aovs().iter().find(|(a, _)| *a == Aov::Energy).map(|(_, img)| &img.data);
         energy_sums.push(energy.map_or(0.0, |e| e.iter().map(|&v| v as f64).sum::<f64>()));
         assert!(frame.color.iter().any(|&c| c > 0), "the frame is not black");
     }
@@ -102,7 +113,7 @@ fn headless_game_loop_charges_fires_and_hits() {
     }
     // The shot hit and nothing is charging: the wave was despawned, its pass left the frame.
     assert!(g.state.wave_desc().is_none() && !names.contains(&"energy_wave"), "{names:?}");
-    let with_wave = finished.iter().filter(|f| f.aovs.iter().any(|(a, _)| *a == Aov::Energy)).count();
+    let with_wave = finished.iter().filter(|f| f.aovs().iter().any(|(a, _)| *a == Aov::Energy)).count();
     assert!(with_wave >= 10 && with_wave < finished.len(), "frames with a wave: {with_wave}");
     // Every pixel of every frame with a wave was compared.
     energy_cmp.assert_within(1e-4, with_wave * (e.width * e.height) as usize);
@@ -177,7 +188,7 @@ fn a_gltf_prop_dropped_at_run_time_and_taken_out() {
         g.offscreen_finish().unwrap().pop().expect("a finished frame")
     };
     let surfaces = |f: &game::OffscreenFrame| {
-        let normal = &f.aovs.iter().find(|(a, _)| *a == Aov::Normal).unwrap().1;
+        let normal = &f.aovs().iter().find(|(a, _)| *a == Aov::Normal).unwrap().1;
         normal.data.chunks_exact(4).filter(|n| n[3] == 1.0).count()
     };
     let before = frame(&mut g);
@@ -196,4 +207,62 @@ fn a_gltf_prop_dropped_at_run_time_and_taken_out() {
     let (errors, warnings) = messages.counts();
     assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Split screen: the game draws two views side by side (the main camera left, `side_camera`
+/// right) and hadou records both in one frame (`Renderer::record_views`). The left half is, bit
+/// for bit, the frame the game draws at that size without split screen (same state, same
+/// frames); both views' energy matches the f64 integral for their own camera; zero validation
+/// messages.
+#[test]
+fn split_screen_draws_two_views_in_one_hadou_frame() {
+    let new_game = |split: bool| {
+        let vk = gpu::GameVk::new(true, &[], &[], &|_, _, _, _| true)
+            .unwrap_or_else(|e| panic!("game device: {e}"));
+        let mut g = Game::new(vk).unwrap();
+        g.split = split;
+        g
+    };
+    let (mut split, mut alone) = (new_game(true), new_game(false));
+    let e = vk::Extent2D { width: 81, height: 40 };
+    let halves = game::view_extents(e, true);
+    assert_eq!((halves[0].width, halves[1].width), (40, 41));
+    let mut energy_cmp = Comparison::new("energy AOV vs f64 integral, both views");
+    let (mut frames, mut compared) = (Vec::new(), 0);
+    for i in 0..14 {
+        let input = Input { charge: i < 6, right: i % 4 == 0, ..Input::default() };
+        split.update(&input, 0.1).unwrap();
+        alone.update(&input, 0.1).unwrap();
+        let two = split.offscreen_submit(e, &[Aov::Energy, Aov::Depth]).unwrap();
+        let one = alone.offscreen_submit(halves[0], &[Aov::Energy, Aov::Depth]).unwrap();
+        frames.extend(two.into_iter().zip(one));
+    }
+    frames.extend(split.offscreen_finish().unwrap().into_iter().zip(alone.offscreen_finish().unwrap()));
+    assert_eq!(frames.len(), 14);
+    for (two, one) in &frames {
+        assert_eq!(two.views.len(), 2);
+        // The left half, row by row, against the frame drawn alone at its size (RGBA8).
+        let (w, half) = (e.width as usize * 4, halves[0].width as usize * 4);
+        for y in 0..e.height as usize {
+            assert!(two.color[y * w..y * w + half] == one.color[y * half..(y + 1) * half], "row {y}");
+        }
+        for ((a, x), (b, y)) in two.views[0].iter().zip(one.aovs()) {
+            assert!(a == b && common::same_bits(x, y), "{} differs from the view drawn alone", a.name());
+        }
+        // The right half is the side view: not a copy of the left.
+        assert!((0..e.height as usize)
+            .any(|y| two.color[y * w..y * w + half] != two.color[y * w + half..y * w + 2 * half]));
+        check_view_energy(two, 0, &game::camera(), halves[0], &mut energy_cmp);
+        check_view_energy(two, 1, &game::side_camera(), halves[1], &mut energy_cmp);
+        if two.state.wave_desc().is_some() {
+            compared += (e.width * e.height) as usize;
+        }
+    }
+    assert!(compared > 0, "a wave was alive in some frames");
+    energy_cmp.assert_within(1e-4, compared);
+    for g in [split, alone] {
+        let messages = g.destroy();
+        let (errors, warnings) = messages.counts();
+        assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
+    }
 }

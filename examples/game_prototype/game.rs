@@ -8,7 +8,7 @@
 use ash::vk;
 use glam::{DMat4, DVec3};
 use hadou::{
-    Aov, Ball, DepthConvention, ExternalColor, ExternalDepth, FrameInputs, GroupId, Renderer, WaveDesc,
+    Aov, Ball, DepthConvention, ExternalColor, ExternalDepth, GroupId, Renderer, View, ViewCamera, WaveDesc,
     WaveId, WaveUpdate,
 };
 
@@ -242,6 +242,39 @@ pub fn camera() -> GameCamera {
     }
 }
 
+/// The second view of split screen (`Game::split`, `V` in the window): from the right, above the
+/// target, looking back along the shot's path at the player and the slime.
+pub fn side_camera() -> GameCamera {
+    GameCamera {
+        position: DVec3::new(12.0, 5.0, 9.0),
+        look_at: DVec3::new(0.0, 1.0, 0.0),
+        fov_y_deg: 55.0,
+        near: 0.5,
+        far: 100.0,
+        reverse_z: false,
+    }
+}
+
+/// The cameras of the frame's views: the main one alone, or with split screen the main one on
+/// the left and `side_camera` on the right.
+pub fn view_cameras(split: bool) -> Vec<GameCamera> {
+    if split {
+        vec![camera(), side_camera()]
+    } else {
+        vec![camera()]
+    }
+}
+
+/// The views' sizes in a `extent` frame: the whole, or its left and right halves.
+pub fn view_extents(extent: vk::Extent2D, split: bool) -> Vec<vk::Extent2D> {
+    if !split {
+        return vec![extent];
+    }
+    let left = extent.width / 2;
+    let height = extent.height;
+    vec![vk::Extent2D { width: left, height }, vk::Extent2D { width: extent.width - left, height }]
+}
+
 pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 pub const CLEAR: DVec3 = DVec3::new(0.04, 0.04, 0.07);
 
@@ -260,8 +293,12 @@ pub struct Game {
     pub vk: GameVk,
     pub hadou: Renderer,
     pub state: GameState,
+    /// Split screen: two views side by side, each with its own camera (`view_cameras`), recorded
+    /// by hadou in one frame (`Renderer::record_views`).
+    pub split: bool,
     painter: Option<Painter>,
-    depth: Option<GameImage>,
+    /// Per view: its depth, and with split screen its colour (copied into the target's half).
+    views: Vec<ViewImages>,
     offscreen: Option<GameImage>,
     /// Per slot: the headless frame in flight there.
     pending: Vec<Option<Pending>>,
@@ -284,11 +321,26 @@ pub struct Game {
 /// run time, its translucent meshes baked in the background while TSM stands in).
 pub const PROP: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/gltf/volume_demo.glb");
 
+/// One view's images: the depth the game draws and hadou reads, and with split screen the colour
+/// they are drawn into before the copy into the target (hadou's targets are whole images).
+struct ViewImages {
+    depth: GameImage,
+    color: Option<GameImage>,
+}
+
 /// What a headless frame read back, and the state it was rendered from.
 pub struct OffscreenFrame {
     pub color: Vec<u8>,
-    pub aovs: Vec<(Aov, hadou::AovImage)>,
+    /// Per view (one, or two with split screen), its AOVs.
+    pub views: Vec<Vec<(Aov, hadou::AovImage)>>,
     pub state: GameState,
+}
+
+impl OffscreenFrame {
+    /// The first view's AOVs.
+    pub fn aovs(&self) -> &[(Aov, hadou::AovImage)] {
+        &self.views[0]
+    }
 }
 
 /// A headless frame submitted and not yet read.
@@ -296,7 +348,7 @@ pub struct Pending {
     frame: u64,
     state: GameState,
     aovs: Vec<Aov>,
-    readback: hadou::AovReadback,
+    readbacks: Vec<hadou::AovReadback>,
     color: HostBuffer,
 }
 
@@ -325,14 +377,15 @@ impl Game {
         hadou.set_camera(camera().for_hadou()).map_err(|e| e.to_string())?;
         let slime = hadou.metaballs_named("slime").ok_or("the scene has no metaball group \"slime\"")?;
         let pending = (0..frames).map(|_| None).collect();
-        let (painter, depth, offscreen) = (None, None, None);
+        let (painter, views, offscreen) = (None, Vec::new(), None);
         let state = GameState::default();
         Ok(Game {
             vk,
             hadou,
             state,
+            split: false,
             painter,
-            depth,
+            views,
             offscreen,
             pending,
             wave: None,
@@ -389,6 +442,7 @@ impl Game {
         self.hadou.set_metaball_group(self.slime, &self.state.slime()).map_err(err)
     }
 
+    /// The painter for `format`, and each view's images for its size in a `extent` frame.
     fn ensure(&mut self, format: vk::Format, extent: vk::Extent2D) -> Result<(), String> {
         if self.painter.as_ref().is_none_or(|p| p.color_format != format) {
             // SAFETY: the game's live device.
@@ -398,67 +452,93 @@ impl Game {
             }
             self.painter = Some(Painter::new(&self.vk, format, DEPTH_FORMAT, false)?);
         }
-        if self.depth.as_ref().is_none_or(|d| d.extent != extent) {
+        let extents = view_extents(extent, self.split);
+        let fits = self.views.len() == extents.len()
+            && self.views.iter().zip(&extents).all(|(v, e)| {
+                v.depth.extent == *e && v.color.as_ref().map(|c| c.format) == self.split.then_some(format)
+            });
+        if !fits {
             // SAFETY: the game's live device.
             unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
-            if let Some(d) = self.depth.take() {
-                self.vk.destroy_image(d);
+            for v in self.views.drain(..) {
+                v.color.into_iter().chain([v.depth]).for_each(|i| self.vk.destroy_image(i));
             }
-            let usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
-            self.depth = Some(self.vk.create_image(extent, DEPTH_FORMAT, usage)?);
+            for e in extents {
+                let usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED;
+                let depth = self.vk.create_image(e, DEPTH_FORMAT, usage)?;
+                let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+                let color = if self.split { Some(self.vk.create_image(e, format, usage)?) } else { None };
+                self.views.push(ViewImages { depth, color });
+            }
         }
         Ok(())
     }
 
-    /// Records the frame into the game's command buffer (begun by the caller): the game's raster,
-    /// then hadou (depth import, its passes, composite into `target`). A 0 × 0 target records nothing.
+    /// Records the frame into the game's command buffer (begun by the caller): per view the game's
+    /// raster, then hadou's frame of every view (depth import, its passes, composite into the
+    /// view's colour), then with split screen the views' colours copied side by side into
+    /// `target` (which then needs TRANSFER_DST usage). A 0 × 0 target records nothing.
     pub fn record(&mut self, target: &ColorTarget) -> Result<(), String> {
         let e = target.extent;
         if e.width == 0 || e.height == 0 {
             return Ok(());
         }
         self.ensure(target.format, e)?;
-        let (Some(painter), Some(depth)) = (&self.painter, &self.depth) else { return Ok(()) };
+        let Some(painter) = &self.painter else { return Ok(()) };
         let g = &self.vk;
-        g.transition(
-            target.image,
-            target.format,
-            vk::ImageLayout::UNDEFINED,
-            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-        );
-        g.transition(
-            depth.image,
-            DEPTH_FORMAT,
-            vk::ImageLayout::UNDEFINED,
-            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-        );
-        let paint = PaintTarget { color: target.view, depth: depth.view, extent: e, clear: CLEAR };
-        painter.record(g, &paint, &camera(), &self.state.boxes());
-        let cam = camera();
-        let inputs = FrameInputs {
-            extent: e,
-            time: self.state.time,
-            depth: Some(ExternalDepth {
-                image: depth.image,
-                view: depth.view,
-                format: DEPTH_FORMAT,
-                layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-                final_layout: vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-                convention: DepthConvention::Standard { near: cam.near, far: cam.far },
-                write: false,
-            }),
-            color: Some(ExternalColor {
-                image: target.image,
-                view: target.view,
-                format: target.format,
-                layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                final_layout: target.final_layout,
-            }),
-        };
+        let undefined = vk::ImageLayout::UNDEFINED;
+        let (attachment, depth_attachment) =
+            (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL);
+        let cameras = view_cameras(self.split);
+        let mut views = Vec::new();
+        for (i, (v, cam)) in self.views.iter().zip(&cameras).enumerate() {
+            // With split screen the view's own colour, copied into the target after; else the target.
+            let (image, view, color_format, final_layout) = match &v.color {
+                Some(c) => (c.image, c.view, c.format, vk::ImageLayout::TRANSFER_SRC_OPTIMAL),
+                None => (target.image, target.view, target.format, target.final_layout),
+            };
+            g.transition(image, color_format, undefined, attachment);
+            g.transition(v.depth.image, DEPTH_FORMAT, undefined, depth_attachment);
+            let extent = v.depth.extent;
+            let paint = PaintTarget { color: view, depth: v.depth.view, extent, clear: CLEAR };
+            painter.record(g, &paint, cam, &self.state.boxes());
+            // The first view is hadou's own camera (set at load); the others are named per frame.
+            let camera = if i == 0 { ViewCamera::Renderer } else { ViewCamera::Camera(cam.for_hadou()) };
+            views.push(View {
+                camera,
+                extent,
+                depth: Some(ExternalDepth {
+                    image: v.depth.image,
+                    view: v.depth.view,
+                    format: DEPTH_FORMAT,
+                    layout: depth_attachment,
+                    final_layout: depth_attachment,
+                    convention: DepthConvention::Standard { near: cam.near, far: cam.far },
+                    write: false,
+                }),
+                color: Some(ExternalColor {
+                    image,
+                    view,
+                    format: color_format,
+                    layout: attachment,
+                    final_layout,
+                }),
+            });
+        }
         let (start, cpu_start) = (std::time::Instant::now(), thread_cpu_ms());
-        self.hadou.record_frame(g.cmd, &inputs).map_err(|e| e.to_string())?;
+        self.hadou.record_views(g.cmd, self.state.time, &views).map_err(|e| e.to_string())?;
         self.last_record_ms = start.elapsed().as_secs_f64() * 1e3;
         self.last_record_cpu_ms = thread_cpu_ms() - cpu_start;
+        if self.split {
+            let dst = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+            g.transition(target.image, target.format, undefined, dst);
+            let mut x = 0;
+            for color in self.views.iter().filter_map(|v| v.color.as_ref()) {
+                g.record_copy_image(color, target.image, x);
+                x += color.extent.width as i32;
+            }
+            g.transition(target.image, target.format, dst, target.final_layout);
+        }
         Ok(())
     }
 
@@ -479,7 +559,9 @@ impl Game {
             if let Some(o) = self.offscreen.take() {
                 self.vk.destroy_image(o);
             }
-            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
+                | vk::ImageUsageFlags::TRANSFER_SRC
+                | vk::ImageUsageFlags::TRANSFER_DST;
             self.offscreen = Some(self.vk.create_image(extent, format, usage)?);
         }
         let slot = self.hadou.next_frame() as usize % self.frames_in_flight;
@@ -497,14 +579,17 @@ impl Game {
         self.record(&target)?;
         // Only what this frame's world produces (no wave: no energy pass, no energy AOV).
         let aovs: Vec<Aov> = aovs.iter().copied().filter(|a| self.hadou.produces(a.target())).collect();
-        let readback = self.hadou.record_aov_readback(self.vk.cmd, &aovs).map_err(|e| e.to_string())?;
+        let readbacks = (0..self.views.len())
+            .map(|v| self.hadou.record_view_aov_readback(self.vk.cmd, v, &aovs))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| e.to_string())?;
         let color = self.vk.create_host_buffer(extent.width as u64 * extent.height as u64 * 4)?;
         if let Some(image) = &self.offscreen {
             self.vk.record_copy_to_host(image, &color);
         }
         self.vk.submit_slot()?;
         let state = self.state.clone();
-        self.pending[slot] = Some(Pending { frame, state, aovs, readback, color });
+        self.pending[slot] = Some(Pending { frame, state, aovs, readbacks, color });
         Ok(done)
     }
 
@@ -525,15 +610,19 @@ impl Game {
     /// Reads a finished frame and tells hadou it finished (its timings, its retired objects).
     fn collect(&mut self, p: Pending) -> Result<OffscreenFrame, String> {
         self.hadou.frame_finished(p.frame).map_err(|e| e.to_string())?;
-        let aovs = p.aovs.iter().filter_map(|&a| p.readback.aov(a).map(|img| (a, img))).collect();
-        let frame = OffscreenFrame { color: p.color.bytes().to_vec(), aovs, state: p.state };
+        let views = p
+            .readbacks
+            .iter()
+            .map(|r| p.aovs.iter().filter_map(|&a| r.aov(a).map(|img| (a, img))).collect())
+            .collect();
+        let frame = OffscreenFrame { color: p.color.bytes().to_vec(), views, state: p.state };
         self.vk.destroy_buffer(p.color);
         Ok(frame)
     }
 
     /// hadou's objects first, then the game's, then the device (`from_raw`'s ownership rule).
     pub fn destroy(self) -> std::sync::Arc<super::gpu::Messages> {
-        let Game { vk, hadou, painter, depth, offscreen, pending, .. } = self;
+        let Game { vk, hadou, painter, views, offscreen, pending, .. } = self;
         // SAFETY: the game's device is live until `vk.destroy()` below.
         unsafe {
             let _ = vk.device.device_wait_idle();
@@ -545,7 +634,8 @@ impl Game {
         if let Some(p) = painter {
             p.destroy(&vk);
         }
-        for image in [depth, offscreen].into_iter().flatten() {
+        let view_images = views.into_iter().flat_map(|v| v.color.into_iter().chain([v.depth]));
+        for image in view_images.chain(offscreen) {
             vk.destroy_image(image);
         }
         let messages = vk.messages.clone();

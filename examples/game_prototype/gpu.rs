@@ -450,6 +450,30 @@ impl GameVk {
         unsafe { self.device.cmd_pipeline_barrier2(self.cmd, &dep) };
     }
 
+    /// Records a copy of a whole colour image (in TRANSFER_SRC_OPTIMAL) into `dst` (same format,
+    /// in TRANSFER_DST_OPTIMAL) at column `x`.
+    pub fn record_copy_image(&self, src: &GameImage, dst: vk::Image, x: i32) {
+        let layers =
+            vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1);
+        let region = vk::ImageCopy::default()
+            .src_subresource(layers)
+            .dst_subresource(layers)
+            .dst_offset(vk::Offset3D { x, y: 0, z: 0 })
+            .extent(vk::Extent3D { width: src.extent.width, height: src.extent.height, depth: 1 });
+        // SAFETY: the command buffer is recording; both images are live until the frame is waited
+        // for, and the caller placed `src` inside `dst`.
+        unsafe {
+            self.device.cmd_copy_image(
+                self.cmd,
+                src.image,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                dst,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            );
+        }
+    }
+
     /// One image layout transition, waiting for everything before and blocking everything after
     /// (simple and always correct; the game's frame is small).
     pub fn transition(

@@ -1,11 +1,12 @@
 //! A small game that owns its Vulkan device and swapchain, rasterizes its own scene (floor,
 //! player, pillars) into its own colour and depth, and embeds hadou for the energy wave, the
 //! translucent target and the metaball slime. Keys (README): hold Space to charge the wave (a and
-//! b grow, the beam extends), release to fire; A/D or ←/→ move the player; R resets; Esc quits.
+//! b grow, the beam extends), release to fire; A/D or ←/→ move the player; R resets; P drops a glTF
+//! prop; V splits the screen (a second view from the side, one hadou frame of two views); Esc quits.
 //! Per-pass GPU times (hadou's latest finished frame) are in the window title.
 //!
 //! `cargo run --release --example game_prototype` (HADOU_VALIDATION=1 turns validation on,
-//! GAME_FRAMES=N quits after N frames).
+//! GAME_FRAMES=N quits after N frames, GAME_SPLIT=1 starts in split screen).
 
 mod game;
 mod gpu;
@@ -73,7 +74,8 @@ fn start(window: &Window) -> Result<Running, String> {
     let config = PresentConfig {
         // The game writes linear colour: an _SRGB swapchain encodes it.
         formats: vec![vk::Format::B8G8R8A8_SRGB, vk::Format::R8G8B8A8_SRGB],
-        usage: vk::ImageUsageFlags::COLOR_ATTACHMENT,
+        // Split screen copies its views' colours into the image.
+        usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_DST,
         // As many frames in flight as the game (and hadou) have slots.
         frames_in_flight: gpu::FRAMES_IN_FLIGHT,
         ..PresentConfig::default()
@@ -83,7 +85,8 @@ fn start(window: &Window) -> Result<Running, String> {
     let presenter =
         unsafe { Presenter::new(&vk.entry, &vk.instance, vk.physical, &vk.device, surface.get(), config) }
             .map_err(|e| e.to_string())?;
-    let game = Game::new(vk)?;
+    let mut game = Game::new(vk)?;
+    game.split = std::env::var("GAME_SPLIT").is_ok_and(|v| v == "1");
     Ok(Running { game, presenter })
 }
 
@@ -198,6 +201,11 @@ impl ApplicationHandler for App {
                             if let Err(e) = r.game.toggle_prop(std::path::Path::new(game::PROP)) {
                                 eprintln!("prop: {e}");
                             }
+                        }
+                    }
+                    KeyCode::KeyV if down => {
+                        if let Some(r) = &mut self.running {
+                            r.game.split = !r.game.split;
                         }
                     }
                     KeyCode::Escape => event_loop.exit(),
