@@ -28,6 +28,7 @@ layout(set = 0, binding = 5, std140) uniform FrameBlock { FrameUniforms frame; }
 // EnergyWaveParams in crates/hadou/src/passes/energy_wave.rs (size checked at pipeline creation).
 layout(push_constant) uniform EnergyWaveParams {
     uvec4 counts;  // x: wave count; with TILE_LIST y, z: tiles_x, tiles_y, w: the tile size T
+    uvec4 flags;   // x: 1 when something reads `energy` after the pass (else it is not written)
 } params;
 
 #ifdef TILE_LIST
@@ -107,7 +108,10 @@ void main() {
         ++i;
     } while (i < params.counts.x);
     if (inside) {
-        imageStore(energy, pix, vec4(total, 0.0, 0.0, 0.0));
+        // Uniform across the dispatch: a frame whose `energy` nobody reads skips the store.
+        if (params.flags.x != 0u) {
+            imageStore(energy, pix, vec4(total, 0.0, 0.0, 0.0));
+        }
         vec4 c = imageLoad(hdr, pix);
         imageStore(hdr, pix, vec4(min(c.rgb + emitted, vec3(HALF_MAX)), c.a));
     }

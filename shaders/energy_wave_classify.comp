@@ -30,6 +30,7 @@ layout(set = 0, binding = 8, std430) buffer State { uint state[8]; };
 
 layout(push_constant) uniform EnergyWaveParams {
     uvec4 counts;  // x: waves, y: tiles_x, z: tiles_y, w: the tile size T
+    uvec4 flags;   // x: 1 when something reads `energy` after the pass (else it is not written)
 } params;
 
 float corner_at(uvec2 c, uint k) {

@@ -19,6 +19,7 @@ layout(set = 0, binding = 6, std430) writeonly buffer Corners { float corners[];
 
 layout(push_constant) uniform EnergyWaveParams {
     uvec4 counts;  // x: waves, y: tiles_x, z: tiles_y, w: the tile size T
+    uvec4 flags;   // x: 1 when something reads `energy` after the pass (else it is not written)
 } params;
 
 void main() {

@@ -30,6 +30,7 @@ layout(set = 0, binding = 7, std430) readonly buffer Lists { uint tiles[]; };
 
 layout(push_constant) uniform EnergyWaveParams {
     uvec4 counts;  // x: waves, y: tiles_x, z: tiles_y, w: the tile size T
+    uvec4 flags;   // x: 1 when something reads `energy` after the pass (else it is not written)
 } params;
 
 const float HALF_MAX = 65504.0;
@@ -70,7 +71,10 @@ void main() {
     } while (i < n);
     if (inside) {
         ivec2 pix = ivec2(p);
-        imageStore(energy, pix, vec4(total, 0.0, 0.0, 0.0));
+        // Uniform across the dispatch: a frame whose `energy` nobody reads skips the store.
+        if (params.flags.x != 0u) {
+            imageStore(energy, pix, vec4(total, 0.0, 0.0, 0.0));
+        }
         vec4 c = imageLoad(hdr, pix);
         imageStore(hdr, pix, vec4(min(c.rgb + emitted, vec3(HALF_MAX)), c.a));
     }

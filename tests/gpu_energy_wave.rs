@@ -515,3 +515,52 @@ fn cutoff_emits_only_the_energy_above_it() {
     hdr_error.assert_within(1.0, (3 * w * h) as usize);
     assert!(above > 100 && below > 100, "{above} above, {below} below: both sides must be seen");
 }
+
+/// `energy` is an AOV no pass reads: a frame that will not read it back does not store it, and
+/// the picture is the same bit for bit (exact and tolerance paths); reading back an AOV the frame
+/// was not declared to read is refused rather than handing back an unwritten image.
+#[test]
+fn energy_is_stored_only_when_read_back() {
+    let mut rt = common::runtime();
+    for tolerance in [0.0, 1e-2] {
+        let scene =
+            hadou::scene::load_scene(common::asset("assets/scenes/energy_wave.toml").as_path()).unwrap();
+        let mut scene = scene;
+        scene.waves_mut().iter_mut().for_each(|w| w.tolerance = Some(tolerance));
+        let mut request = FrameRequest::new(96, 64);
+        request.time = 1.0;
+        // Each a first frame after a load: the tile path's choice (from the last frame's counts)
+        // starts afresh, so both frames take the same path.
+        rt.load_scene(scene.clone()).unwrap();
+        request.aovs = vec![Aov::Hdr];
+        let without = rt.render(&request).unwrap();
+        rt.load_scene(scene).unwrap();
+        request.aovs = vec![Aov::Hdr, Aov::Energy];
+        let with = rt.render(&request).unwrap();
+        let energy = with.aov(Aov::Energy).unwrap();
+        assert!(energy.data.iter().any(|&e| e > 0.0), "tolerance {tolerance}: the wave shows");
+        assert!(
+            common::same_bits(without.aov(Aov::Hdr).unwrap(), with.aov(Aov::Hdr).unwrap()),
+            "tolerance {tolerance}: the picture depends on whether energy is read back"
+        );
+    }
+    rt.finish();
+
+    // The renderer refuses a read-back it was not told of.
+    let (_leaks, ctx) = common::context();
+    let mut host = common::host::Host::new(&ctx, 1);
+    let mut hadou = hadou::Renderer::new(ctx).unwrap();
+    hadou.load_scene(common::load("assets/scenes/energy_wave.toml")).unwrap();
+    hadou.set_readbacks(Some(&[Aov::Depth]));
+    let cmd = host.begin(0);
+    hadou.record_frame(cmd, &hadou::FrameInputs::headless(32, 32, 0.0)).unwrap();
+    let err = hadou.record_aov_readback(cmd, &[Aov::Energy]).map(|_| ()).unwrap_err();
+    assert!(err.to_string().contains("set_readbacks"), "{err}");
+    let depth = hadou.record_aov_readback(cmd, &[Aov::Depth]).unwrap();
+    host.submit(0);
+    host.wait_all();
+    assert!(depth.aov(Aov::Depth).is_some());
+    drop(depth);
+    host.destroy();
+    drop(hadou);
+}

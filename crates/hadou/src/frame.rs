@@ -116,6 +116,8 @@ pub(crate) struct SlotFrame<'a> {
     pub pre_exposure: f64,
     pub embedded: bool,
     pub depth_imported: bool,
+    /// `PassRecording::host_reads`.
+    pub host_reads: Option<&'a [Target]>,
 }
 
 /// A prepared pass: its descriptor set and the buffers it writes.
@@ -221,6 +223,7 @@ pub(crate) fn record_passes(
             embedded: f.embedded,
             depth_imported: f.depth_imported,
             later: &uses[index + 1..],
+            host_reads: f.host_reads,
         };
         scopes.push(record_scope(f.ctx, f.cmd, timestamps, pass.name(), &barriers, || {
             cmd_barriers(&f.ctx.device, f.cmd, &[], &before);

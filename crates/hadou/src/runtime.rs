@@ -271,6 +271,8 @@ impl Runtime {
         let record_start = Instant::now();
         let cmd = self.commands[slot].cmd;
         let inputs = FrameInputs::headless(request.width, request.height, request.time);
+        // Only what is read back is written (an AOV no pass reads, e.g. `energy`).
+        self.renderer.set_readbacks(Some(&request.aovs));
         let recorded = self
             .renderer
             .record_frame(cmd, &inputs)

@@ -43,13 +43,16 @@ pub struct EnergyWaveParams {
     /// x: the wave count (the live waves uploaded); with a tolerance y, z: the tile grid's
     /// size, w: the tile size (else 0).
     pub counts: [u32; 4],
+    /// x: 1 when something reads `energy` after the pass (a later pass, or the host: else the
+    /// AOV is not stored, a storage-image store per pixel saved); y, z, w: 0.
+    pub flags: [u32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(EnergyWaveParams as "EnergyWaveParams" { counts });
+crate::gpu::layout::gpu_layout!(EnergyWaveParams as "EnergyWaveParams" { counts, flags });
 
 const _: () = {
     assert!(std::mem::size_of::<WaveStyle>() == 48);
-    assert!(std::mem::size_of::<EnergyWaveParams>() == 16);
+    assert!(std::mem::size_of::<EnergyWaveParams>() == 32);
 };
 
 /// The f64 parameters of a wave's state (what the references integrate).
@@ -185,9 +188,12 @@ impl Pass for EnergyWavePass {
         let least = live.iter().map(|(_, _, t)| *t).fold(f64::INFINITY, f64::min);
         let grid = TileGrid::of(frame.extent, tile_size(pixel_angle(scene, frame.extent), least));
         self.params = if tiled {
-            EnergyWaveParams { counts: [waves.len() as u32, grid.tiles_x, grid.tiles_y, grid.size] }
+            EnergyWaveParams {
+                counts: [waves.len() as u32, grid.tiles_x, grid.tiles_y, grid.size],
+                flags: [0; 4],
+            }
         } else {
-            EnergyWaveParams { counts: [waves.len() as u32, 0, 0, 0] }
+            EnergyWaveParams { counts: [waves.len() as u32, 0, 0, 0], flags: [0; 4] }
         };
         self.extent = frame.extent;
         self.slot = frame.slot;
@@ -225,7 +231,11 @@ impl Pass for EnergyWavePass {
     }
 
     fn record(&self, pass: &PassRecording) {
-        let push = bytemuck::bytes_of(&self.params);
+        let params = EnergyWaveParams {
+            flags: [u32::from(pass.is_read_after(Target::Energy)), 0, 0, 0],
+            ..self.params
+        };
+        let push = bytemuck::bytes_of(&params);
         let buffers = self.buffers.get(self.slot).and_then(Option::as_ref);
         if let (Some(tiles), Some(buffers), true) = (&self.tiles, buffers, self.params.counts[3] > 0) {
             let sets: Vec<vk::DescriptorSet> = (1..7).map(|i| pass.set(i)).collect();

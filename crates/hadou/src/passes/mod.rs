@@ -187,6 +187,8 @@ pub struct PassRecording<'a> {
     pub depth_imported: bool,
     /// The passes recorded after this one this frame and the images each declared.
     pub later: &'a [(&'static str, Vec<Target>)],
+    /// The images the host may read back after the frame (`Renderer::set_readbacks`); None: any.
+    pub host_reads: Option<&'a [Target]>,
 }
 
 impl PassRecording<'_> {
@@ -194,6 +196,13 @@ impl PassRecording<'_> {
     /// it): what an edge pass can leave out of an image depends on who reads it.
     pub fn used_later_by(&self, target: Target) -> impl Iterator<Item = &'static str> + '_ {
         self.later.iter().filter(move |(_, t)| t.contains(&target)).map(|(n, _)| *n)
+    }
+
+    /// Whether anything reads `target` after this pass: a later pass of the frame declared it, or
+    /// the host may read it back. An image only the host would read (an AOV) need not be written
+    /// when it will not.
+    pub fn is_read_after(&self, target: Target) -> bool {
+        self.used_later_by(target).next().is_some() || self.host_reads.is_none_or(|r| r.contains(&target))
     }
 
     /// The set of the pass's `i`-th pipeline.

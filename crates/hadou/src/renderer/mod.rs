@@ -144,6 +144,8 @@ pub struct Renderer {
     current: Option<usize>,
     /// The views the frame recorded last recorded (a 0 × 0 view is skipped).
     current_views: Vec<usize>,
+    /// The images the host reads back after a frame (`set_readbacks`); None: any.
+    readbacks: Option<Vec<Target>>,
     /// Frames up to this one are known to have finished.
     finished_through: Option<u64>,
     latest: Option<FinishedFrame>,
@@ -182,6 +184,7 @@ impl Renderer {
             next_frame: 0,
             current: None,
             current_views: Vec::new(),
+            readbacks: None,
             finished_through: None,
             latest: None,
             effects: options.effects.clone(),
@@ -228,6 +231,15 @@ impl Renderer {
     /// frame, nothing else: a pass declares the images it binds when it prepares a frame.
     pub fn produces(&self, target: Target) -> bool {
         target == Target::Ldr || self.targets.first().is_some_and(|t| t.contains(target))
+    }
+
+    /// Declares the AOVs the following frames will read back (`record_aov_readback`,
+    /// `record_view_aov_readback`): an AOV nothing else reads is then not written when it is not
+    /// among them (the energy wave's `energy`: a storage-image store per pixel). Reading back an
+    /// AOV not declared is refused (`Error::NotProduced`). `None` (the default): any AOV may be
+    /// read back, and every one the passes produce is written.
+    pub fn set_readbacks(&mut self, aovs: Option<&[crate::Aov]>) {
+        self.readbacks = aovs.map(|a| a.iter().map(|a| a.target()).collect());
     }
 
     /// Uploads the scene and builds the passes it needs (pipelines are built here, through the

@@ -106,6 +106,13 @@ impl Renderer {
         if let Some(&missing) = wanted.iter().find(|t| !targets.contains(**t)) {
             return Err(Error::NotProduced { target: missing.name(), passes, needs: missing.needs() });
         }
+        // The colour is the output itself: always written.
+        let declared =
+            |t: &Target| *t == Target::Ldr || self.readbacks.as_ref().is_none_or(|r| r.contains(t));
+        if let Some(&missing) = wanted.iter().find(|t| !declared(t)) {
+            let needs = "declaring it with Renderer::set_readbacks before the frame is recorded";
+            return Err(Error::NotProduced { target: missing.name(), passes, needs });
+        }
         let extent = targets.extent;
         let mut readback = AovReadback { extent, buffers: Vec::new() };
         for &target in &wanted {

@@ -224,6 +224,7 @@ impl Renderer {
             pre_exposure: crate::effects::tonemap::pre_exposure_with(scene, &gpu.mesh_bounds()),
             embedded: false,
             depth_imported: false,
+            host_reads: None,
         };
         let mut timestamps: Timestamps = Some(&mut s.timestamps);
         let recorded = record_passes(&mut f, &mut [pass], &mut timestamps, &mut s.scopes);
@@ -338,6 +339,7 @@ impl Renderer {
             pre_exposure: world.pre_exposure,
             embedded: inputs.depth.is_some() || inputs.color.is_some(),
             depth_imported: inputs.depth.is_some(),
+            host_reads: self.readbacks.as_deref(),
         };
         // The slot's queries were reset on the host when it began.
         let mut timestamps: Timestamps = Some(&mut s.timestamps);
