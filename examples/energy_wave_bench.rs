@@ -4,10 +4,13 @@
 //! several step counts, each compared per pixel with the f64 reference. The measurement is `hadou_cli::report::energy_wave::measure`, the
 //! same code `hadou report` runs; this prints markdown tables.
 //!
-//! cargo run --release --example energy_wave_bench [-- --frames N]
+//! cargo run --release --example energy_wave_bench [-- --frames N] [--store-only]
+//!
+//! `--store-only` prints only the last table: the pass with its `energy` AOV read back (stored)
+//! and not (the store skipped), frames interleaved.
 
-use hadou::scene::WaveMethod;
-use hadou::{Runtime, RuntimeOptions};
+use hadou::scene::{Scene, WaveMethod};
+use hadou::{Aov, FrameRequest, Runtime, RuntimeOptions};
 use hadou_cli::report::energy_wave::{measure, with_method, with_tolerance, TIME, TOLERANCES};
 
 const WARMUP: usize = 3;
@@ -32,6 +35,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         wave.keyframes.clear();
     }
     distant.camera.far = 40000.0;
+    if std::env::args().any(|a| a == "--store-only") {
+        return store_table(&mut runtime, &occluded, frames);
+    }
 
     println!("| size | no occluder (ms) | with occluders (ms) | max rel err | p99 rel err |");
     println!("|---|---:|---:|---:|---:|");
@@ -80,5 +86,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let m = measure(&mut runtime, &scene, (512, 512), WARMUP, frames.clamp(3, 10), TIME)?;
         println!("| raymarch N = {steps} | {:.3} | {:.1e} | {:.1e} |", m.p50_ms, m.max_rel, m.p99_rel);
     }
+    store_table(&mut runtime, &occluded, frames)
+}
+
+/// The pass's p50 with `energy` read back (stored) and not, frames interleaved, exact and with a
+/// tolerance: what a frame that reads no AOV saves.
+fn store_table(
+    runtime: &mut Runtime,
+    scene: &Scene,
+    frames: usize,
+) -> Result<(), Box<dyn std::error::Error>> {
+    println!("\nthe energy AOV read back or not (seed 004, with occluders), frames interleaved:\n");
+    println!("| size | τ | read back: ms | not read: ms | speed-up |");
+    println!("|---|---:|---:|---:|---:|");
+    for size in [(512, 512), (1920, 1080)] {
+        for tolerance in [0.0, 1e-3, 1e-2] {
+            runtime.load_scene(with_tolerance(scene, tolerance))?;
+            let mut request = FrameRequest::new(size.0, size.1);
+            (request.time, request.color) = (TIME, false);
+            let (mut read, mut skipped) = (Vec::new(), Vec::new());
+            for i in 0..2 * (WARMUP + frames) {
+                request.aovs = if i % 2 == 0 { vec![Aov::Energy] } else { Vec::new() };
+                let stats = runtime.render(&request)?.stats;
+                let ms =
+                    stats.passes.iter().filter(|p| p.name == "energy_wave").map(|p| p.gpu_ms).sum::<f64>();
+                if i >= 2 * WARMUP {
+                    if i % 2 == 0 {
+                        read.push(ms)
+                    } else {
+                        skipped.push(ms)
+                    }
+                }
+            }
+            let (a, b) = (median(&mut read), median(&mut skipped));
+            println!("| {}×{} | {tolerance:e} | {a:.3} | {b:.3} | {:.2}× |", size.0, size.1, a / b);
+        }
+    }
     Ok(())
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
