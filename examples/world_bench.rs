@@ -18,6 +18,8 @@ mod game;
 mod gpu;
 #[path = "game_prototype/painter.rs"]
 mod painter;
+#[path = "game_prototype/slime_sim.rs"]
+mod slime_sim;
 
 use std::time::Instant;
 

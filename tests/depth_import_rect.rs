@@ -15,6 +15,8 @@ mod game;
 mod gpu;
 #[path = "../examples/game_prototype/painter.rs"]
 mod painter;
+#[path = "../examples/game_prototype/slime_sim.rs"]
+mod slime_sim;
 
 use ash::vk;
 use game::{Game, Input};

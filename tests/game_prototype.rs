@@ -11,6 +11,8 @@ mod game;
 mod gpu;
 #[path = "../examples/game_prototype/painter.rs"]
 mod painter;
+#[path = "../examples/game_prototype/slime_sim.rs"]
+mod slime_sim;
 
 use ash::vk;
 use game::{Game, Input};
@@ -106,6 +108,10 @@ fn headless_game_loop_charges_fires_and_hits() {
     // Charging grows a, b and the beam: more energy every frame while Space is held.
     assert!(energy_sums[..8].windows(2).all(|w| w[1] > w[0]), "{energy_sums:?}");
     assert_eq!(g.state.hits, 1, "the shot reached the target: {:?}", g.state);
+    // The slime is drawn from the balls the game's compute shader wrote (no host copy).
+    let (_, stats) = g.hadou.latest_stats().expect("a finished frame's counters");
+    assert!(stats.counter(hadou::passes::metaballs::HITS) > 0, "the GPU-driven slime shows");
+    assert_eq!(stats.counter(hadou::passes::metaballs::INVALID_BALLS), 0);
     let timings = g.hadou.latest_timings().expect("timings of a finished frame");
     let names: Vec<&str> = timings.passes.iter().map(|p| p.name.as_str()).collect();
     for pass in ["depth_import", "raster", "metaballs", "light_id", "translucency", "composite"] {
@@ -265,4 +271,44 @@ fn split_screen_draws_two_views_in_one_hadou_frame() {
         let (errors, warnings) = messages.counts();
         assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
     }
+}
+
+/// The slime the game's compute shader moves (`SlimeSim`, f32) draws as the slime
+/// `GameState::slime` gives on the host (f64, handed over by `set_metaball_group`): the same
+/// pixels hit, at depths that differ only by the f32 rounding of the balls' centres.
+#[test]
+fn the_gpu_slime_draws_as_the_host_slime() {
+    let vk =
+        gpu::GameVk::new(true, &[], &[], &|_, _, _, _| true).unwrap_or_else(|e| panic!("game device: {e}"));
+    let mut g = Game::new(vk).unwrap();
+    let e = vk::Extent2D { width: 96, height: 60 };
+    for _ in 0..7 {
+        g.update(&Input::default(), 0.37).unwrap();
+    }
+    let aovs = [Aov::Normal, Aov::Depth];
+    let gpu_slime = g.offscreen_frame(e, &aovs).unwrap();
+    let slime = g.hadou.metaballs_named("slime").unwrap();
+    g.hadou.set_metaball_buffer(slime, None).unwrap();
+    g.hadou.set_metaball_group(slime, &g.state.slime()).unwrap();
+    let host_slime = g.offscreen_frame(e, &aovs).unwrap();
+    let get =
+        |f: &game::OffscreenFrame, a: Aov| f.aovs().iter().find(|(x, _)| *x == a).unwrap().1.data.clone();
+    let (n0, n1) = (get(&gpu_slime, Aov::Normal), get(&host_slime, Aov::Normal));
+    let (d0, d1) = (get(&gpu_slime, Aov::Depth), get(&host_slime, Aov::Depth));
+    let (mut differ, mut worst) = (0, 0.0f64);
+    for i in 0..(e.width * e.height) as usize {
+        assert_eq!(n0[4 * i + 3], n1[4 * i + 3], "pixel {i}: hit on one side only");
+        if d0[i].to_bits() != d1[i].to_bits() {
+            differ += 1;
+            worst = worst.max(((d0[i] - d1[i]) / d1[i]).abs() as f64);
+        }
+    }
+    println!("{differ} pixels differ in depth, by at most {worst:.1e} relative");
+    // Each cast ends within 2⁻²² of its support interval (a few units at t ≈ 17: ~1e-7 relative)
+    // and the centres differ by about an f32 ulp of a few units (sin in f32 against f64): 1e-5
+    // leaves 10× what both together reach.
+    assert!(worst <= 1e-5, "depths differ by {worst:e}");
+    let messages = g.destroy();
+    let (errors, warnings) = messages.counts();
+    assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
 }

@@ -14,6 +14,7 @@ use hadou::{
 
 use super::gpu::{GameImage, GameVk, HostBuffer, FRAMES_IN_FLIGHT};
 use super::painter::{BoxDraw, GameCamera, PaintTarget, Painter};
+use super::slime_sim::{SlimeSim, SLIME_BALLS};
 
 /// hadou's part of the scene: the translucent target (lit from behind), the slime, the wave.
 /// The game's own geometry (floor, player, pillars) is not here: hadou sees it through the depth.
@@ -304,8 +305,9 @@ pub struct Game {
     pending: Vec<Option<Pending>>,
     /// The wave hadou draws for the game (spawned while charging or in flight).
     wave: Option<WaveId>,
-    /// The scene's metaball group "slime", moved every frame.
+    /// The scene's metaball group "slime", drawn from the balls `slime_sim` writes on the GPU.
     slime: GroupId,
+    slime_sim: Option<SlimeSim>,
     /// Frames in flight (1..=FRAMES_IN_FLIGHT); hadou's renderer has as many slots.
     frames_in_flight: usize,
     /// Wall time of the last `Renderer::record_frame` (ms).
@@ -376,6 +378,14 @@ impl Game {
         hadou.load_scene(scene).map_err(|e| e.to_string())?;
         hadou.set_camera(camera().for_hadou()).map_err(|e| e.to_string())?;
         let slime = hadou.metaballs_named("slime").ok_or("the scene has no metaball group \"slime\"")?;
+        // The slime moves on the GPU: hadou reads the game's buffer, no host copy.
+        let sim = SlimeSim::new(&vk)?;
+        let balls = hadou::DeviceBalls { buffer: sim.buffer, offset: 0, count: SLIME_BALLS };
+        if let Err(e) = hadou.set_metaball_buffer(slime, Some(balls)) {
+            drop(hadou);
+            sim.destroy(&vk);
+            return Err(e.to_string());
+        }
         let pending = (0..frames).map(|_| None).collect();
         let (painter, views, offscreen) = (None, Vec::new(), None);
         let state = GameState::default();
@@ -390,6 +400,7 @@ impl Game {
             pending,
             wave: None,
             slime,
+            slime_sim: Some(sim),
             frames_in_flight: frames,
             last_record_ms: 0.0,
             last_record_cpu_ms: 0.0,
@@ -422,7 +433,8 @@ impl Game {
         Ok(true)
     }
 
-    /// Steps the state and hands hadou this frame's wave, slime and camera (no pipeline rebuilt).
+    /// Steps the state and hands hadou this frame's wave (no pipeline rebuilt); the slime moves on
+    /// the GPU (`record`).
     pub fn update(&mut self, input: &Input, dt: f64) -> Result<(), String> {
         self.state.step(input, dt);
         let err = |e: hadou::Error| e.to_string();
@@ -439,7 +451,7 @@ impl Game {
             }
             (None, None) => None,
         };
-        self.hadou.set_metaball_group(self.slime, &self.state.slime()).map_err(err)
+        Ok(())
     }
 
     /// The painter for `format`, and each view's images for its size in a `extent` frame.
@@ -524,6 +536,10 @@ impl Game {
                     final_layout,
                 }),
             });
+        }
+        // The slime's balls at this frame's time, written before hadou's frame reads them.
+        if let Some(sim) = &self.slime_sim {
+            sim.record(g, self.state.time);
         }
         let (start, cpu_start) = (std::time::Instant::now(), thread_cpu_ms());
         self.hadou.record_views(g.cmd, self.state.time, &views).map_err(|e| e.to_string())?;
@@ -622,7 +638,7 @@ impl Game {
 
     /// hadou's objects first, then the game's, then the device (`from_raw`'s ownership rule).
     pub fn destroy(self) -> std::sync::Arc<super::gpu::Messages> {
-        let Game { vk, hadou, painter, views, offscreen, pending, .. } = self;
+        let Game { vk, hadou, painter, views, offscreen, pending, slime_sim, .. } = self;
         // SAFETY: the game's device is live until `vk.destroy()` below.
         unsafe {
             let _ = vk.device.device_wait_idle();
@@ -631,6 +647,9 @@ impl Game {
             vk.destroy_buffer(p.color);
         }
         drop(hadou);
+        if let Some(sim) = slime_sim {
+            sim.destroy(&vk);
+        }
         if let Some(p) = painter {
             p.destroy(&vk);
         }

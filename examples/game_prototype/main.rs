@@ -11,6 +11,7 @@
 mod game;
 mod gpu;
 mod painter;
+mod slime_sim;
 
 use std::cell::Cell;
 use std::time::Instant;

@@ -177,6 +177,15 @@ impl Recorder<'_> {
         unsafe { self.device().cmd_dispatch_indirect(self.cmd, buffer, offset) };
     }
 
+    /// Copies `size` bytes from `src` at `src_offset` to `dst` at `dst_offset` (a buffer of the
+    /// game's into one of hadou's: the caller places the barriers around it).
+    pub fn copy_buffer(&self, src: vk::Buffer, src_offset: u64, dst: vk::Buffer, dst_offset: u64, size: u64) {
+        let region = vk::BufferCopy { src_offset, dst_offset, size };
+        // SAFETY: recording outside a render pass; both buffers are live until the frame's fence
+        // (the caller's contract for `src`) and the region lies within them.
+        unsafe { self.device().cmd_copy_buffer(self.cmd, src, dst, &[region]) };
+    }
+
     /// Makes one compute dispatch's storage-buffer writes visible to a following copy.
     pub fn compute_to_copy_barrier(&self) {
         use super::barriers::{cmd_barriers, memory_barrier};

@@ -88,6 +88,22 @@ impl TexelBuffer {
         TexelBuffer::with(ctx, memory, name, bytes, texels, usage, location)
     }
 
+    /// As `device`, host-visible (the host writes part of it) and a copy's destination too (the
+    /// metaballs' ball table: the host's balls written, a game's copied in, completed by a
+    /// compute shader, read through the view).
+    pub fn device_table(
+        ctx: &GpuContext,
+        memory: &Memory,
+        name: &str,
+        bytes: u64,
+        texels: Texels,
+    ) -> GpuResult<TexelBuffer> {
+        let usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+            | vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_DST;
+        TexelBuffer::with(ctx, memory, name, bytes, texels, usage, MemoryLocation::CpuToGpu)
+    }
+
     fn with(
         ctx: &GpuContext,
         memory: &Memory,

@@ -32,6 +32,7 @@ pub mod targets;
 pub mod testing;
 
 pub use aov::{Aov, AovImage};
+pub use effects::metaballs::device::{DeviceBall, DeviceBalls};
 pub use effects::metaballs::Ball;
 pub use frame::{FrameStats, PassTiming};
 pub use gpu::{DeviceInfo, GpuError, HostWaits, ValidationCounts};

@@ -59,11 +59,12 @@ use crate::frame::FrameStats;
 use crate::gpu::memory::Buffer;
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, BufferRange, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
-use crate::gpu::texel_buffer::Texels;
+use crate::gpu::texel_buffer::{TexelBuffer, Texels};
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::passes::metaballs_bin::{
     check_ball_count, estimate, BinBuffers, BinGroup, BinParams, BinPipelines, BinSizes, Wanted,
 };
+use crate::passes::metaballs_device::{self, DeviceBallParams, DeviceBallPipeline, DeviceCopy};
 use crate::scene::camera::Camera;
 use crate::scene::Scene;
 use crate::targets::Target;
@@ -117,7 +118,9 @@ const STAT_HITS: usize = 1;
 const STAT_ITERATIONS: usize = 2;
 const STAT_MAX_ITERATIONS: usize = 3;
 const STAT_STREAMED: usize = 4;
-const STAT_COUNT: usize = 5;
+/// Written by shaders/metaballs_device.comp.
+const STAT_INVALID: usize = 5;
+const STAT_COUNT: usize = 6;
 
 impl MetaballParams {
     /// The parameters of a frame of `scene`.
@@ -327,6 +330,8 @@ pub const HITS: &str = "metaballs.hits";
 pub const CLIP_STEPS: &str = "metaballs.clip_steps";
 pub const CLIP_STEPS_MAX: &str = "metaballs.clip_steps_max";
 pub const STREAMED: &str = "metaballs.streamed";
+/// Balls a game wrote on the GPU with a value that is not finite, or R ≤ 0: drawn as no ball.
+pub const INVALID_BALLS: &str = "metaballs.invalid_balls";
 
 /// What the device counted in the last frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -341,6 +346,8 @@ pub struct MetaballCounts {
     /// Casts streamed from the tile's run: a ball containing the search's start found none of the
     /// subgroup's 32 slots (more than 32 supports there, or the other rays' balls filled them).
     pub streamed: u64,
+    /// Balls of the game's buffer (`DeviceBalls`) that were not valid (`INVALID_BALLS`).
+    pub invalid_balls: u64,
 }
 
 pub struct MetaballsPass {
@@ -372,6 +379,12 @@ pub struct MetaballsPass {
     /// The previous finished frame's dropped count: a frame repeating it does not warn again (the
     /// count is in `FrameStats` every frame).
     warned_dropped: std::sync::atomic::AtomicU64,
+    /// With a group drawn from the game's buffer (`DeviceBalls`): the completing pipeline, each
+    /// slot's ball table, and the frame being recorded's table and copies.
+    device: Option<DeviceBallPipeline>,
+    tables: Vec<Option<TexelBuffer>>,
+    frame_table: vk::Buffer,
+    copies: Vec<DeviceCopy>,
 }
 
 /// Where the tile lists are built.
@@ -404,10 +417,16 @@ fn casts(scene: &Scene) -> (bool, bool) {
     (scene.metaballs().iter().any(|g| !trace(g)), scene.metaballs().iter().any(trace))
 }
 
-/// The pass is compiled with only the casts the scene uses: a world that starts using another
+/// Whether a group's balls come from the game's buffer: the pass then bins on the device.
+pub fn has_device_balls(scene: &Scene) -> bool {
+    scene.metaballs().iter().any(|g| g.device.is_some())
+}
+
+/// The pass is compiled with only the casts the scene uses, and with the device's binning and the
+/// game's balls' completion when a group's balls are the game's: a world that changes either
 /// builds it again.
 pub fn variant(scene: &Scene) -> String {
-    format!("{:?}", casts(scene))
+    format!("{:?}{}", casts(scene), if has_device_balls(scene) { " device balls" } else { "" })
 }
 
 impl MetaballsPass {
@@ -426,11 +445,19 @@ impl MetaballsPass {
         let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, push)?;
         let spirv = compiler.compile("metaballs.comp", &[defines[0], defines[1], ("MB_STREAM_PASS", "1")])?;
         let stream = create_compute_pipeline(ctx, "metaballs streamed", &spirv, push)?;
+        // The game's balls have no host copy to bin from.
+        let device =
+            if has_device_balls(scene) { Some(DeviceBallPipeline::new(ctx, compiler)?) } else { None };
+        let binning = if device.is_some() { Binning::Device } else { binning };
         let bin = match binning {
             Binning::Device => Some(BinPipelines::new(ctx, compiler)?),
             Binning::Host => None,
         };
         Ok(MetaballsPass {
+            device,
+            tables: Vec::new(),
+            frame_table: vk::Buffer::null(),
+            copies: Vec::new(),
             bin,
             binning,
             iso: Vec::new(),
@@ -462,6 +489,7 @@ impl MetaballsPass {
             clip_steps: word(STAT_ITERATIONS),
             clip_steps_max: word(STAT_MAX_ITERATIONS),
             streamed: word(STAT_STREAMED),
+            invalid_balls: word(STAT_INVALID),
         }
     }
 }
@@ -479,11 +507,29 @@ impl Pass for MetaballsPass {
         let mut bin_groups = Vec::with_capacity(scene.metaballs().len());
         let groups: Vec<MetaballGroupParams> = scene.metaballs().iter().map(|g| g.at(frame.time)).collect();
         self.iso.resize_with(groups.len(), IsoCache::default);
+        self.copies.clear();
         for ((group, params), iso) in scene.metaballs().iter().zip(&groups).zip(&mut self.iso) {
             let first = balls.len() as u32;
-            gpu_groups.push(gpu_group(params, first, group.material as u32));
-            balls.extend(gpu_balls_cached(params, iso));
-            bin_groups.push(BinGroup::new(params, first, &scene.camera));
+            let mut gpu = gpu_group(params, first, group.material as u32);
+            let mut bin = BinGroup::new(params, first, &scene.camera);
+            match group.device {
+                // Room in the table for the game's records, copied and completed on the device.
+                Some(source) => {
+                    (gpu.info[2], bin.info[1]) = (source.count, source.count);
+                    balls.resize(balls.len() + source.count as usize, bytemuck::Zeroable::zeroed());
+                    let kernel = params.kernel;
+                    self.copies.push(DeviceCopy {
+                        source,
+                        params: DeviceBallParams {
+                            range: [first, source.count, kernel.gpu_id(), 0],
+                            values: [params.threshold as f32, kernel.max_slope() as f32, 0.0, 0.0],
+                        },
+                    });
+                }
+                None => balls.extend(gpu_balls_cached(params, iso)),
+            }
+            gpu_groups.push(gpu);
+            bin_groups.push(bin);
         }
         let sizes = BinSizes::new(balls.len() as u32, gpu_groups.len() as u32, extent);
         let host_lists = match self.binning {
@@ -500,7 +546,12 @@ impl Pass for MetaballsPass {
         // Before the device has reported how many entries lists of these sizes take: a bound
         // from the host (its only per-ball work, once per size).
         if host_lists.is_none() && self.estimated_for != Some(sizes) {
-            self.wanted.at_least(estimate(&groups, &scene.camera, extent));
+            // The game's balls are not on the host: the finished frames' totals size their lists.
+            let host: Vec<MetaballGroupParams> = (groups.iter().zip(scene.metaballs()))
+                .filter(|(_, g)| g.device.is_none())
+                .map(|(p, _)| p.clone())
+                .collect();
+            self.wanted.at_least(estimate(&host, &scene.camera, extent));
             self.estimated_for = Some(sizes);
         }
         self.params = MetaballParams::new(scene);
@@ -579,6 +630,24 @@ impl Pass for MetaballsPass {
         self.frame_dispatch = self.stream_dispatch[frame.slot].raw;
         let dispatch = BufferRange::whole(self.frame_dispatch);
         let quad = Texels::U32x4;
+        // The balls: the host's in the ring, or, with the game's, the slot's table.
+        let ball_table = if self.device.is_some() {
+            while self.tables.len() <= frame.slot {
+                self.tables.push(None);
+            }
+            let host: &[u8] = bytemuck::cast_slice(&balls);
+            let table = metaballs_device::table(
+                &mut self.tables[frame.slot],
+                frame.ctx,
+                frame.memory,
+                host,
+                host.len() as u64,
+            )?;
+            self.frame_table = table.buffer.raw;
+            Bound::UniformTexel(table.view)
+        } else {
+            frame.texels("metaballs balls", &balls, quad)?
+        };
         let bin_groups = frame.upload(&bin_groups)?;
         let mut bindings = vec![
             Binding::read_write(Target::Distance),
@@ -588,7 +657,7 @@ impl Pass for MetaballsPass {
             Binding::Bound(Bound::Uniform(frame.uniforms)),
             Binding::Bound(Bound::Storage(frame.materials)),
             Binding::Bound(frame.texels("metaballs groups", &gpu_groups, quad)?),
-            Binding::Bound(frame.texels("metaballs balls", &balls, quad)?),
+            Binding::Bound(ball_table),
             Binding::Bound(views[0]),
             Binding::Bound(views[1]),
             Binding::Written(stats, Reader::Host),
@@ -601,17 +670,26 @@ impl Pass for MetaballsPass {
         bindings.extend(lists.iter().map(|&b| Binding::Written(b, Reader::Compute)));
         bindings.push(Binding::Written(rest[0], Reader::Host));
         bindings.push(Binding::Written(rest[1], Reader::Compute));
+        if self.device.is_some() {
+            bindings.push(Binding::Written(BufferRange::whole(self.frame_table), Reader::Compute));
+        }
         Ok(bindings)
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
         let mut all = vec![&self.pipeline, &self.stream];
         all.extend(self.bin.iter().flat_map(BinPipelines::all));
+        all.extend(self.device.iter().map(|d| &d.pipeline));
         all
     }
 
     fn record(&self, pass: &PassRecording) {
         let rec = pass.rec;
+        // The game's balls into the table (its set is the last).
+        if let Some(device) = &self.device {
+            let set = pass.set(self.pipelines().len() - 1);
+            metaballs_device::record(rec, device, set, self.frame_table, &self.copies);
+        }
         // The tile lists, then one 8×8 workgroup per tile that holds any ball, TILES_PER_ROW
         // tiles per row (the bin state's first words: the scan or the host wrote them).
         if let Some(bin) = &self.bin {
@@ -638,6 +716,9 @@ impl Pass for MetaballsPass {
         stats.add(CLIP_STEPS, c.clip_steps);
         stats.max(CLIP_STEPS_MAX, c.clip_steps_max);
         stats.add(STREAMED, c.streamed);
+        if self.device.is_some() {
+            stats.add(INVALID_BALLS, c.invalid_balls);
+        }
         let last = self.warned_dropped.swap(c.dropped, std::sync::atomic::Ordering::Relaxed);
         if c.dropped > 0 && c.dropped != last {
             log::warn!(

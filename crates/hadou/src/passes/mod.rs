@@ -15,6 +15,7 @@ pub mod gpu_structs;
 pub mod light_id;
 pub mod metaballs;
 pub mod metaballs_bin;
+pub mod metaballs_device;
 pub mod peel;
 pub mod pipeline_memo;
 pub mod raster;

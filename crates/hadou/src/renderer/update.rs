@@ -195,6 +195,31 @@ impl Renderer {
         Ok(())
     }
 
+    /// Draws group `id` from balls the game writes on the GPU (a simulation): `balls` names the
+    /// game's buffer and its records (`DeviceBall`, see `DeviceBalls` for the buffer's usage and
+    /// synchronization); each frame copies them on the device, no host copy. `None` draws the
+    /// group's own balls again. The group is then binned on the device (the metaballs pass is
+    /// rebuilt for it here, not in a frame). Refused, state unchanged: a null buffer, or a count
+    /// outside 1..=`BIN_MAX_BALLS`.
+    pub fn set_metaball_buffer(
+        &mut self,
+        id: GroupId,
+        balls: Option<crate::effects::metaballs::device::DeviceBalls>,
+    ) -> Result<(), Error> {
+        let group = self.group_index(id)?;
+        let max = crate::passes::metaballs_bin::BIN_MAX_BALLS;
+        if let Some(b) = balls {
+            if b.buffer == crate::gpu::vk::Buffer::null() || !(1..=max).contains(&b.count) {
+                return Err(Error::InvalidUpdate {
+                    what: format!("metaball group {group}: device balls {b:?}"),
+                    expected: format!("a buffer of the game's and 1..={max} balls"),
+                });
+            }
+        }
+        self.loaded_mut()?.scene.metaballs_mut()[group].device = balls;
+        self.sync_passes()
+    }
+
     /// Sets light `id`: the direction it travels (any non-zero length; a spot light's axis, unused
     /// by a point light), its colour and intensity (a point or spot light's in candela); its kind,
     /// position, range and cone are kept (`set_light_with` changes them). The translucent objects'

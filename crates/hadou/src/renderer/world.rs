@@ -232,6 +232,7 @@ impl Renderer {
             balls: desc.balls.iter().map(ball).collect(),
             keyframes: Vec::new(),
             method: CastMethod::default(),
+            device: None,
         })
     }
 

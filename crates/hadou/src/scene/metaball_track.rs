@@ -99,6 +99,7 @@ mod tests {
             balls: vec![ball(0.0), ball(4.0)],
             keyframes,
             method: Default::default(),
+            device: None,
         }
     }
 

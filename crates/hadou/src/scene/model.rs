@@ -456,6 +456,9 @@ pub struct MetaballGroup {
     pub keyframes: Vec<MetaballKeyframe>,
     /// How the metaballs pass casts rays against the group (`method`, `tolerance`, `steps`).
     pub method: crate::effects::metaballs::CastMethod,
+    /// Balls the game writes on the GPU (`Renderer::set_metaball_buffer`): drawn instead of
+    /// `balls` (and `keyframes`), which the f64 references keep using.
+    pub device: Option<crate::effects::metaballs::device::DeviceBalls>,
 }
 
 /// One ball of a group: its values at time 0 and its rates.

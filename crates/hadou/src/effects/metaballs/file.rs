@@ -143,6 +143,7 @@ fn group(o: &Owner, d: &MetaballsDef, materials: &mut Materials) -> Result<Metab
         balls,
         keyframes,
         method,
+        device: None,
     })
 }
 

@@ -67,6 +67,7 @@
 //! # Normals (seed eq. 25, Horner eq. 26)
 //! ∇F = Σ 2qᵢ/Rᵢ² · f′(r′ᵢ) · (x − cᵢ), f′ by Horner; world normal M⁻ᵀ(−∇F), renormalized.
 
+pub mod device;
 mod effect;
 pub mod file;
 
