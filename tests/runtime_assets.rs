@@ -309,3 +309,41 @@ fn a_gltf_file_spawned_at_run_time_draws_as_one_loaded_with_the_scene() {
     common::assert_clean(&rt);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A file with a part hadou cannot hold (a light of intensity 1e39, past f32) is refused whole,
+/// with the field's JSON path named: no mesh, material, instance or light of it stays and the
+/// picture is the picture before. (What fails after the first part is in — a device allocation —
+/// is undone by `spawn_gltf` itself; no file can make that happen.)
+#[test]
+fn a_gltf_file_with_a_part_past_f32_adds_nothing() {
+    let dir = temp_dir("spawn_gltf_fails");
+    let mut w = Writer::default();
+    let cube = hadou::scene::procedural::cube(1.0).unwrap();
+    let m = w.material(json!({ "pbrMetallicRoughness": { "baseColorFactor": [0.9, 0.5, 0.2, 1.0] } }));
+    let p = w.primitive(&cube, IndexWidth::U16, true, Some(m));
+    let mesh = w.mesh(vec![p]);
+    let node = w.node(json!({ "mesh": mesh }));
+    w.lights.push(json!({ "type": "point", "color": [1.0, 1.0, 1.0], "intensity": 1e39 }));
+    let lit = w.node(
+        json!({ "extensions": { "KHR_lights_punctual": { "light": 0 } }, "translation": [0.0, 2.0, 0.0] }),
+    );
+    w.uses("KHR_lights_punctual");
+    w.scene_roots.extend([node, lit]);
+    let path = w.write_glb(&dir, "too_bright");
+
+    let mut rt = common::runtime();
+    rt.load_scene(common::parse(LIGHTS_AND_CAMERA)).unwrap();
+    let before = render(&mut rt);
+    let r = rt.renderer();
+    let counts = |r: &hadou::Renderer| {
+        (r.mesh_ids().len(), r.material_ids().len(), r.instance_ids().len(), r.light_ids().len())
+    };
+    let was = counts(r);
+    let e = r.spawn_gltf(&path, DMat4::IDENTITY).unwrap_err().to_string();
+    assert!(e.contains("/extensions/KHR_lights_punctual/lights/0/intensity"), "{e}");
+    assert_eq!(counts(rt.renderer()), was, "nothing of the file stays");
+    assert!(rt.renderer().mesh_named("too_bright/mesh0").is_none());
+    assert_same(&render(&mut rt), &before, "the world draws as before the failed spawn");
+    common::assert_clean(&rt);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -231,6 +231,23 @@ impl Renderer {
         }
         let stem = path.file_stem().map_or("gltf".into(), |s| s.to_string_lossy().into_owned());
         let mut out = SpawnedGltf::default();
+        match self.spawn_parts(file, &stem, &mut out) {
+            Ok(()) => Ok(out),
+            Err(e) => {
+                // All or nothing: what was added before the error goes again (its ids stale).
+                self.despawn_parts(&out);
+                Err(e)
+            }
+        }
+    }
+
+    /// Adds `file`'s meshes, materials, instances and lights, recording each in `out` as it goes.
+    fn spawn_parts(
+        &mut self,
+        file: crate::scene::gltf::GltfImport,
+        stem: &str,
+        out: &mut SpawnedGltf,
+    ) -> Result<(), Error> {
         let first_material = self.loaded.as_ref().ok_or(Error::NoScene)?.scene.materials.len();
         let textures =
             crate::scene_textures::SceneTextures::of_materials(&self.ctx, &self.memory, &file.materials)?;
@@ -251,7 +268,23 @@ impl Renderer {
         for light in file.lights {
             out.lights.push(self.spawn_light_with(light)?);
         }
-        Ok(out)
+        Ok(())
+    }
+
+    /// Takes out what `spawn_parts` added: instances and lights, then meshes and materials.
+    fn despawn_parts(&mut self, parts: &SpawnedGltf) {
+        for &id in &parts.instances {
+            let _ = self.despawn_instance(id);
+        }
+        for &id in &parts.lights {
+            let _ = self.despawn_light(id);
+        }
+        for &id in &parts.meshes {
+            let _ = self.despawn_mesh(id);
+        }
+        for &id in &parts.materials {
+            let _ = self.despawn_material(id);
+        }
     }
 
     /// `wanted`, or `wanted#2`, `wanted#3`… the first no live asset of the kind has.
