@@ -166,6 +166,13 @@ fn hadou_test_takes_gltf_files_as_scenes() {
     let t = text(&out);
     let row = t.lines().find(|l| l.starts_with("level ")).unwrap_or_else(|| panic!("{t}"));
     assert!(row.contains("FAIL") && row.contains("level.png: mean FLIP"), "{t}");
+    // A render whose size no longer matches its reference fails too (exit 1, not 2), saying so.
+    std::fs::write(refs.join("cube.test.toml"), "size = \"16x10\"\naovs = [\"depth\"]\n").unwrap();
+    let out = run(&[]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    let t = text(&out);
+    let row = t.lines().find(|l| l.starts_with("cube ")).unwrap_or_else(|| panic!("{t}"));
+    assert!(row.contains("FAIL") && row.contains("cube.png") && row.contains("16x10"), "{t}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -354,9 +354,23 @@ fn run_case(
         let label = PathBuf::from(format!("{} (render of {})", reference.display(), case.name));
         let want = load_with(reference, ctx.budget)?;
         let got = decode_with(&label, bytes, ctx.budget)?;
-        let c = compare_loaded((reference, &want), (&label, &got), &case.sidecar.tolerance)
-            .with_context(|| format!("{size_from} {width}x{height} against {}", reference.display()))?;
         let file = reference.file_name().unwrap_or_default().to_string_lossy().to_string();
+        let c = match compare_loaded((reference, &want), (&label, &got), &case.sidecar.tolerance) {
+            Ok(c) => c,
+            // The render no longer has the reference's size or channels: it differs (a failure,
+            // with the render kept for the artifacts), not a run that could not judge.
+            Err(hadou::compare::CompareError::Mismatch { message, .. }) => {
+                problems.push(format!("{file}: {message} ({size_from}: {width}x{height})"));
+                if let Some(out) = &ctx.args.out {
+                    output::write_atomically(&out_files(out, reference).0, bytes)?;
+                }
+                continue;
+            }
+            Err(e) => {
+                return Err(e)
+                    .with_context(|| format!("{size_from} {width}x{height} against {}", reference.display()))
+            }
+        };
         details.push(format!("{file}: {}", short(&c)));
         if !c.same {
             problems.push(format!("{file}: {}", c.reasons.join("; ")));
