@@ -9,7 +9,8 @@
 //! (depth_import, composite).
 //!
 //! LP_NUM_THREADS=1 cargo run --release --example embed_overhead -- [--frames N] [--size WxH]
-//! [--cpu-ms MS] [--png FILE (the last frame)]
+//! [--cpu-ms MS] [--png FILE (the last frame)] [--split] (split screen: two views of half the
+//! width each, one hadou frame of both, `Renderer::record_views`)
 
 #[path = "common/bench_util.rs"]
 mod bench_util;
@@ -49,8 +50,10 @@ fn main() -> Result<(), String> {
         .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)))
         .ok_or("--size WxH")?;
     let png: Option<String> = arg("--png");
+    let split = std::env::args().any(|a| a == "--split");
     let extent = vk::Extent2D { width: w, height: h };
-    println!("{w}×{h}, {frames} frames after {WARMUP} warm-up, {cpu_ms} ms of game CPU work per frame\n");
+    let views = if split { ", split screen (two views)" } else { "" };
+    println!("{w}×{h}{views}, {frames} frames after {WARMUP} warm-up, {cpu_ms} ms of game CPU work per frame\n");
     println!(
         "| frames in flight | fence wait / frame p50 | p99 | vkQueueSubmit p50 | record_frame p50 | p99 | frames/s | hadou GPU frame p50 |"
     );
@@ -59,6 +62,7 @@ fn main() -> Result<(), String> {
     for in_flight in [1usize, 2] {
         let vk = gpu::GameVk::new(false, &[], &[], &|_, _, _, _| true)?;
         let mut g = Game::with_frames_in_flight(vk, in_flight)?;
+        g.split = split;
         let (mut waits, mut records, mut gpu, mut submits) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
         let mut start = Instant::now();
