@@ -53,7 +53,9 @@ fn main() -> Result<(), String> {
     let split = std::env::args().any(|a| a == "--split");
     let extent = vk::Extent2D { width: w, height: h };
     let views = if split { ", split screen (two views)" } else { "" };
-    println!("{w}×{h}{views}, {frames} frames after {WARMUP} warm-up, {cpu_ms} ms of game CPU work per frame\n");
+    println!(
+        "{w}×{h}{views}, {frames} frames after {WARMUP} warm-up, {cpu_ms} ms of game CPU work per frame\n"
+    );
     println!(
         "| frames in flight | fence wait / frame p50 | p99 | vkQueueSubmit p50 | record_frame p50 | p99 | frames/s | hadou GPU frame p50 |"
     );

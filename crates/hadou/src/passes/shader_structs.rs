@@ -77,6 +77,7 @@ fn table() -> Vec<Row> {
     for (stage, groups) in [("1", false), ("3", true), ("4", true), ("5", false)] {
         rows.push(("metaballs_bin.comp", vec![("MB_BIN_STAGE", stage)], bin(groups)));
     }
+    rows.push(("metaballs_device.comp", vec![], vec![super::metaballs_device::DeviceBallParams::layout()]));
     for defines in
         [vec![("WITH_LUT", "1")], vec![("WITH_PEEL", "1")], vec![("WITH_LUT", "1"), ("WITH_PEEL", "1")]]
     {

@@ -144,8 +144,10 @@ pub struct Renderer {
     current: Option<usize>,
     /// The views the frame recorded last recorded (a 0 × 0 view is skipped).
     current_views: Vec<usize>,
-    /// The images the host reads back after a frame (`set_readbacks`); None: any.
+    /// The images the host reads back after a frame (`set_readbacks`); None: any. And those the
+    /// frame recorded last was recorded for (what its read-backs may copy).
     readbacks: Option<Vec<Target>>,
+    current_readbacks: Option<Vec<Target>>,
     /// Frames up to this one are known to have finished.
     finished_through: Option<u64>,
     latest: Option<FinishedFrame>,
@@ -185,6 +187,7 @@ impl Renderer {
             current: None,
             current_views: Vec::new(),
             readbacks: None,
+            current_readbacks: None,
             finished_through: None,
             latest: None,
             effects: options.effects.clone(),

@@ -108,7 +108,7 @@ impl Renderer {
         }
         // The colour is the output itself: always written.
         let declared =
-            |t: &Target| *t == Target::Ldr || self.readbacks.as_ref().is_none_or(|r| r.contains(t));
+            |t: &Target| *t == Target::Ldr || self.current_readbacks.as_ref().is_none_or(|r| r.contains(t));
         if let Some(&missing) = wanted.iter().find(|t| !declared(t)) {
             let needs = "declaring it with Renderer::set_readbacks before the frame is recorded";
             return Err(Error::NotProduced { target: missing.name(), passes, needs });

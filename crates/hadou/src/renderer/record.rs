@@ -135,7 +135,7 @@ impl Renderer {
         // `[[mesh]] wobble`: the meshes' shapes at this frame's time.
         self.apply_wobble(time);
         let (frame, slot) = self.begin_frame(&live)?;
-        let result = self.record_world(cmd, slot).and_then(|world| {
+        let result = self.record_world(cmd, slot, live[0]).and_then(|world| {
             live.iter().try_for_each(|&v| {
                 let inputs = views[v].inputs(time);
                 self.with_camera(cameras[v], |r| {
@@ -173,6 +173,7 @@ impl Renderer {
         self.next_frame += 1;
         self.current = Some(slot);
         self.current_views = views.to_vec();
+        self.current_readbacks.clone_from(&self.readbacks);
         Ok((frame, slot))
     }
 
@@ -236,12 +237,18 @@ impl Renderer {
         Ok(frame)
     }
 
-    /// What every view of the frame shares, recorded once into the first view's slot: the deformed
-    /// meshes' vertices, the materials' texture uploads, the instance and material tables.
-    fn record_world(&mut self, cmd: vk::CommandBuffer, slot: usize) -> Result<WorldFrame, Error> {
+    /// What every view of the frame shares, recorded once into the slot of its first recorded view
+    /// (`view`): the deformed meshes' vertices, the materials' texture uploads, the instance and
+    /// material tables.
+    fn record_world(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        slot: usize,
+        view: usize,
+    ) -> Result<WorldFrame, Error> {
         let (ctx, memory) = (&self.ctx, &self.memory);
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
-        let s = &mut self.slots[slot][0];
+        let s = &mut self.slots[slot][view];
         // Deformed meshes: this slot's vertex buffers (its previous frame has finished).
         loaded.gpu.begin_slot(ctx, memory, &loaded.scene, slot)?;
         // The materials' textures, copied by the first frame after the scene was loaded.
