@@ -297,6 +297,13 @@ pub struct Game {
     /// Split screen: two views side by side, each with its own camera (`view_cameras`), recorded
     /// by hadou in one frame (`Renderer::record_views`).
     pub split: bool,
+    /// The main camera sways from side to side with the game's time (`main_camera`): the whole
+    /// picture moves, what a temporal resolve must follow (the TAA test).
+    pub sway: bool,
+    /// The slime's balls come from `slime_sim` on the GPU (the default) or from the host
+    /// (`GameState::slime`, handed over each frame: their motion is then known to hadou's
+    /// motion vectors too).
+    pub slime_on_gpu: bool,
     painter: Option<Painter>,
     /// Per view: its depth, and with split screen its colour (copied into the target's half).
     views: Vec<ViewImages>,
@@ -394,6 +401,8 @@ impl Game {
             hadou,
             state,
             split: false,
+            sway: false,
+            slime_on_gpu: true,
             painter,
             views,
             offscreen,
@@ -451,6 +460,46 @@ impl Game {
             }
             (None, None) => None,
         };
+        if self.sway {
+            self.hadou.set_camera(self.main_camera().for_hadou()).map_err(err)?;
+        }
+        if self.slime_on_gpu != self.slime_sim.is_some() {
+            self.switch_slime()?;
+        }
+        if !self.slime_on_gpu {
+            self.hadou.set_metaball_group(self.slime, &self.state.slime()).map_err(err)?;
+        }
+        Ok(())
+    }
+
+    /// The main view's camera: `camera()`, swayed sideways with the time when `sway` is on.
+    pub fn main_camera(&self) -> GameCamera {
+        let mut c = camera();
+        if self.sway {
+            let s = 1.5 * (0.8 * self.state.time).sin();
+            c.position.x += s;
+            c.look_at.x += s;
+        }
+        c
+    }
+
+    /// The slime's balls from the GPU again, or from the host (`slime_on_gpu`).
+    fn switch_slime(&mut self) -> Result<(), String> {
+        let err = |e: hadou::Error| e.to_string();
+        match self.slime_sim.take() {
+            Some(sim) => {
+                self.hadou.set_metaball_buffer(self.slime, None).map_err(err)?;
+                // SAFETY: the game's live device; nothing that reads the buffer is in flight after.
+                unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
+                sim.destroy(&self.vk);
+            }
+            None => {
+                let sim = SlimeSim::new(&self.vk)?;
+                let balls = hadou::DeviceBalls { buffer: sim.buffer, offset: 0, count: SLIME_BALLS };
+                self.slime_sim = Some(sim);
+                self.hadou.set_metaball_buffer(self.slime, Some(balls)).map_err(err)?;
+            }
+        }
         Ok(())
     }
 
@@ -501,7 +550,8 @@ impl Game {
         let undefined = vk::ImageLayout::UNDEFINED;
         let (attachment, depth_attachment) =
             (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL);
-        let cameras = view_cameras(self.split);
+        let mut cameras = view_cameras(self.split);
+        cameras[0] = self.main_camera();
         let mut views = Vec::new();
         for (i, (v, cam)) in self.views.iter().zip(&cameras).enumerate() {
             // With split screen the view's own colour, copied into the target after; else the target.
