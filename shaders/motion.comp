@@ -31,7 +31,7 @@ struct MotionGroup {
 };
 struct MotionBall {
     vec4 centre_radius;  // this frame's object-space centre, R
-    vec4 prev_q;         // xyz: the previous frame's centre, w: q
+    vec4 q_prev;         // x: q, yzw: the previous frame's centre (a game's DeviceBall, copied as is)
 };
 layout(set = 0, binding = 8, std430) readonly buffer Groups { MotionGroup groups[]; };
 layout(set = 0, binding = 9, std430) readonly buffer Balls { MotionBall balls[]; };
@@ -52,8 +52,8 @@ vec3 metaball_previous(uint g, vec3 p) {
     for (uint i = group.info.x; i < group.info.x + group.info.y; ++i) {
         MotionBall b = balls[i];
         vec3 w = o - b.centre_radius.xyz;
-        float f = abs(b.prev_q.w) * kernel_f(group.info.z, dot(w, w) / (b.centre_radius.w * b.centre_radius.w));
-        moved += f * (b.prev_q.xyz - b.centre_radius.xyz);
+        float f = abs(b.q_prev.x) * kernel_f(group.info.z, dot(w, w) / (b.centre_radius.w * b.centre_radius.w));
+        moved += f * (b.q_prev.yzw - b.centre_radius.xyz);
         weight += f;
     }
     vec3 before = weight > 0.0 ? o + moved / weight : o;

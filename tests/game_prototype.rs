@@ -322,14 +322,14 @@ fn the_gpu_slime_draws_as_the_host_slime() {
 /// 2 % of the pixels after 24 frames — what is left are surfaces uncovered while they moved less
 /// than the resolve's 1-pixel rejection, the pillars at the sway's turns — and at least twice as
 /// many pixels trail when the same resolve takes its history in place. With the clamp on (the
-/// game's default) no pixel trails. The slime comes from the host here, so its balls' motion is
-/// known to hadou too.
+/// game's default) no pixel trails. The slime moves in the game's compute shader, which writes
+/// its balls' previous centres too (`DeviceBalls::previous_centres`).
 #[test]
 fn a_taa_resolve_fed_hadous_motion_vectors_leaves_no_trail() {
     let vk =
         gpu::GameVk::new(true, &[], &[], &|_, _, _, _| true).unwrap_or_else(|e| panic!("game device: {e}"));
     let mut g = Game::new(vk).unwrap();
-    (g.sway, g.slime_on_gpu) = (true, false);
+    g.sway = true;
     g.hadou.set_motion_vectors(true).unwrap();
     let e = vk::Extent2D { width: 96, height: 60 };
     let taa = || taa::Taa::new(e.width, e.height);

@@ -290,3 +290,56 @@ fn motion_vectors_are_off_unless_asked_for() {
     host.destroy();
     drop(hadou);
 }
+
+/// Balls a game writes on the GPU (`set_metaball_buffer`) with their previous centres in their
+/// records (`DeviceBalls::previous_centres`): the surface's motion follows them as it follows the
+/// host's balls; without them the group moves by its transform only (here: not at all).
+#[test]
+fn metaballs_from_the_games_buffer_move_with_their_previous_centres() {
+    use hadou::gpu::memory::{Memory, MemoryLocation};
+    use hadou::gpu::vk;
+    use hadou::{DeviceBall, DeviceBalls};
+    let scene =
+        "[camera]\nposition = [0, 1, 8]\nlook_at = [0, 0.3, 0]\nfov_y_deg = 50\nnear = 0.5\nfar = 60\n\
+                 [[light]]\ndirection = [-0.3, -1, -0.5]\n[[material]]\nname = \"slime\"\n[[metaballs]]\n\
+                 material = \"slime\"\nthreshold = 0.4\nballs = [{ centre = [0, 0, 0], radius = 1 }]\n";
+    let mut rt = common::runtime();
+    rt.load_scene(common::parse(scene)).unwrap();
+    let c = camera(DVec3::new(0.0, 1.0, 8.0));
+    rt.renderer().set_camera(c).unwrap();
+    rt.renderer().set_motion_vectors(true).unwrap();
+    let rest = [[-0.6f32, 0.0, 0.0, 1.2], [0.5, 0.3, 0.0, 1.0], [0.0, -0.4, 0.3, 1.1]];
+    let records = |d: [f32; 3], prev: [f32; 3]| -> Vec<DeviceBall> {
+        rest.iter()
+            .map(|r| DeviceBall {
+                centre_radius: [r[0] + d[0], r[1] + d[1], r[2] + d[2], r[3]],
+                q: [1.0, r[0] + prev[0], r[1] + prev[1], r[2] + prev[2]],
+            })
+            .collect()
+    };
+    let memory = Memory::new(rt.context()).unwrap();
+    let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+    let mut buffer =
+        memory.create_buffer(rt.context(), "game balls", 96, usage, MemoryLocation::CpuToGpu).unwrap();
+    let group = rt.renderer().metaballs_ids()[0];
+    let source = DeviceBalls { buffer: buffer.raw, offset: 0, count: 3, previous_centres: true };
+    rt.renderer().set_metaball_buffer(group, Some(source)).unwrap();
+    buffer.write(0, bytemuck::cast_slice(&records([0.0; 3], [0.0; 3]))).unwrap();
+    render(&mut rt, &[Aov::Motion]);
+    let d = [0.2f32, 0.1, -0.15];
+    buffer.write(0, bytemuck::cast_slice(&records(d, [0.0; 3]))).unwrap();
+    let out = render(&mut rt, &[Aov::Motion, Aov::Depth]);
+    let df = DVec3::new(d[0].into(), d[1].into(), d[2].into());
+    let (motion, depth) = (out.aov(Aov::Motion).unwrap(), out.aov(Aov::Depth).unwrap());
+    let (surface, worst) = check("the game's balls", motion, depth, (&c, &c, &c), |p| p - df);
+    println!("the game's balls: {surface} surface pixels, largest error {worst:.1e} px");
+    assert!(surface > 150, "{surface}");
+    // The same frame without previous centres: the group did not move, so neither did its surface.
+    let source = DeviceBalls { previous_centres: false, ..source };
+    rt.renderer().set_metaball_buffer(group, Some(source)).unwrap();
+    let still = render(&mut rt, &[Aov::Motion]);
+    assert!(still.aov(Aov::Motion).unwrap().data.iter().all(|&m| m == 0.0));
+    // The game's buffer goes before the device (the renderer draws no more frames from it).
+    drop((buffer, memory));
+    rt.finish();
+}

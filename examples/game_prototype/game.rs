@@ -300,10 +300,7 @@ pub struct Game {
     /// The main camera sways from side to side with the game's time (`main_camera`): the whole
     /// picture moves, what a temporal resolve must follow (the TAA test).
     pub sway: bool,
-    /// The slime's balls come from `slime_sim` on the GPU (the default) or from the host
-    /// (`GameState::slime`, handed over each frame: their motion is then known to hadou's
-    /// motion vectors too).
-    pub slime_on_gpu: bool,
+
     painter: Option<Painter>,
     /// Per view: its depth, and with split screen its colour (copied into the target's half).
     views: Vec<ViewImages>,
@@ -315,6 +312,8 @@ pub struct Game {
     /// The scene's metaball group "slime", drawn from the balls `slime_sim` writes on the GPU.
     slime: GroupId,
     slime_sim: Option<SlimeSim>,
+    /// The time the slime was simulated at last (its balls' previous centres).
+    sim_time: Option<f64>,
     /// Frames in flight (1..=FRAMES_IN_FLIGHT); hadou's renderer has as many slots.
     frames_in_flight: usize,
     /// Wall time of the last `Renderer::record_frame` (ms).
@@ -387,7 +386,8 @@ impl Game {
         let slime = hadou.metaballs_named("slime").ok_or("the scene has no metaball group \"slime\"")?;
         // The slime moves on the GPU: hadou reads the game's buffer, no host copy.
         let sim = SlimeSim::new(&vk)?;
-        let balls = hadou::DeviceBalls { buffer: sim.buffer, offset: 0, count: SLIME_BALLS };
+        let balls =
+            hadou::DeviceBalls { buffer: sim.buffer, offset: 0, count: SLIME_BALLS, previous_centres: true };
         if let Err(e) = hadou.set_metaball_buffer(slime, Some(balls)) {
             drop(hadou);
             sim.destroy(&vk);
@@ -402,7 +402,6 @@ impl Game {
             state,
             split: false,
             sway: false,
-            slime_on_gpu: true,
             painter,
             views,
             offscreen,
@@ -410,6 +409,7 @@ impl Game {
             wave: None,
             slime,
             slime_sim: Some(sim),
+            sim_time: None,
             frames_in_flight: frames,
             last_record_ms: 0.0,
             last_record_cpu_ms: 0.0,
@@ -463,12 +463,6 @@ impl Game {
         if self.sway {
             self.hadou.set_camera(self.main_camera().for_hadou()).map_err(err)?;
         }
-        if self.slime_on_gpu != self.slime_sim.is_some() {
-            self.switch_slime()?;
-        }
-        if !self.slime_on_gpu {
-            self.hadou.set_metaball_group(self.slime, &self.state.slime()).map_err(err)?;
-        }
         Ok(())
     }
 
@@ -481,26 +475,6 @@ impl Game {
             c.look_at.x += s;
         }
         c
-    }
-
-    /// The slime's balls from the GPU again, or from the host (`slime_on_gpu`).
-    fn switch_slime(&mut self) -> Result<(), String> {
-        let err = |e: hadou::Error| e.to_string();
-        match self.slime_sim.take() {
-            Some(sim) => {
-                self.hadou.set_metaball_buffer(self.slime, None).map_err(err)?;
-                // SAFETY: the game's live device; nothing that reads the buffer is in flight after.
-                unsafe { self.vk.device.device_wait_idle() }.map_err(|e| e.to_string())?;
-                sim.destroy(&self.vk);
-            }
-            None => {
-                let sim = SlimeSim::new(&self.vk)?;
-                let balls = hadou::DeviceBalls { buffer: sim.buffer, offset: 0, count: SLIME_BALLS };
-                self.slime_sim = Some(sim);
-                self.hadou.set_metaball_buffer(self.slime, Some(balls)).map_err(err)?;
-            }
-        }
-        Ok(())
     }
 
     /// The painter for `format`, and each view's images for its size in a `extent` frame.
@@ -589,8 +563,9 @@ impl Game {
         }
         // The slime's balls at this frame's time, written before hadou's frame reads them.
         if let Some(sim) = &self.slime_sim {
-            sim.record(g, self.state.time);
+            sim.record(g, self.state.time, self.sim_time.unwrap_or(self.state.time));
         }
+        self.sim_time = Some(self.state.time);
         let (start, cpu_start) = (std::time::Instant::now(), thread_cpu_ms());
         self.hadou.record_views(g.cmd, self.state.time, &views).map_err(|e| e.to_string())?;
         self.last_record_ms = start.elapsed().as_secs_f64() * 1e3;

@@ -9,6 +9,9 @@ use glam::{DMat4, DVec3};
 
 use super::gpu_structs::mat4_f32;
 use super::{Binding, FrameContext, Pass, PassRecording};
+use crate::effects::metaballs::device::{DeviceBalls, DEVICE_BALL_BYTES};
+use crate::gpu::barriers::{cmd_barriers, memory_barrier};
+use crate::gpu::pipeline::BufferRange;
 use crate::gpu::pipeline::{create_compute_pipeline, Bound, Pipeline};
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
@@ -53,17 +56,20 @@ pub struct MotionGroup {
 
 crate::gpu::layout::gpu_layout!(MotionGroup as "MotionGroup" { to_object, prev_to_world, info });
 
-/// Keep in sync with `MotionBall` in shaders/motion.comp.
+/// Keep in sync with `MotionBall` in shaders/motion.comp: a `DeviceBall`'s layout, so the game's
+/// records are copied in as they are.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct MotionBall {
     /// This frame's object-space centre and R.
     pub centre_radius: [f32; 4],
-    /// xyz: the previous frame's centre, w: q.
-    pub prev_q: [f32; 4],
+    /// x: q, yzw: the previous frame's centre.
+    pub q_prev: [f32; 4],
 }
 
-crate::gpu::layout::gpu_layout!(MotionBall as "MotionBall" { centre_radius, prev_q });
+crate::gpu::layout::gpu_layout!(MotionBall as "MotionBall" { centre_radius, q_prev });
+
+const _: () = assert!(std::mem::size_of::<MotionBall>() as u64 == DEVICE_BALL_BYTES);
 
 /// A metaball group as a frame left it: object → world, and its balls' centres.
 type GroupState = (DMat4, Vec<DVec3>);
@@ -73,6 +79,10 @@ pub struct MotionPass {
     extent: vk::Extent2D,
     /// Per view (`FrameContext::view`), its groups in its previous frame.
     previous: Vec<Vec<GroupState>>,
+    /// This frame's copies of a game's balls that carry their previous centres (`DeviceBalls`):
+    /// the source, and the first ball of theirs in `balls`.
+    copies: Vec<(DeviceBalls, u32)>,
+    balls: BufferRange,
 }
 
 impl MotionPass {
@@ -82,6 +92,8 @@ impl MotionPass {
             pipeline: create_compute_pipeline(ctx, "motion", &spirv, 0)?,
             extent: vk::Extent2D::default(),
             previous: Vec::new(),
+            copies: Vec::new(),
+            balls: BufferRange::whole(vk::Buffer::null()),
         })
     }
 }
@@ -99,13 +111,17 @@ impl Pass for MotionPass {
         let now: Vec<_> = scene.metaballs().iter().map(|g| g.at(frame.time)).collect();
         let before = &self.previous[frame.view];
         let (mut groups, mut balls) = (Vec::new(), Vec::new());
+        self.copies.clear();
         for (i, (group, params)) in scene.metaballs().iter().zip(&now).enumerate() {
             // The previous frame's state of this group, when it had as many balls.
             let prev = before.get(i).filter(|(_, c)| c.len() == params.balls.len());
             let first = balls.len() as u32;
-            // The game's balls (`DeviceBalls`) have no previous positions on the host: their
-            // group moves by its transforms only.
-            if group.device.is_none() {
+            // The game's balls (`DeviceBalls`) are copied in on the device when their records
+            // carry their previous centres; else their group moves by its transforms only.
+            if let Some(source) = group.device.filter(|d| d.previous_centres) {
+                self.copies.push((source, first));
+                balls.resize(balls.len() + source.count as usize, MotionBall::default());
+            } else if group.device.is_none() {
                 for (k, b) in params.balls.iter().enumerate() {
                     let was = prev.map_or(b.centre, |(_, c)| c[k]);
                     let f = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
@@ -113,7 +129,7 @@ impl Pass for MotionPass {
                     let [px, py, pz] = f(was);
                     balls.push(MotionBall {
                         centre_radius: [cx, cy, cz, b.radius as f32],
-                        prev_q: [px, py, pz, b.q as f32],
+                        q_prev: [b.q as f32, px, py, pz],
                     });
                 }
             }
@@ -133,6 +149,7 @@ impl Pass for MotionPass {
             balls.push(MotionBall::default());
         }
         self.extent = frame.extent;
+        self.balls = frame.upload(&balls)?;
         let uniforms = MotionUniforms::of(frame);
         Ok(vec![
             Binding::Bound(Bound::Uniform(frame.uniforms)),
@@ -144,7 +161,7 @@ impl Pass for MotionPass {
             Binding::write(Target::Composition),
             Binding::Bound(Bound::Uniform(frame.upload(&[uniforms])?)),
             Binding::Bound(Bound::Storage(frame.upload(&groups)?)),
-            Binding::Bound(Bound::Storage(frame.upload(&balls)?)),
+            Binding::Bound(Bound::Storage(self.balls)),
         ])
     }
 
@@ -153,6 +170,29 @@ impl Pass for MotionPass {
     }
 
     fn record(&self, pass: &PassRecording) {
+        if !self.copies.is_empty() {
+            // The game's records into their places (after the game's writes, before the reads),
+            // as the metaballs pass copies them (`metaballs_device`).
+            let (device, cmd) = (&pass.rec.ctx.device, pass.rec.cmd);
+            let all = vk::PipelineStageFlags2::ALL_COMMANDS;
+            let copy = vk::PipelineStageFlags2::COPY;
+            let written =
+                memory_barrier(all, vk::AccessFlags2::MEMORY_WRITE, copy, vk::AccessFlags2::TRANSFER_READ);
+            cmd_barriers(device, cmd, &[], &[written]);
+            for (source, first) in &self.copies {
+                let at = self.balls.offset + u64::from(*first) * DEVICE_BALL_BYTES;
+                let size = u64::from(source.count) * DEVICE_BALL_BYTES;
+                pass.rec.copy_buffer(source.buffer, source.offset, self.balls.buffer, at, size);
+            }
+            let copied = memory_barrier(
+                copy,
+                vk::AccessFlags2::TRANSFER_WRITE,
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ,
+            );
+            let read = memory_barrier(copy, vk::AccessFlags2::NONE, all, vk::AccessFlags2::NONE);
+            cmd_barriers(device, cmd, &[], &[copied, read]);
+        }
         pass.rec.bind_pipeline(&self.pipeline, pass.set(0));
         pass.rec.dispatch_2d(self.extent.width, self.extent.height, (8, 8));
     }
