@@ -74,7 +74,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     buffer.write(0, bytes)?;
     let group = rt.renderer().metaballs_ids()[0];
-    let source = DeviceBalls { buffer: buffer.raw, offset: 0, count: records.len() as u32 };
+    let source =
+        DeviceBalls { buffer: buffer.raw, offset: 0, count: records.len() as u32, previous_centres: false };
     rt.renderer().set_metaball_buffer(group, Some(source))?;
     // A game whose balls live on the GPU keeps none on the host: one stands in for the f64 tools.
     let stand_in = hadou::Ball { centre: glam::DVec3::ZERO, radius: 1.0, q: 1.0 };

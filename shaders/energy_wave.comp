@@ -19,6 +19,10 @@ struct WaveStyle {
 layout(set = 0, binding = 0, r32f) uniform readonly image2D distance_image;
 layout(set = 0, binding = 1, rgba16f) uniform image2D hdr;
 layout(set = 0, binding = 2, r32f) uniform writeonly image2D energy;
+#ifdef REACTIVE
+// A temporal upscaler's reactive mask: the share of the pixel's luminance the glow added.
+layout(set = 0, binding = 9, r32f) uniform writeonly image2D reactive;
+#endif
 layout(set = 0, binding = 3, std430) readonly buffer Waves { Wave waves[]; };
 layout(set = 0, binding = 4, std430) readonly buffer Styles { WaveStyle styles[]; };
 // The camera's ray frame (ray_right, ray_up, ray_forward; ray_forward.w: the far distance) and
@@ -113,6 +117,13 @@ void main() {
             imageStore(energy, pix, vec4(total, 0.0, 0.0, 0.0));
         }
         vec4 c = imageLoad(hdr, pix);
-        imageStore(hdr, pix, vec4(min(c.rgb + emitted, vec3(HALF_MAX)), c.a));
+        vec3 lit = min(c.rgb + emitted, vec3(HALF_MAX));
+        imageStore(hdr, pix, vec4(lit, c.a));
+#ifdef REACTIVE
+        const vec3 LUMA = vec3(0.2126, 0.7152, 0.0722);
+        float all_light = dot(lit, LUMA);
+        float share = all_light > 0.0 ? clamp(dot(lit - c.rgb, LUMA) / all_light, 0.0, 1.0) : 0.0;
+        imageStore(reactive, pix, vec4(share, 0.0, 0.0, 0.0));
+#endif
     }
 }

@@ -10,6 +10,9 @@
 // at its coordinate set mapped by KHR_texture_transform; both are sampled before the mask's
 // discard (implicit derivatives need every fragment of the quad).
 #include "common/frame.glsl"
+#ifdef MOTION
+#include "common/motion.glsl"
+#endif
 
 layout(set = 0, binding = 0, std140) uniform FrameBlock { FrameUniforms frame; };
 
@@ -29,6 +32,12 @@ layout(location = 0) out vec4 out_hdr;
 layout(location = 1) out vec4 out_normal;
 layout(location = 2) out uvec2 out_ids;
 layout(location = 3) out float out_distance;
+#ifdef MOTION
+// Interpolated clip coordinates: exact at the fragment (clip is linear in the object's position).
+layout(location = 7) in vec4 v_clip;
+layout(location = 8) in vec4 v_prev_clip;
+layout(location = 4) out vec2 out_motion;
+#endif
 
 #ifdef MATERIAL_TEXTURES
 struct TexturePush {
@@ -83,4 +92,8 @@ void main() {
     out_normal = vec4(n, 1.0);
     out_ids = v_ids;
     out_distance = length(to_camera);
+#ifdef MOTION
+    vec2 size = vec2(frame.counts.yz);
+    out_motion = motion_pixel(v_prev_clip, size) - motion_pixel(v_clip, size);
+#endif
 }

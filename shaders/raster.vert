@@ -6,6 +6,9 @@
 // VERTEX_ATTRIBUTES (the pipeline for meshes with glTF vertex attributes, crates/hadou/src/passes/raster.rs):
 // a second vertex binding with the vertex colour and both texture coordinate sets.
 #include "common/frame.glsl"
+#ifdef MOTION
+#include "common/motion.glsl"
+#endif
 
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
@@ -27,6 +30,15 @@ layout(location = 4) flat out vec4 v_emission; // rgb: emission; a: alpha cutoff
 layout(location = 5) out vec4 v_color;
 layout(location = 6) out vec4 v_texcoords;
 #endif
+#ifdef MOTION
+// A temporal upscaler's motion (common/motion.glsl): the vertex in the previous frame (its mesh's
+// previous positions, its instance's previous model matrix, the previous camera), unjittered.
+layout(location = 7) in vec3 in_prev_position;
+layout(set = 0, binding = 3, std140) uniform MotionBlock { MotionUniforms motion; };
+layout(set = 0, binding = 4, std430) readonly buffer PrevModels { mat4 prev_models[]; };
+layout(location = 7) out vec4 v_clip;
+layout(location = 8) out vec4 v_prev_clip;
+#endif
 
 void main() {
     InstanceData inst = instances[gl_InstanceIndex];
@@ -39,6 +51,10 @@ void main() {
 #ifdef VERTEX_ATTRIBUTES
     v_color = in_color;
     v_texcoords = in_texcoords;
+#endif
+#ifdef MOTION
+    v_clip = motion.view_proj * world;
+    v_prev_clip = motion.prev_view_proj * (prev_models[gl_InstanceIndex] * vec4(in_prev_position, 1.0));
 #endif
     gl_Position = frame.view_proj * world;
 }

@@ -94,11 +94,12 @@ fn balls_a_compute_shader_writes_are_drawn_as_the_f64_reference() {
     hadou.load_scene(common::parse(SCENE)).unwrap();
     let group = hadou.metaballs_ids()[0];
     // Refused: no buffer, no balls.
-    let none = DeviceBalls { buffer: vk::Buffer::null(), offset: 0, count: 1 };
+    let none = DeviceBalls { buffer: vk::Buffer::null(), offset: 0, count: 1, previous_centres: false };
     assert!(hadou.set_metaball_buffer(group, Some(none)).is_err());
-    let empty = DeviceBalls { buffer: game_balls.raw, offset: OFFSET, count: 0 };
+    let empty = DeviceBalls { buffer: game_balls.raw, offset: OFFSET, count: 0, previous_centres: false };
     assert!(hadou.set_metaball_buffer(group, Some(empty)).is_err());
-    let source = DeviceBalls { buffer: game_balls.raw, offset: OFFSET, count: BALLS };
+    let source =
+        DeviceBalls { buffer: game_balls.raw, offset: OFFSET, count: BALLS, previous_centres: false };
     hadou.set_metaball_buffer(group, Some(source)).unwrap();
 
     let time = 0.8f32;

@@ -297,6 +297,10 @@ pub struct Game {
     /// Split screen: two views side by side, each with its own camera (`view_cameras`), recorded
     /// by hadou in one frame (`Renderer::record_views`).
     pub split: bool,
+    /// The main camera sways from side to side with the game's time (`main_camera`): the whole
+    /// picture moves, what a temporal resolve must follow (the TAA test).
+    pub sway: bool,
+
     painter: Option<Painter>,
     /// Per view: its depth, and with split screen its colour (copied into the target's half).
     views: Vec<ViewImages>,
@@ -308,6 +312,8 @@ pub struct Game {
     /// The scene's metaball group "slime", drawn from the balls `slime_sim` writes on the GPU.
     slime: GroupId,
     slime_sim: Option<SlimeSim>,
+    /// The time the slime was simulated at last (its balls' previous centres).
+    sim_time: Option<f64>,
     /// Frames in flight (1..=FRAMES_IN_FLIGHT); hadou's renderer has as many slots.
     frames_in_flight: usize,
     /// Wall time of the last `Renderer::record_frame` (ms).
@@ -380,7 +386,8 @@ impl Game {
         let slime = hadou.metaballs_named("slime").ok_or("the scene has no metaball group \"slime\"")?;
         // The slime moves on the GPU: hadou reads the game's buffer, no host copy.
         let sim = SlimeSim::new(&vk)?;
-        let balls = hadou::DeviceBalls { buffer: sim.buffer, offset: 0, count: SLIME_BALLS };
+        let balls =
+            hadou::DeviceBalls { buffer: sim.buffer, offset: 0, count: SLIME_BALLS, previous_centres: true };
         if let Err(e) = hadou.set_metaball_buffer(slime, Some(balls)) {
             drop(hadou);
             sim.destroy(&vk);
@@ -394,6 +401,7 @@ impl Game {
             hadou,
             state,
             split: false,
+            sway: false,
             painter,
             views,
             offscreen,
@@ -401,6 +409,7 @@ impl Game {
             wave: None,
             slime,
             slime_sim: Some(sim),
+            sim_time: None,
             frames_in_flight: frames,
             last_record_ms: 0.0,
             last_record_cpu_ms: 0.0,
@@ -451,7 +460,21 @@ impl Game {
             }
             (None, None) => None,
         };
+        if self.sway {
+            self.hadou.set_camera(self.main_camera().for_hadou()).map_err(err)?;
+        }
         Ok(())
+    }
+
+    /// The main view's camera: `camera()`, swayed sideways with the time when `sway` is on.
+    pub fn main_camera(&self) -> GameCamera {
+        let mut c = camera();
+        if self.sway {
+            let s = 1.5 * (0.8 * self.state.time).sin();
+            c.position.x += s;
+            c.look_at.x += s;
+        }
+        c
     }
 
     /// The painter for `format`, and each view's images for its size in a `extent` frame.
@@ -501,7 +524,8 @@ impl Game {
         let undefined = vk::ImageLayout::UNDEFINED;
         let (attachment, depth_attachment) =
             (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL);
-        let cameras = view_cameras(self.split);
+        let mut cameras = view_cameras(self.split);
+        cameras[0] = self.main_camera();
         let mut views = Vec::new();
         for (i, (v, cam)) in self.views.iter().zip(&cameras).enumerate() {
             // With split screen the view's own colour, copied into the target after; else the target.
@@ -539,8 +563,9 @@ impl Game {
         }
         // The slime's balls at this frame's time, written before hadou's frame reads them.
         if let Some(sim) = &self.slime_sim {
-            sim.record(g, self.state.time);
+            sim.record(g, self.state.time, self.sim_time.unwrap_or(self.state.time));
         }
+        self.sim_time = Some(self.state.time);
         let (start, cpu_start) = (std::time::Instant::now(), thread_cpu_ms());
         self.hadou.record_views(g.cmd, self.state.time, &views).map_err(|e| e.to_string())?;
         self.last_record_ms = start.elapsed().as_secs_f64() * 1e3;

@@ -15,24 +15,28 @@ const SHADER: &str = r#"
 layout(local_size_x = 8) in;
 struct Ball { vec4 centre_radius; vec4 q; };  // hadou::DeviceBall
 layout(set = 0, binding = 0, std430) buffer Balls { Ball balls[]; };
-layout(push_constant) uniform Sim { vec4 time; } sim;
+layout(push_constant) uniform Sim { vec4 time; } sim;  // x: this frame's time, y: the previous one's
 // The blob's balls at rest (object space) and their radii: game.rs's SLIME.
 const vec4 REST[3] = vec4[3](vec4(0.0, 0.0, 0.0, 1.5), vec4(0.9, 0.2, 0.0, 1.2), vec4(-0.7, 0.1, 0.4, 1.1));
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    float t = sim.time.x;
+// Ball i at time t: centre and R.
+vec4 ball(uint i, float t) {
     if (i < 3u) {
         // Each bobs on its own phase.
         vec3 c = REST[i].xyz;
         float phase = 2.1 * c.x + 1.3 * c.z;
         vec3 bob = vec3(0.12 * sin(1.7 * t + phase), 0.18 * sin(2.3 * t + phase), 0.0);
-        balls[i] = Ball(vec4(c + bob, REST[i].w), vec4(1.0, 0.0, 0.0, 0.0));
-    } else if (i < 5u) {
-        // Two drops bud off, drift apart and merge back over a 4 s cycle.
-        float side = i == 3u ? -1.0 : 1.0;
-        float apart = pow(0.5 - 0.5 * cos(6.28318531 * t / 4.0), 2.0);
-        balls[i] = Ball(vec4(side * (0.4 + 2.2 * apart), 0.3 + 0.8 * apart, 0.2, 0.9), vec4(1.0, 0.0, 0.0, 0.0));
+        return vec4(c + bob, REST[i].w);
     }
+    // Two drops bud off, drift apart and merge back over a 4 s cycle.
+    float side = i == 3u ? -1.0 : 1.0;
+    float apart = pow(0.5 - 0.5 * cos(6.28318531 * t / 4.0), 2.0);
+    return vec4(side * (0.4 + 2.2 * apart), 0.3 + 0.8 * apart, 0.2, 0.9);
+}
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= 5u) return;
+    // q = 1, and the centre a frame ago for hadou's motion vectors (DeviceBalls::previous_centres).
+    balls[i] = Ball(ball(i, sim.time.x), vec4(1.0, ball(i, sim.time.y).xyz));
 }
 "#;
 
@@ -140,10 +144,11 @@ impl SlimeSim {
         }
     }
 
-    /// Records the balls at scene time `time` into the game's command buffer (hadou's frame, after
-    /// it, waits for the writes itself).
-    pub fn record(&self, g: &GameVk, time: f64) {
-        let push = [time as f32, 0.0, 0.0, 0.0];
+    /// Records the balls at scene time `time` (and where they were at `previous`, the last
+    /// frame's time) into the game's command buffer (hadou's frame, after it, waits for the writes
+    /// itself).
+    pub fn record(&self, g: &GameVk, time: f64, previous: f64) {
+        let push = [time as f32, previous as f32, 0.0, 0.0];
         // SAFETY: the command buffer is recording, outside a render pass; every object is live
         // until `destroy`, after the frames that use them finished.
         unsafe {

@@ -86,7 +86,7 @@ impl Sidecar {
     }
 
     pub fn aovs(&self) -> anyhow::Result<Vec<Aov>> {
-        let names: Vec<_> = Aov::ALL.iter().map(|a| a.name()).collect();
+        let names: Vec<_> = Aov::ALL.iter().chain(&Aov::UPSCALER).map(|a| a.name()).collect();
         self.aovs
             .iter()
             .map(|n| {

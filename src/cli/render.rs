@@ -60,7 +60,7 @@ fn check_png_name(path: &Path) -> anyhow::Result<()> {
 fn parse_aov(text: &str) -> anyhow::Result<(Aov, PathBuf)> {
     let (name, file) = text.split_once('=').context("expected NAME=FILE.exr")?;
     let Some(aov) = Aov::from_name(name) else {
-        let names: Vec<_> = Aov::ALL.iter().map(|a| a.name()).collect();
+        let names: Vec<_> = Aov::ALL.iter().chain(&Aov::UPSCALER).map(|a| a.name()).collect();
         bail!("unknown AOV `{name}` (expected one of: {})", names.join(", "));
     };
     if file.is_empty() {

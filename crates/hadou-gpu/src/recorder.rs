@@ -330,9 +330,14 @@ impl Recorder<'_> {
     /// Binds `vertices` at vertex input `binding` (a pipeline's second binding; `draw_mesh` binds
     /// binding 0), for the draws that follow.
     pub fn bind_vertex_buffer(&self, binding: u32, vertices: &Buffer) {
+        self.bind_vertex_range(binding, vertices.raw, 0);
+    }
+
+    /// Binds `buffer` from `offset` at vertex input `binding` (a range of an upload ring).
+    pub fn bind_vertex_range(&self, binding: u32, buffer: vk::Buffer, offset: u64) {
         // SAFETY: recording with a graphics pipeline bound; the buffer is live until the frame's
         // fence.
-        unsafe { self.device().cmd_bind_vertex_buffers(self.cmd, binding, &[vertices.raw], &[0]) };
+        unsafe { self.device().cmd_bind_vertex_buffers(self.cmd, binding, &[buffer], &[offset]) };
     }
 
     /// A full-screen triangle (no vertex buffer: the vertex shader makes it from gl_VertexIndex).

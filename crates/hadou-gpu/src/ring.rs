@@ -85,9 +85,13 @@ impl UploadRing {
             offset
         } else {
             let grown = (self.capacity() + self.capacity() / 2).max(size + size / 2).max(FIRST_BYTES);
+            // VERTEX_BUFFER: a deformed mesh's previous vertices (the raster's motion).
             let usage = vk::BufferUsageFlags::UNIFORM_BUFFER
                 | vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+                | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+                | vk::BufferUsageFlags::VERTEX_BUFFER
+                // TRANSFER_DST: a game's balls copied into their place (the motion pass).
+                | vk::BufferUsageFlags::TRANSFER_DST;
             // The old buffer is retired with this frame, which may already use it.
             self.buffer =
                 Some(memory.create_buffer(ctx, &self.name, grown, usage, MemoryLocation::CpuToGpu)?);

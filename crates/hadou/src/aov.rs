@@ -21,6 +21,19 @@ pub enum Aov {
     /// translucent (or the scene has no light). One channel. Only for scenes with a translucent
     /// instance.
     Thickness,
+    /// Screen-space motion in pixels from the pixel to where its surface was in the previous
+    /// frame (x right, y down; current → previous, the jitter of both frames removed: the
+    /// convention FSR 2 and DLSS document). Two channels. Only with motion vectors on
+    /// (`Renderer::set_motion_vectors`).
+    Motion,
+    /// The reactive mask of a temporal upscaler: the share of the pixel's HDR luminance that the
+    /// energy wave's glow added, in [0, 1] (0 where no wave shows). One channel. Only with motion
+    /// vectors on.
+    Reactive,
+    /// The transparency-and-composition mask: 1 where a translucent surface of hadou's is the
+    /// pixel's first surface (its colour is light through the object, not its texture), else 0.
+    /// One channel. Only with motion vectors on.
+    Composition,
     /// An image an effect publishes (`crate::effect`): R32_SFLOAT, R32G32_SFLOAT,
     /// R32G32B32A32_SFLOAT or R16G16B16A16_SFLOAT, read back as f32 (other formats: their
     /// texels' bits as f32, one value per 4 bytes).
@@ -28,8 +41,10 @@ pub enum Aov {
 }
 
 impl Aov {
-    /// hadou's own AOVs, in declaration order.
+    /// hadou's own AOVs, in declaration order, but for the upscaler's inputs.
     pub const ALL: [Aov; 5] = [Aov::Depth, Aov::Hdr, Aov::Normal, Aov::Energy, Aov::Thickness];
+    /// A temporal upscaler's inputs (with motion vectors on, `Renderer::set_motion_vectors`).
+    pub const UPSCALER: [Aov; 3] = [Aov::Motion, Aov::Reactive, Aov::Composition];
 
     /// The CLI's name for it: "depth", "hdr", "normal", "energy" or "thickness".
     pub fn name(self) -> &'static str {
@@ -39,13 +54,16 @@ impl Aov {
             Aov::Normal => "normal",
             Aov::Energy => "energy",
             Aov::Thickness => "thickness",
+            Aov::Motion => "motion",
+            Aov::Reactive => "reactive",
+            Aov::Composition => "composition",
             Aov::Effect(d) => d.name,
         }
     }
 
     /// hadou's AOV called `name` (see `name`); None for any other string.
     pub fn from_name(name: &str) -> Option<Aov> {
-        Aov::ALL.into_iter().find(|a| a.name() == name)
+        Aov::ALL.into_iter().chain(Aov::UPSCALER).find(|a| a.name() == name)
     }
 
     /// The internal image it is read from.
@@ -56,6 +74,9 @@ impl Aov {
             Aov::Normal => Target::Normal,
             Aov::Energy => Target::Energy,
             Aov::Thickness => Target::Thickness,
+            Aov::Motion => Target::Motion,
+            Aov::Reactive => Target::Reactive,
+            Aov::Composition => Target::Composition,
             Aov::Effect(d) => Target::Custom(d),
         }
     }
@@ -63,7 +84,8 @@ impl Aov {
     /// f32 values per pixel: 1 for depth, energy and thickness, 4 for hdr and normal.
     pub fn channels(self) -> u32 {
         match self {
-            Aov::Depth | Aov::Energy | Aov::Thickness => 1,
+            Aov::Depth | Aov::Energy | Aov::Thickness | Aov::Reactive | Aov::Composition => 1,
+            Aov::Motion => 2,
             Aov::Hdr | Aov::Normal => 4,
             Aov::Effect(d) => match d.format {
                 vk::Format::R16G16B16A16_SFLOAT => 4,

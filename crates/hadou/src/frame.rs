@@ -118,6 +118,8 @@ pub(crate) struct SlotFrame<'a> {
     pub depth_imported: bool,
     /// `PassRecording::host_reads`.
     pub host_reads: Option<&'a [Target]>,
+    /// `FrameContext::motion`.
+    pub motion: Option<crate::passes::MotionFrame>,
 }
 
 /// A prepared pass: its descriptor set and the buffers it writes.
@@ -154,6 +156,7 @@ pub(crate) fn record_passes(
             view: f.view,
             embedded: f.embedded,
             depth_imported: f.depth_imported,
+            motion: f.motion,
             ring: &mut *f.ring,
             views: &mut views,
         };

@@ -313,7 +313,8 @@ pub fn encode_exr(path: &Path, name: &str, aov: &AovImage) -> Result<Vec<u8>, Ou
     if aov.data.len() != w * h * n {
         return Err(encode(format!("{} values is not {w}x{h}x{n}", aov.data.len())));
     }
-    let names: &[&str] = if n == 1 { &["Y"] } else { &["R", "G", "B", "A"] };
+    // One channel: luminance-like Y; two (motion): R, G; four: RGBA.
+    let names: &[&str] = if n == 1 { &["Y"] } else { &["R", "G", "B", "A"][..n.min(4)] };
     // Planar copies of the channels and the encoded bytes, reserved fallibly: a size the host
     // cannot hold is an error naming the output, not an abort.
     let out_of_memory = |bytes: usize| encode(format!("out of host memory ({bytes} bytes)"));

@@ -273,6 +273,11 @@ impl Runtime {
         let inputs = FrameInputs::headless(request.width, request.height, request.time);
         // Only what is read back is written (an AOV no pass reads, e.g. `energy`).
         self.renderer.set_readbacks(Some(&request.aovs));
+        // A temporal upscaler's inputs asked for: their passes are built (once).
+        let upscaler = request.aovs.iter().any(|a| Aov::UPSCALER.contains(a));
+        if upscaler && self.renderer.scene().is_some_and(|s| !s.render.motion_vectors) {
+            self.renderer.set_motion_vectors(true)?;
+        }
         let recorded = self
             .renderer
             .record_frame(cmd, &inputs)

@@ -31,9 +31,19 @@ pub struct GpuMesh {
     stale: u32,
     /// The slot whose buffer this frame draws (None: `vertices`).
     in_use: Option<usize>,
+    /// With motion vectors on, once deformed: the vertices (as `vertices` holds them) the frame
+    /// recorded last drew, and those the previous frame drew (what this one's motion is from).
+    drawn: Option<Vec<u8>>,
+    previous: Option<Vec<u8>>,
 }
 
 impl GpuMesh {
+    /// With motion vectors on, a deformed mesh's vertices in the previous frame (None: the mesh
+    /// never deformed, its vertices are `vertices`).
+    pub fn previous_vertices(&self) -> Option<&[u8]> {
+        self.previous.as_deref()
+    }
+
     /// The buffers of `mesh` (named `name` in debug labels), written at once: host-visible, so
     /// a mesh spawned at run time waits for nothing.
     pub fn new(
@@ -59,7 +69,19 @@ impl GpuMesh {
         };
         let (deformed, stale, in_use) = (Vec::new(), 0, None);
         let bounds = mesh.bounds();
-        Ok(GpuMesh { vertices, indices, index_count, attributes, bounds, deformed, stale, in_use })
+        let (drawn, previous) = (None, None);
+        Ok(GpuMesh {
+            vertices,
+            indices,
+            index_count,
+            attributes,
+            bounds,
+            deformed,
+            stale,
+            in_use,
+            drawn,
+            previous,
+        })
     }
 
     /// The vertex buffer the frame being recorded draws: the slot's own once the mesh deformed.
@@ -200,17 +222,28 @@ impl SceneGpu {
     }
 
     /// Before recording a frame in `slot` (whose previous frame has finished): the deformed meshes'
-    /// buffers of that slot brought up to date and put in use.
+    /// buffers of that slot brought up to date and put in use; with `motion`, their vertices of
+    /// the previous frame kept for it.
     pub fn begin_slot(
         &mut self,
         ctx: &GpuContext,
         memory: &Memory,
         scene: &Scene,
         slot: usize,
+        motion: bool,
     ) -> GpuResult<()> {
         for (i, m) in self.meshes.iter_mut().enumerate() {
             if m.stale == 0 && m.deformed.is_empty() {
                 continue; // never deformed
+            }
+            if motion {
+                let now: Vec<u8> = bytemuck::cast_slice(&interleaved(&scene.meshes[i].mesh)).to_vec();
+                // Before its first deformed frame the mesh drew its loaded vertices.
+                let loaded = || m.vertices.mapped().map(<[u8]>::to_vec);
+                let drawn = m.drawn.replace(now.clone()).or_else(loaded);
+                m.previous = Some(drawn.filter(|d| d.len() == now.len()).unwrap_or(now));
+            } else {
+                (m.drawn, m.previous) = (None, None);
             }
             if m.deformed.len() <= slot {
                 m.deformed.resize_with(slot + 1, || None);

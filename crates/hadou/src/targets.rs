@@ -60,6 +60,12 @@ pub enum Target {
     /// translucency: world thickness of material the light crossed to reach the pixel's
     /// translucent surface, +inf elsewhere; R32F.
     Thickness,
+    /// Motion in pixels to the previous frame (`Aov::Motion`); RG32F. With motion vectors on.
+    Motion,
+    /// The reactive mask (`Aov::Reactive`); R32F. With motion vectors on.
+    Reactive,
+    /// The transparency-and-composition mask (`Aov::Composition`); R32F. With motion vectors on.
+    Composition,
     /// The game's depth image of this frame (embedding), imported for the frame.
     GameDepth,
     /// The game's colour target of this frame (embedding), imported for the frame.
@@ -90,6 +96,9 @@ impl Target {
             Target::Thickness => "thickness",
             Target::PeelCounts => "peel_counts",
             Target::PeelLists => "peel_lists",
+            Target::Motion => "motion",
+            Target::Reactive => "reactive",
+            Target::Composition => "composition",
             Target::GameDepth => "game depth",
             Target::GameColor => "game colour",
             Target::Custom(d) | Target::Previous(d) => d.name,
@@ -102,7 +111,13 @@ impl Target {
             Target::Hdr | Target::Normal => vk::Format::R16G16B16A16_SFLOAT,
             Target::Ids | Target::PeelLists => vk::Format::R32G32_UINT,
             Target::LightIds | Target::PeelCounts => vk::Format::R32_UINT,
-            Target::Distance | Target::Energy | Target::LightZ | Target::Thickness => vk::Format::R32_SFLOAT,
+            Target::Distance
+            | Target::Energy
+            | Target::LightZ
+            | Target::Thickness
+            | Target::Reactive
+            | Target::Composition => vk::Format::R32_SFLOAT,
+            Target::Motion => vk::Format::R32G32_SFLOAT,
             Target::Ldr => vk::Format::R8G8B8A8_UNORM,
             // The game's images carry their own format (`Targets::import`).
             Target::GameDepth | Target::GameColor => vk::Format::UNDEFINED,
@@ -118,8 +133,10 @@ impl Target {
             | Target::LightZ
             | Target::LightDepth
             | Target::Thickness
-            | Target::PeelCounts => 4,
-            Target::Hdr | Target::Normal | Target::Ids | Target::PeelLists => 8,
+            | Target::PeelCounts
+            | Target::Reactive
+            | Target::Composition => 4,
+            Target::Hdr | Target::Normal | Target::Ids | Target::PeelLists | Target::Motion => 8,
             Target::GameDepth | Target::GameColor => 0,
             Target::Custom(d) | Target::Previous(d) => d.texel_bytes,
         }
@@ -133,6 +150,9 @@ impl Target {
                 "an instance with a translucent material"
             }
             Target::PeelCounts | Target::PeelLists => "an instance with a thickness = \"peel\" material",
+            Target::Motion | Target::Reactive | Target::Composition => {
+                "motion vectors on (Renderer::set_motion_vectors)"
+            }
             Target::GameDepth | Target::GameColor => "a game's image handed to record_frame",
             Target::Custom(d) | Target::Previous(d) => d.needs,
             _ => "a frame recorded first",
@@ -164,7 +184,9 @@ impl Target {
             Target::LightDepth => {
                 base | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED
             }
-            Target::Ldr | Target::Energy | Target::Thickness => base | vk::ImageUsageFlags::STORAGE,
+            Target::Ldr | Target::Energy | Target::Thickness | Target::Reactive | Target::Composition => {
+                base | vk::ImageUsageFlags::STORAGE
+            }
             // TRANSFER_DST: the peel pass clears its counters with vkCmdClearColorImage.
             Target::PeelCounts => base | vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
             Target::PeelLists => base | vk::ImageUsageFlags::STORAGE,

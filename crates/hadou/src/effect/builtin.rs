@@ -7,13 +7,15 @@
 //! wrote what it binds, so after light_id it would overlap light_id's rasterizing and its
 //! timestamps would straddle the wrong work); light_id (the light's view of translucent
 //! instances), peel (the peel instances' crossing lists), translucency (reads what raster and
-//! metaballs wrote), the energy wave last, adding on top.
+//! metaballs wrote), with motion vectors on the upscaler's `motion` pass (every surface drawn),
+//! the energy wave last, adding on top.
 
 use std::sync::Arc;
 
 use super::{Effect, EffectPass, PassBuilder};
 use crate::effects::energy_wave::EnergyWave;
 use crate::effects::metaballs::Metaballs;
+use crate::effects::upscaler::UpscalerInputs;
 use crate::gpu::GpuResult;
 use crate::passes::light_id::LightIdPass;
 use crate::passes::peel::{self, PeelPass};
@@ -27,13 +29,25 @@ fn boxed(pass: impl Pass + 'static) -> Box<dyn Pass> {
     Box::new(pass)
 }
 
-/// The core frame's scene pass: the raster, always.
+/// The core frame's scene pass: the raster, always (with a temporal upscaler's motion when the
+/// world wants it).
 pub(super) fn core_passes() -> Vec<EffectPass> {
-    vec![EffectPass::new("raster", |_| true, |b| Ok(boxed(RasterPass::new(b.ctx, b.compiler)?)))]
+    let motion = |s: &Scene| if s.render.motion_vectors { "motion".to_string() } else { String::new() };
+    vec![EffectPass::new(
+        "raster",
+        |_| true,
+        |b| Ok(boxed(RasterPass::new(b.ctx, b.compiler, b.scene.render.motion_vectors)?)),
+    )
+    .with_variant(motion)]
 }
 
 pub(super) fn effects() -> Vec<Arc<dyn Effect>> {
-    vec![Arc::new(Metaballs::default()), Arc::new(Translucency), Arc::new(EnergyWave)]
+    vec![
+        Arc::new(Metaballs::default()),
+        Arc::new(Translucency),
+        Arc::new(UpscalerInputs),
+        Arc::new(EnergyWave),
+    ]
 }
 
 /// Seed 003: translucent materials, exp(−σ·d) with d from the thickness LUT, shadow maps or peel.

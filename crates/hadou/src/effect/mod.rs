@@ -30,6 +30,7 @@ mod state;
 
 pub use crate::effects::energy_wave::{EnergyWave, Waves};
 pub use crate::effects::metaballs::{MetaballGroups, Metaballs};
+pub use crate::effects::upscaler::UpscalerInputs;
 pub use crate::passes::metaballs::Binning;
 pub use builtin::Translucency;
 pub use error::EffectError;

@@ -16,4 +16,5 @@ pub mod thickness_lut;
 pub mod thickness_pairs;
 pub mod tonemap;
 pub mod translucency;
+pub mod upscaler;
 pub mod voxelize;

@@ -78,15 +78,14 @@ pub fn wave_style(state: &WaveState, method: WaveMethod, tolerance: f64) -> Wave
 }
 
 /// The variant of the pass `scene` needs: "tolerance" when it has waves and every one is
-/// analytic with a tolerance above 0 (`Wave::effective_tolerance`), else exact ("").
+/// analytic with a tolerance above 0 (`Wave::effective_tolerance`), else exact; " reactive" after
+/// it with motion vectors on (the glow's share in the reactive mask).
 pub fn variant(scene: &Scene) -> String {
     let tolerant = |w: &crate::scene::Wave| w.method == WaveMethod::Analytic && w.effective_tolerance() > 0.0;
     let waves = scene.waves();
-    if !waves.is_empty() && waves.iter().all(tolerant) {
-        "tolerance".into()
-    } else {
-        String::new()
-    }
+    let tolerance = !waves.is_empty() && waves.iter().all(tolerant);
+    let reactive = scene.render.motion_vectors;
+    format!("{}{}", if tolerance { "tolerance" } else { "" }, if reactive { " reactive" } else { "" })
 }
 
 /// The angle one pixel spans at the image's centre (the ray frame's right vector over half the
@@ -115,15 +114,24 @@ pub struct EnergyWavePass {
     /// counts. Per slot: whether its last frame took the tile path, and whose view it was.
     paths: Vec<PathChoice>,
     tiled_slots: Vec<(bool, usize)>,
+    /// Writes the glow's share into the reactive mask (motion vectors on).
+    reactive: bool,
 }
 
 impl EnergyWavePass {
-    /// The pass; with `tolerance`, the tile path's pipelines too (the "tolerance" variant).
-    pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler, tolerance: bool) -> GpuResult<Self> {
-        let spirv = compiler.compile("energy_wave.comp", &[])?;
+    /// The pass; with `tolerance`, the tile path's pipelines too (the "tolerance" variant); with
+    /// `reactive`, every pipeline that adds the glow writes its share (REACTIVE).
+    pub fn new(
+        ctx: &GpuContext,
+        compiler: &mut ShaderCompiler,
+        tolerance: bool,
+        reactive: bool,
+    ) -> GpuResult<Self> {
+        let defines: &[(&str, &str)] = if reactive { &[("REACTIVE", "1")] } else { &[] };
+        let spirv = compiler.compile("energy_wave.comp", defines)?;
         let push = std::mem::size_of::<EnergyWaveParams>() as u32;
         let pipeline = create_compute_pipeline(ctx, "energy_wave", &spirv, push)?;
-        let tiles = if tolerance { Some(TilePipelines::new(ctx, compiler, push)?) } else { None };
+        let tiles = if tolerance { Some(TilePipelines::new(ctx, compiler, push, defines)?) } else { None };
         let extent = vk::Extent2D::default();
         Ok(EnergyWavePass {
             pipeline,
@@ -134,6 +142,7 @@ impl EnergyWavePass {
             slot: 0,
             paths: Vec::new(),
             tiled_slots: Vec::new(),
+            reactive,
         })
     }
 
@@ -176,11 +185,13 @@ impl Pass for EnergyWavePass {
             .map(|(s, m, t)| wave_style(&WaveState { emission: s.emission * p, ..*s }, *m, *t))
             .collect();
         // The tile pipelines' sets need the tile buffers even in a frame that runs exact.
-        let tile_buffers = self.tiles.is_some() && !waves.is_empty();
+        // Bound whenever the tile pipelines exist (their sets are written every frame), even in a
+        // frame whose waves are all off (a = b = 0: none uploaded), which runs exact.
+        let tile_buffers = self.tiles.is_some();
         if self.paths.len() <= frame.view {
             self.paths.resize_with(frame.view + 1, PathChoice::default);
         }
-        let tiled = tile_buffers && self.paths[frame.view].tiled();
+        let tiled = tile_buffers && !waves.is_empty() && self.paths[frame.view].tiled();
         if self.tiled_slots.len() <= frame.slot {
             self.tiled_slots.resize(frame.slot + 1, (false, 0));
         }
@@ -220,6 +231,13 @@ impl Pass for EnergyWavePass {
                 Binding::Written(lists, Reader::Compute),
                 Binding::Written(state, Reader::Host),
             ]);
+        }
+        if self.reactive {
+            // Binding 9; the tile buffers' 6–8 are bound to nothing the exact pass reads without them.
+            while bindings.len() < 9 {
+                bindings.push(Binding::Bound(Bound::Uniform(frame.uniforms)));
+            }
+            bindings.push(Binding::write(Target::Reactive));
         }
         Ok(bindings)
     }

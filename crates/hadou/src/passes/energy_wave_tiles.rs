@@ -101,38 +101,37 @@ pub struct TilePipelines {
 }
 
 impl TilePipelines {
-    pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler, push: u32) -> GpuResult<TilePipelines> {
+    /// The pipelines; `extra` defines go to those that add the glow (REACTIVE).
+    pub fn new(
+        ctx: &GpuContext,
+        compiler: &mut ShaderCompiler,
+        push: u32,
+        extra: &[(&str, &str)],
+    ) -> GpuResult<TilePipelines> {
         let mut make = |name: &str, file: &str, defines: &[(&str, &str)]| {
             let spirv = compiler.compile(file, defines)?;
             create_compute_pipeline(ctx, name, &spirv, push)
         };
         let [small, large] = TILE_SIZES.map(|t| t.to_string());
+        let with = |defines: &[(&'static str, &'static str)], tile: &str| -> Vec<(String, String)> {
+            let mut all: Vec<(String, String)> =
+                defines.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+            all.push(("WAVE_TILE".into(), tile.into()));
+            all.extend(extra.iter().map(|(k, v)| (k.to_string(), v.to_string())));
+            all
+        };
+        let (i4, i8) = (with(&[], &small), with(&[], &large));
+        let (e4, e8) = (with(&[("TILE_LIST", "1")], &small), with(&[("TILE_LIST", "1")], &large));
         Ok(TilePipelines {
             corners: make("energy_wave corners", "energy_wave_corners.comp", &[])?,
             classify: make("energy_wave classify", "energy_wave_classify.comp", &[])?,
             interpolate: [
-                make(
-                    "energy_wave interpolate 4",
-                    "energy_wave_interp.comp",
-                    &[("WAVE_TILE", small.as_str())],
-                )?,
-                make(
-                    "energy_wave interpolate 8",
-                    "energy_wave_interp.comp",
-                    &[("WAVE_TILE", large.as_str())],
-                )?,
+                make("energy_wave interpolate 4", "energy_wave_interp.comp", &refs(&i4))?,
+                make("energy_wave interpolate 8", "energy_wave_interp.comp", &refs(&i8))?,
             ],
             exact: [
-                make(
-                    "energy_wave exact tiles 4",
-                    "energy_wave.comp",
-                    &[("TILE_LIST", "1"), ("WAVE_TILE", small.as_str())],
-                )?,
-                make(
-                    "energy_wave exact tiles 8",
-                    "energy_wave.comp",
-                    &[("TILE_LIST", "1"), ("WAVE_TILE", large.as_str())],
-                )?,
+                make("energy_wave exact tiles 4", "energy_wave.comp", &refs(&e4))?,
+                make("energy_wave exact tiles 8", "energy_wave.comp", &refs(&e8))?,
             ],
         })
     }
@@ -235,4 +234,9 @@ pub fn record(
     rec.bind_pipeline(&p.exact[v], set(4 + v));
     rec.push_constants(&p.exact[v], push);
     rec.dispatch_indirect(state, 16);
+}
+
+/// Owned defines as the compiler takes them.
+fn refs(defines: &[(String, String)]) -> Vec<(&str, &str)> {
+    defines.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect()
 }

@@ -16,6 +16,7 @@ pub mod light_id;
 pub mod metaballs;
 pub mod metaballs_bin;
 pub mod metaballs_device;
+pub mod motion;
 pub mod peel;
 pub mod pipeline_memo;
 pub mod raster;
@@ -147,6 +148,9 @@ pub struct FrameContext<'a> {
     pub embedded: bool,
     /// `Depth` and `Distance` hold the game's imported depth: load them, do not clear them.
     pub depth_imported: bool,
+    /// With motion vectors on (`Renderer::set_motion_vectors`): what the passes that write them
+    /// need of the previous frame.
+    pub motion: Option<MotionFrame>,
     pub(crate) ring: &'a mut UploadRing,
     /// Texel views made this frame; dropped (retired with the frame) once the sets are written.
     pub(crate) views: &'a mut Vec<TexelView>,
@@ -166,6 +170,18 @@ impl FrameContext<'_> {
         self.views.push(view);
         Ok(bound)
     }
+}
+
+/// What a frame with motion vectors on hands the passes that write them (`Aov::Motion`).
+#[derive(Clone, Copy, Debug)]
+pub struct MotionFrame {
+    /// The view's view-projection this frame and in its previous frame, both without the jitter
+    /// (`Renderer::set_jitter`): the motion is measured between unjittered positions.
+    pub view_proj: glam::DMat4,
+    pub prev_view_proj: glam::DMat4,
+    /// Each instance's model matrix in the previous frame (its current one when it is new), as
+    /// f32 `mat4`s in the order of `FrameContext::instances`.
+    pub prev_models: BufferRange,
 }
 
 /// What every pass sees while recording.

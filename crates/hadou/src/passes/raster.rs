@@ -8,9 +8,12 @@
 //! between its draws the material's texture set (set 1) and its coordinate maps (push constants)
 //! are bound, one run of consecutive instances of a mesh per material.
 
+use super::motion::MotionUniforms;
 use super::{Binding, FrameContext, ImageUse, Pass, PassRecording};
 use crate::gpu::barriers::ImageAccess;
-use crate::gpu::pipeline::{create_graphics_pipeline_with_sets, Blend, Bound, GraphicsDesc, Pipeline};
+use crate::gpu::pipeline::{
+    create_graphics_pipeline_with_sets, Blend, Bound, BufferRange, GraphicsDesc, Pipeline,
+};
 use crate::gpu::set_layout::SetLayout;
 use crate::gpu::shader::ShaderCompiler;
 use crate::gpu::{vk, GpuContext, GpuResult};
@@ -25,21 +28,43 @@ pub struct RasterPass {
     textured: Pipeline,
     /// Set 1 of `textured` (the sets themselves are the scene's: `SceneTextures`).
     _texture_layout: SetLayout,
+    /// Writes a temporal upscaler's motion too (MOTION): each vertex's previous position at
+    /// vertex binding 2, the mesh's own vertices or, once deformed, its previous ones (per mesh,
+    /// uploaded this frame).
+    motion: bool,
+    prev_vertices: Vec<Option<BufferRange>>,
 }
 
 /// Colour attachments in shader location order.
 const COLOR_TARGETS: [Target; 4] = [Target::Hdr, Target::Normal, Target::Ids, Target::Distance];
 
 impl RasterPass {
-    pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
+    /// The pass; with `motion`, a temporal upscaler's motion written too.
+    pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler, motion: bool) -> GpuResult<Self> {
+        let with = |defines: &[(&'static str, &'static str)]| {
+            let mut all = defines.to_vec();
+            if motion {
+                all.push(("MOTION", "1"));
+            }
+            all
+        };
         let (bindings, attributes) = crate::scene_gpu::vertex_input(true);
-        let pipeline = Self::pipeline(ctx, compiler, "raster", &[], &bindings, &attributes)?;
+        let (bindings, attributes) = previous_positions(motion, bindings.to_vec(), attributes);
+        let pipeline = Self::pipeline(ctx, compiler, "raster", &with(&[]), &bindings, &attributes, motion)?;
         let (bindings, attributes) = crate::scene_gpu::attributed_vertex_input();
-        let defines = [("VERTEX_ATTRIBUTES", "1")];
-        let attributed =
-            Self::pipeline(ctx, compiler, "raster (vertex attributes)", &defines, &bindings, &attributes)?;
+        let (bindings, attributes) = previous_positions(motion, bindings.to_vec(), attributes);
+        let defines = with(&[("VERTEX_ATTRIBUTES", "1")]);
+        let attributed = Self::pipeline(
+            ctx,
+            compiler,
+            "raster (vertex attributes)",
+            &defines,
+            &bindings,
+            &attributes,
+            motion,
+        )?;
         let layout = texture_set_layout(ctx)?;
-        let defines = [("VERTEX_ATTRIBUTES", "1"), ("MATERIAL_TEXTURES", "1")];
+        let defines = with(&[("VERTEX_ATTRIBUTES", "1"), ("MATERIAL_TEXTURES", "1")]);
         let textured = Self::pipeline_with(
             ctx,
             compiler,
@@ -47,9 +72,18 @@ impl RasterPass {
             &defines,
             (&bindings, &attributes),
             std::mem::size_of::<TexturePush>() as u32,
-            &[layout.raw],
+            (&[layout.raw], motion),
         )?;
-        Ok(RasterPass { pipeline, attributed, textured, _texture_layout: layout })
+        let prev_vertices = Vec::new();
+        Ok(RasterPass { pipeline, attributed, textured, _texture_layout: layout, motion, prev_vertices })
+    }
+
+    fn color_targets(motion: bool) -> Vec<Target> {
+        let mut all = COLOR_TARGETS.to_vec();
+        if motion {
+            all.push(Target::Motion);
+        }
+        all
     }
 
     fn pipeline(
@@ -59,8 +93,17 @@ impl RasterPass {
         defines: &[(&str, &str)],
         vertex_bindings: &[vk::VertexInputBindingDescription],
         vertex_attributes: &[vk::VertexInputAttributeDescription],
+        motion: bool,
     ) -> GpuResult<Pipeline> {
-        Self::pipeline_with(ctx, compiler, name, defines, (vertex_bindings, vertex_attributes), 0, &[])
+        Self::pipeline_with(
+            ctx,
+            compiler,
+            name,
+            defines,
+            (vertex_bindings, vertex_attributes),
+            0,
+            (&[], motion),
+        )
     }
 
     fn pipeline_with(
@@ -73,11 +116,12 @@ impl RasterPass {
             &[vk::VertexInputAttributeDescription],
         ),
         push_constant_bytes: u32,
-        extra_sets: &[vk::DescriptorSetLayout],
+        (extra_sets, motion): (&[vk::DescriptorSetLayout], bool),
     ) -> GpuResult<Pipeline> {
         let vertex = compiler.compile("raster.vert", defines)?;
         let fragment = compiler.compile("raster.frag", defines)?;
-        let color_formats = COLOR_TARGETS.map(Target::format);
+        let color_formats: Vec<vk::Format> =
+            Self::color_targets(motion).into_iter().map(Target::format).collect();
         create_graphics_pipeline_with_sets(
             ctx,
             &GraphicsDesc {
@@ -106,18 +150,45 @@ impl Pass for RasterPass {
     }
 
     fn images(&self) -> Vec<ImageUse> {
-        let mut uses: Vec<_> =
-            COLOR_TARGETS.iter().map(|&t| ImageUse::new(t, ImageAccess::COLOR_ATTACHMENT)).collect();
+        let mut uses: Vec<_> = Self::color_targets(self.motion)
+            .into_iter()
+            .map(|t| ImageUse::new(t, ImageAccess::COLOR_ATTACHMENT))
+            .collect();
         uses.push(ImageUse::new(Target::Depth, ImageAccess::DEPTH_ATTACHMENT));
         uses
     }
 
     fn prepare(&mut self, frame: &mut FrameContext) -> GpuResult<Vec<Binding>> {
-        Ok(vec![
+        let mut bindings = vec![
             Binding::Bound(Bound::Uniform(frame.uniforms)),
             Binding::Bound(Bound::Storage(frame.instances)),
             Binding::Bound(Bound::Storage(frame.materials)),
-        ])
+        ];
+        if self.motion {
+            // A deformed mesh's previous vertices, uploaded for this frame; others read their own.
+            let meshes = &frame.scene_gpu.meshes;
+            let mut prev = Vec::with_capacity(meshes.len());
+            for m in meshes {
+                prev.push(match m.previous_vertices() {
+                    Some(bytes) => Some(frame.upload(bytes)?),
+                    None => None,
+                });
+            }
+            self.prev_vertices = prev;
+            let prev_models = match frame.motion {
+                Some(m) => m.prev_models,
+                // A frame without a previous one: its own models (no motion).
+                None => {
+                    let models: Vec<[[f32; 4]; 4]> =
+                        frame.scene_gpu.instance_table().iter().map(|i| i.model).collect();
+                    frame.upload(&models)?
+                }
+            };
+            let uniforms = MotionUniforms::of(frame);
+            bindings.push(Binding::Bound(Bound::Uniform(frame.upload(&[uniforms])?)));
+            bindings.push(Binding::Bound(Bound::Storage(prev_models)));
+        }
+        Ok(bindings)
     }
 
     fn pipelines(&self) -> Vec<&Pipeline> {
@@ -147,6 +218,10 @@ impl Pass for RasterPass {
                 }),
             ),
         ];
+        let mut colors = colors.to_vec();
+        if self.motion {
+            colors.push((t.image(Target::Motion).view, color([0.0; 4])));
+        }
         let depth_clear =
             vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: 0.0, stencil: 0 } };
         rec.begin_rendering_views(t.extent, &colors, Some((t.image(Target::Depth).view, kept(depth_clear))));
@@ -191,6 +266,12 @@ impl Pass for RasterPass {
                 if let Some(attributes) = &mesh.attributes {
                     rec.bind_vertex_buffer(1, attributes);
                 }
+                if self.motion {
+                    match self.prev_vertices.get(m).copied().flatten() {
+                        Some(prev) => rec.bind_vertex_range(2, prev.buffer, prev.offset),
+                        None => rec.bind_vertex_buffer(2, mesh.vertex_buffer()),
+                    }
+                }
                 rec.draw_mesh(mesh.vertex_buffer(), &mesh.indices, mesh.index_count, first, count);
             }
         }
@@ -217,4 +298,29 @@ fn texture_runs(
         }
     }
     runs
+}
+
+/// With `motion`, vertex binding 2 and location 7: each vertex's previous position, read from a
+/// buffer laid out as binding 0's (position, normal: 24 bytes).
+fn previous_positions(
+    motion: bool,
+    mut bindings: Vec<vk::VertexInputBindingDescription>,
+    mut attributes: Vec<vk::VertexInputAttributeDescription>,
+) -> (Vec<vk::VertexInputBindingDescription>, Vec<vk::VertexInputAttributeDescription>) {
+    if motion {
+        bindings.push(
+            vk::VertexInputBindingDescription::default()
+                .binding(2)
+                .stride(24)
+                .input_rate(vk::VertexInputRate::VERTEX),
+        );
+        attributes.push(
+            vk::VertexInputAttributeDescription::default()
+                .binding(2)
+                .location(7)
+                .format(vk::Format::R32G32B32_SFLOAT)
+                .offset(0),
+        );
+    }
+    (bindings, attributes)
 }

@@ -78,6 +78,32 @@ fn table() -> Vec<Row> {
         rows.push(("metaballs_bin.comp", vec![("MB_BIN_STAGE", stage)], bin(groups)));
     }
     rows.push(("metaballs_device.comp", vec![], vec![super::metaballs_device::DeviceBallParams::layout()]));
+    let motion = || vec![super::motion::MotionUniforms::layout()];
+    rows.push((
+        "motion.comp",
+        vec![],
+        [
+            frame(),
+            motion(),
+            vec![
+                MaterialData::layout(),
+                super::motion::MotionGroup::layout(),
+                super::motion::MotionBall::layout(),
+            ],
+        ]
+        .concat(),
+    ));
+    rows.push((
+        "raster.vert",
+        vec![("MOTION", "1")],
+        [frame(), motion(), vec![InstanceData::layout(), MaterialData::layout()]].concat(),
+    ));
+    rows.push(("raster.frag", vec![("MOTION", "1")], frame()));
+    rows.push((
+        "energy_wave.comp",
+        vec![("REACTIVE", "1")],
+        [frame(), vec![GpuWave::layout(), WaveStyle::layout(), EnergyWaveParams::layout()]].concat(),
+    ));
     for defines in
         [vec![("WITH_LUT", "1")], vec![("WITH_PEEL", "1")], vec![("WITH_LUT", "1"), ("WITH_PEEL", "1")]]
     {

@@ -28,6 +28,7 @@ pub mod ids;
 mod inputs;
 pub mod instances;
 mod look;
+mod motion;
 pub(crate) mod readback;
 mod record;
 mod slots;
@@ -109,6 +110,10 @@ struct Loaded {
     /// The projection the game gave with `set_view_projection` (None after `set_camera` or a
     /// load): what `DepthConvention::Camera` means.
     game_projection: Option<glam::DMat4>,
+    /// With motion vectors on: each instance's model matrix (f32) in the frame recorded last, by
+    /// id, and each view's unjittered camera then.
+    prev_models: std::collections::HashMap<u64, [[f32; 4]; 4]>,
+    prev_cameras: Vec<Option<crate::scene::camera::Camera>>,
 }
 
 impl Loaded {
@@ -144,6 +149,8 @@ pub struct Renderer {
     current: Option<usize>,
     /// The views the frame recorded last recorded (a 0 × 0 view is skipped).
     current_views: Vec<usize>,
+    /// The sub-pixel jitter of the frames (`set_jitter`), in pixels.
+    jitter: glam::DVec2,
     /// The images the host reads back after a frame (`set_readbacks`); None: any. And those the
     /// frame recorded last was recorded for (what its read-backs may copy).
     readbacks: Option<Vec<Target>>,
@@ -186,6 +193,7 @@ impl Renderer {
             next_frame: 0,
             current: None,
             current_views: Vec::new(),
+            jitter: glam::DVec2::ZERO,
             readbacks: None,
             current_readbacks: None,
             finished_through: None,
@@ -278,6 +286,8 @@ impl Renderer {
             tables_dirty: false,
             wobble: deform::WobbleState::default(),
             game_projection: None,
+            prev_models: Default::default(),
+            prev_cameras: Vec::new(),
         });
         if let Some(l) = &mut self.loaded {
             l.wobble = deform::WobbleState::new(&l.scene);

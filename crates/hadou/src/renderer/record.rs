@@ -4,8 +4,9 @@
 //! game's colour).
 
 use super::inputs::{DepthConvention, FrameInputs, RecordedFrame};
+use super::motion::jittered;
 use super::slots::Slot;
-use super::views::{View, ViewCamera, MAX_VIEWS};
+use super::views::{ResolvedCamera, View, ViewCamera, MAX_VIEWS};
 use super::{slot_index, view_targets, Renderer};
 use crate::frame::{record_passes, SlotFrame, Timestamps};
 use crate::gpu::barriers::{cmd_barriers, ImageAccess};
@@ -17,6 +18,7 @@ use crate::passes::depth_out::DepthOutPass;
 use crate::passes::gpu_structs::FrameUniforms;
 use crate::passes::tonemap::TonemapPass;
 use crate::passes::Pass;
+use crate::scene::camera::Camera;
 use crate::targets::{Target, Targets};
 use crate::Error;
 
@@ -122,10 +124,19 @@ impl Renderer {
         if live.is_empty() {
             return Ok(RecordedFrame { recorded: false, frame: self.next_frame, timed: false });
         }
-        let cameras = views.iter().map(|v| self.resolve_camera(&v.camera)).collect::<Result<Vec<_>, _>>()?;
+        let resolved = views.iter().map(|v| self.resolve_camera(&v.camera)).collect::<Result<Vec<_>, _>>()?;
+        // Each view's camera as given (what motion is measured with) and as it records (jittered).
+        let own = self.loaded.as_ref().map(|l| (l.scene.camera, l.game_projection)).ok_or(Error::NoScene)?;
+        let cameras: Vec<(Camera, ResolvedCamera)> = (resolved.into_iter().zip(views))
+            .map(|(c, v)| {
+                let (camera, projection) = c.unwrap_or(own);
+                let shifted = jittered(camera, self.jitter, v.extent);
+                (camera, if shifted == camera { c } else { Some((shifted, projection)) })
+            })
+            .collect();
         for &v in &live {
             let inputs = views[v].inputs(time);
-            self.with_camera(cameras[v], |r| {
+            self.with_camera(cameras[v].1, |r| {
                 r.check_inputs(&inputs)?;
                 r.ensure_edges(&inputs)
             })?;
@@ -138,10 +149,10 @@ impl Renderer {
         let result = self.record_world(cmd, slot, live[0]).and_then(|world| {
             live.iter().try_for_each(|&v| {
                 let inputs = views[v].inputs(time);
-                self.with_camera(cameras[v], |r| {
+                self.with_camera(cameras[v].1, |r| {
                     // The view's formats and depth convention (built above: nothing is built here).
                     r.ensure_edges(&inputs)?;
-                    r.record_view(cmd, &inputs, &world, slot, v)
+                    r.record_view(cmd, &inputs, &world, (slot, v), cameras[v].0)
                 })
             })
         });
@@ -226,6 +237,7 @@ impl Renderer {
             embedded: false,
             depth_imported: false,
             host_reads: None,
+            motion: None,
         };
         let mut timestamps: Timestamps = Some(&mut s.timestamps);
         let recorded = record_passes(&mut f, &mut [pass], &mut timestamps, &mut s.scopes);
@@ -250,7 +262,8 @@ impl Renderer {
         let Some(loaded) = &mut self.loaded else { return Err(Error::NoScene) };
         let s = &mut self.slots[slot][view];
         // Deformed meshes: this slot's vertex buffers (its previous frame has finished).
-        loaded.gpu.begin_slot(ctx, memory, &loaded.scene, slot)?;
+        let motion = loaded.scene.render.motion_vectors;
+        loaded.gpu.begin_slot(ctx, memory, &loaded.scene, slot, motion)?;
         // The materials' textures, copied by the first frame after the scene was loaded.
         loaded.gpu.textures.record_uploads(&crate::gpu::recorder::Recorder { ctx, cmd });
         // Once per frame: what every radiance written into the HDR target is multiplied by. A
@@ -263,6 +276,7 @@ impl Renderer {
             loaded.gpu.refresh_instances(&loaded.scene);
         }
         loaded.gpu.refresh_materials(&loaded.scene, pre_exposure, changed);
+        let prev_models = super::motion::prev_model_table(loaded);
         let instances: BufferRange = s
             .ring
             .push(ctx, memory, bytemuck::cast_slice(loaded.gpu.instance_table()))?
@@ -273,7 +287,13 @@ impl Renderer {
             .push(ctx, memory, bytemuck::cast_slice(loaded.gpu.material_table()))?
             .range()
             .of::<crate::passes::gpu_structs::MaterialData>();
-        Ok(WorldFrame { pre_exposure, instances, materials })
+        let prev_models = match prev_models {
+            Some(table) => {
+                Some(s.ring.push(ctx, memory, bytemuck::cast_slice(&table))?.range().of::<[[f32; 4]; 4]>())
+            }
+            None => None,
+        };
+        Ok(WorldFrame { pre_exposure, instances, materials, prev_models })
     }
 
     /// Records view `view` of the frame in frame slot `slot`, its camera the scene's.
@@ -282,10 +302,12 @@ impl Renderer {
         cmd: vk::CommandBuffer,
         inputs: &FrameInputs,
         world: &WorldFrame,
-        slot: usize,
-        view: usize,
+        (slot, view): (usize, usize),
+        camera: Camera,
     ) -> Result<(), Error> {
         let extent = inputs.extent;
+        // With motion vectors on: measured against the view's previous frame (`camera`, unjittered).
+        let motion = world.prev_models.and_then(|m| self.motion_frame(view, camera, extent, m));
         let convention = self.frame_convention(inputs)?;
         let index = slot_index(slot, view, self.slots.len());
         let (ctx, memory) = (&self.ctx, &self.memory);
@@ -347,6 +369,7 @@ impl Renderer {
             embedded: inputs.depth.is_some() || inputs.color.is_some(),
             depth_imported: inputs.depth.is_some(),
             host_reads: self.readbacks.as_deref(),
+            motion,
         };
         // The slot's queries were reset on the host when it began.
         let mut timestamps: Timestamps = Some(&mut s.timestamps);
@@ -374,6 +397,8 @@ struct WorldFrame {
     /// The instance and material tables, in the first view's slot ring.
     instances: BufferRange,
     materials: BufferRange,
+    /// With motion vectors on: the instances' previous model matrices (`MotionFrame`).
+    prev_models: Option<BufferRange>,
 }
 
 /// Width over height of a frame (1 for an empty one: nothing is recorded for it).

@@ -58,6 +58,9 @@ pub struct RenderSettings {
     pub background: DVec3,
     /// Linear ambient light added to every lit surface (times its albedo).
     pub ambient: DVec3,
+    /// Write a temporal upscaler's inputs (`Aov::UPSCALER`: motion, reactive and composition
+    /// masks); `Renderer::set_motion_vectors`.
+    pub motion_vectors: bool,
 }
 
 /// How `[render]` gives the exposure (docs/scene-format.md, "Exposure and light units").
@@ -355,6 +358,7 @@ impl Default for RenderSettings {
             exposure_mode: ExposureMode::Linear,
             background: DVec3::new(0.02, 0.02, 0.03),
             ambient: DVec3::splat(0.08),
+            motion_vectors: false,
         }
     }
 }

@@ -39,8 +39,9 @@ impl Effect for EnergyWave {
             "energy_wave",
             |s| !s.waves().is_empty(),
             |b| {
-                let tolerance = !variant(b.scene).is_empty();
-                Ok(Box::new(EnergyWavePass::new(b.ctx, b.compiler, tolerance)?))
+                let v = variant(b.scene);
+                let (tolerance, reactive) = (v.starts_with("tolerance"), v.ends_with("reactive"));
+                Ok(Box::new(EnergyWavePass::new(b.ctx, b.compiler, tolerance, reactive)?))
             },
         )
         .with_variant(variant)]

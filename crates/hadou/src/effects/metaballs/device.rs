@@ -7,14 +7,16 @@ use crate::gpu::vk;
 
 /// One ball as the game writes it: 32 bytes, std430
 /// `struct { vec4 centre_radius; vec4 q; }` — the object-space centre, the support radius
-/// R > 0, and the density coefficient q in `q.x` (`q.yzw` are ignored). A ball with a value that
-/// is not finite, or R ≤ 0, is drawn as no ball and counted (`metaballs.invalid_balls`).
+/// R > 0, and the density coefficient q in `q.x`; `q.yzw`: the ball's centre in the previous
+/// frame (object space) when `DeviceBalls::previous_centres` says so (a temporal upscaler's motion
+/// vectors follow it), else ignored. A ball with a value that is not finite, or R ≤ 0, is drawn as
+/// no ball and counted (`metaballs.invalid_balls`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct DeviceBall {
     /// xyz: object-space centre; w: support radius R.
     pub centre_radius: [f32; 4],
-    /// x: q; y, z, w: ignored.
+    /// x: q; y, z, w: the previous frame's centre (`DeviceBalls::previous_centres`), or ignored.
     pub q: [f32; 4],
 }
 
@@ -35,4 +37,8 @@ pub struct DeviceBalls {
     pub offset: u64,
     /// Records, 1..=`BIN_MAX_BALLS` (all groups of a frame together).
     pub count: u32,
+    /// The records' `q.yzw` hold each ball's centre in the previous frame: with motion vectors
+    /// on (`Renderer::set_motion_vectors`) the group's surface moves with its balls. Without it
+    /// the group moves by its transforms only (hadou keeps no copy of the game's balls).
+    pub previous_centres: bool,
 }

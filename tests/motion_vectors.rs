@@ -1,0 +1,345 @@
+//! A temporal upscaler's inputs (`Renderer::set_motion_vectors`, `set_jitter`): per pixel the
+//! motion in pixels from this frame to the previous one, unjittered, against an f64 twin that
+//! finds each pixel's surface point along its (jittered) ray at the frame's own distance and
+//! carries it back by what moved — an instance's transform, a deforming mesh's vertices, a
+//! metaball group's balls, the camera; the reactive mask against the glow's share measured from
+//! two renders; the composition mask against the translucent surfaces. Lavapipe, validation and
+//! synchronization validation, zero messages (`common::runtime`).
+//!
+//! Tolerance: `MOTION_TOL` pixels. The GPU takes the motion from clip coordinates interpolated in
+//! f32 over the triangle (relative error ~1e-6: ~1e-4 px on these ≤ 128-pixel frames, whose
+//! motions are a few pixels) or from the distance and ray in f32 (the twin starts from the same
+//! f32 distance); 2e-3 px is 20× that and far below the 1/8 px a TAA resolve would notice.
+
+mod common;
+
+use glam::{DMat4, DVec2, DVec3, DVec4, Vec3};
+use hadou::scene::camera::{Camera, Lens};
+use hadou::scene::Scene;
+use hadou::{Aov, AovImage, Ball, FrameRequest};
+
+const MOTION_TOL: f64 = 2e-3;
+const W: u32 = 96;
+const H: u32 = 64;
+
+fn camera(position: DVec3) -> Camera {
+    Camera {
+        position,
+        look_at: DVec3::new(0.0, 0.3, 0.0),
+        up: DVec3::Y,
+        fov_y_deg: 50.0,
+        near: 0.5,
+        far: 60.0,
+        lens: Lens::FovY,
+    }
+}
+
+/// `camera` shifted by `jitter` pixels (x right, y down) at W × H: what hadou renders with.
+fn jittered(camera: Camera, jitter: DVec2) -> Camera {
+    let (w, h) = (f64::from(W), f64::from(H));
+    let t = (camera.fov_y_deg.to_radians() / 2.0).tan();
+    let lens = Lens::Matrix {
+        scale: DVec2::new(h / (t * w), 1.0 / t),
+        shift: DVec2::new(2.0 * jitter.x / w, -2.0 * jitter.y / h),
+    };
+    Camera { lens, ..camera }
+}
+
+fn pixel(clip: DVec4) -> DVec2 {
+    (DVec2::new(clip.x, clip.y) / clip.w * 0.5 + 0.5) * DVec2::new(f64::from(W), f64::from(H))
+}
+
+/// The twin: per pixel of a frame seen by `seen` (jittered) at distances `depth`, the motion
+/// from `now` (unjittered) to `before` (the previous camera, unjittered) of the point found
+/// there, carried back by `back` (None: the sky, the direction itself). Compares with the GPU's
+/// motion; returns the pixels compared on a surface and the largest error.
+fn check(
+    what: &str,
+    motion: &AovImage,
+    depth: &AovImage,
+    (seen, now, before): (&Camera, &Camera, &Camera),
+    back: impl Fn(DVec3) -> DVec3,
+) -> (usize, f64) {
+    let (vp, prev_vp) = (now.view_projection(W, H), before.view_projection(W, H));
+    let (mut surface, mut worst) = (0, 0.0f64);
+    for y in 0..H {
+        for x in 0..W {
+            let i = (y * W + x) as usize;
+            let (o, u) = seen.pixel_ray(x, y, W, H);
+            let t = f64::from(depth.data[i]);
+            let (a, b) = if t.is_finite() {
+                surface += 1;
+                let p = o + t * u;
+                (vp * p.extend(1.0), prev_vp * back(p).extend(1.0))
+            } else {
+                (vp * u.extend(0.0), prev_vp * u.extend(0.0))
+            };
+            let want = pixel(b) - pixel(a);
+            let got = DVec2::new(motion.data[2 * i].into(), motion.data[2 * i + 1].into());
+            let err = (got - want).abs().max_element();
+            assert!(err <= MOTION_TOL, "{what} ({x}, {y}): motion {got} against {want}");
+            worst = worst.max(err);
+        }
+    }
+    (surface, worst)
+}
+
+fn render(rt: &mut common::CheckedRuntime, aovs: &[Aov]) -> hadou::FrameOutput {
+    let mut request = FrameRequest::new(W, H);
+    request.aovs = aovs.to_vec();
+    rt.render(&request).unwrap()
+}
+
+const BOX: &str = r#"
+[camera]
+position = [0, 1, 8]
+look_at = [0, 0.3, 0]
+fov_y_deg = 50
+near = 0.5
+far = 60
+[[light]]
+direction = [-0.3, -1, -0.5]
+[[mesh]]
+name = "box"
+kind = "cube"
+size = 2
+[[instance]]
+mesh = "box"
+"#;
+
+#[test]
+fn a_moving_instance_seen_by_a_moving_jittered_camera() {
+    let mut rt = common::runtime();
+    rt.load_scene(common::parse(BOX)).unwrap();
+    let id = rt.renderer().instance_ids()[0];
+    let a = DMat4::from_translation(DVec3::new(-0.6, 0.1, 0.0)) * DMat4::from_rotation_y(0.3);
+    let b = DMat4::from_translation(DVec3::new(0.4, -0.2, 0.5)) * DMat4::from_rotation_y(0.45);
+    let (c0, c1) = (camera(DVec3::new(0.3, 1.0, 8.0)), camera(DVec3::new(-0.5, 1.4, 7.6)));
+    let (j0, j1) = (DVec2::new(0.25, -0.375), DVec2::new(-0.125, 0.3125));
+    let r = rt.renderer();
+    r.set_motion_vectors(true).unwrap();
+    r.set_transform(id, a).unwrap();
+    r.set_camera(c0).unwrap();
+    r.set_jitter(j0.x, j0.y).unwrap();
+    let first = render(&mut rt, &[Aov::Motion]);
+    assert!(first.aov(Aov::Motion).unwrap().data.iter().all(|&m| m == 0.0), "no previous frame: no motion");
+    let r = rt.renderer();
+    r.set_transform(id, b).unwrap();
+    r.set_camera(c1).unwrap();
+    r.set_jitter(j1.x, j1.y).unwrap();
+    let out = render(&mut rt, &[Aov::Motion, Aov::Depth]);
+    let back = |p: DVec3| a.transform_point3(b.inverse().transform_point3(p));
+    let cams = (&jittered(c1, j1), &c1, &c0);
+    let (surface, worst) =
+        check("instance", out.aov(Aov::Motion).unwrap(), out.aov(Aov::Depth).unwrap(), cams, back);
+    println!("instance: {surface} surface pixels, largest error {worst:.1e} px");
+    assert!(surface > 400, "the box covers the frame's middle: {surface}");
+    rt.finish();
+}
+
+#[test]
+fn a_deforming_mesh_and_moving_metaballs() {
+    let scene = format!(
+        "{BOX}\n[[material]]\nname = \"slime\"\n[[metaballs]]\nmaterial = \"slime\"\nthreshold = 0.4\n\
+         balls = [{{ centre = [2.2, 0, 0], radius = 1.2 }}, {{ centre = [3, 0.5, 0], radius = 1 }}]\n"
+    );
+    let mut rt = common::runtime();
+    rt.load_scene(common::parse(&scene)).unwrap();
+    let c = camera(DVec3::new(1.0, 1.0, 8.0));
+    let r = rt.renderer();
+    r.set_motion_vectors(true).unwrap();
+    r.set_camera(c).unwrap();
+    let positions: Vec<Vec3> = {
+        let scene: &Scene = r.scene().unwrap();
+        scene.meshes[0].mesh.positions.iter().map(|p| Vec3::from_array(*p)).collect()
+    };
+    let group = r.metaballs_ids()[0];
+    let balls = |d: DVec3| {
+        vec![
+            Ball { centre: DVec3::new(2.2, 0.0, 0.0) + d, radius: 1.2, q: 1.0 },
+            Ball { centre: DVec3::new(3.0, 0.5, 0.0) + d, radius: 1.0, q: 1.0 },
+        ]
+    };
+    r.set_metaball_group(group, &balls(DVec3::ZERO)).unwrap();
+    render(&mut rt, &[Aov::Motion]);
+    // The mesh's vertices and the balls move by d: every surface point came from p − d.
+    let d = DVec3::new(0.15, -0.1, 0.2);
+    let r = rt.renderer();
+    let moved: Vec<Vec3> = positions.iter().map(|p| *p + d.as_vec3()).collect();
+    r.set_mesh_positions("box", &moved).unwrap();
+    r.set_metaball_group(group, &balls(d)).unwrap();
+    let out = render(&mut rt, &[Aov::Motion, Aov::Depth]);
+    // The f32 vertex positions moved by d in f32: the twin moves by the same f32 difference.
+    let df = (moved[0] - positions[0]).as_dvec3();
+    let back = |p: DVec3| p - if p.x > 1.05 { d } else { df };
+    let (surface, worst) = check(
+        "mesh and metaballs",
+        out.aov(Aov::Motion).unwrap(),
+        out.aov(Aov::Depth).unwrap(),
+        (&c, &c, &c),
+        back,
+    );
+    println!("deforming mesh and metaballs: {surface} surface pixels, largest error {worst:.1e} px");
+    // Both moved things are in the frame: the metaballs (right of x = 1.05) and the box.
+    let depth = out.aov(Aov::Depth).unwrap();
+    let balls_seen = (0..W * H)
+        .filter(|&i| {
+            let (o, u) = c.pixel_ray(i % W, i / W, W, H);
+            let t = f64::from(depth.data[i as usize]);
+            t.is_finite() && (o + t * u).x > 1.05
+        })
+        .count();
+    assert!(surface > 400 && balls_seen > 100, "{surface} surface pixels, {balls_seen} on the metaballs");
+    rt.finish();
+}
+
+#[test]
+fn the_reactive_mask_is_the_glows_share_and_composition_the_translucent_surfaces() {
+    let scene = r#"
+[camera]
+position = [0, 1, 8]
+look_at = [0, 0.3, 0]
+fov_y_deg = 50
+near = 0.5
+far = 60
+[[light]]
+direction = [0.3, -0.5, -1]
+[[mesh]]
+name = "box"
+kind = "cube"
+size = 2
+[[material]]
+name = "jade"
+kind = "translucent"
+albedo = [0.4, 0.8, 0.5]
+sigma = [0.8, 0.5, 0.9]
+voxel_res = 8
+[[instance]]
+mesh = "box"
+material = "jade"
+transform = [{ translate = [1.2, 0, 0] }]
+[[instance]]
+mesh = "box"
+transform = [{ translate = [-1.5, 0, -1] }]
+[[wave]]
+origin = [-3, 0.4, 1.5]
+direction = [1, 0, 0]
+a = 1.5
+b = 0.8
+core = 0.05
+length = 5
+intensity = 0.05
+"#;
+    let mut rt = common::runtime();
+    rt.load_scene(common::parse(scene)).unwrap();
+    let aovs = [Aov::Hdr, Aov::Reactive, Aov::Composition, Aov::Thickness];
+    let with = render(&mut rt, &aovs);
+    let wave = rt.renderer().wave_ids()[0];
+    let off = hadou::WaveUpdate {
+        origin: DVec3::new(-3.0, 0.4, 1.5),
+        direction: DVec3::X,
+        a: 0.0,
+        b: 0.0,
+        length: 5.0,
+    };
+    rt.renderer().set_wave(wave, off).unwrap();
+    let without = render(&mut rt, &aovs);
+    let luma = |c: &[f32]| 0.2126 * f64::from(c[0]) + 0.7152 * f64::from(c[1]) + 0.0722 * f64::from(c[2]);
+    let (hdr, base) = (&with.aov(Aov::Hdr).unwrap().data, &without.aov(Aov::Hdr).unwrap().data);
+    let reactive = &with.aov(Aov::Reactive).unwrap().data;
+    // The HDR image is f16: the twin's glow is the difference of two f16 colours, the GPU's of
+    // f32 ones (one rounding of 2⁻¹¹ relative on each side of the share).
+    let (mut glowing, mut worst) = (0, 0.0f64);
+    for i in 0..(W * H) as usize {
+        let (l, l0) = (luma(&hdr[4 * i..]), luma(&base[4 * i..]));
+        let want = if l > 0.0 { ((l - l0) / l).clamp(0.0, 1.0) } else { 0.0 };
+        let err = (f64::from(reactive[i]) - want).abs();
+        assert!(err <= 2e-3, "pixel {i}: reactive {} against {want}", reactive[i]);
+        worst = worst.max(err);
+        glowing += usize::from(want > 0.05);
+    }
+    assert!(without.aov(Aov::Reactive).unwrap().data.iter().all(|&r| r == 0.0), "no glow, no reactive");
+    assert!(glowing > 300, "the glow covers part of the frame: {glowing}");
+    let composition = &with.aov(Aov::Composition).unwrap().data;
+    let thickness = &with.aov(Aov::Thickness).unwrap().data;
+    let translucent = thickness.iter().filter(|t| t.is_finite()).count();
+    for (c, t) in composition.iter().zip(thickness) {
+        assert_eq!(*c == 1.0, t.is_finite(), "composition is 1 exactly on the translucent surface");
+    }
+    println!(
+        "reactive: {glowing} glowing pixels, largest error {worst:.1e}; {translucent} translucent pixels"
+    );
+    assert!(translucent > 300, "{translucent}");
+    rt.finish();
+}
+
+#[test]
+fn motion_vectors_are_off_unless_asked_for() {
+    let (_leaks, ctx) = common::context();
+    let mut host = common::host::Host::new(&ctx, 1);
+    let mut hadou = hadou::Renderer::new(ctx).unwrap();
+    hadou.load_scene(common::parse(BOX)).unwrap();
+    let cmd = host.begin(0);
+    hadou.record_frame(cmd, &hadou::FrameInputs::headless(16, 16, 0.0)).unwrap();
+    assert!(!hadou.pass_names().contains(&"motion"));
+    let err = hadou.record_aov_readback(cmd, &[Aov::Motion]).map(|_| ()).unwrap_err();
+    assert!(err.to_string().contains("set_motion_vectors"), "{err}");
+    assert!(hadou.set_jitter(f64::NAN, 0.0).is_err());
+    host.submit(0);
+    host.wait_all();
+    host.destroy();
+    drop(hadou);
+}
+
+/// Balls a game writes on the GPU (`set_metaball_buffer`) with their previous centres in their
+/// records (`DeviceBalls::previous_centres`): the surface's motion follows them as it follows the
+/// host's balls; without them the group moves by its transform only (here: not at all).
+#[test]
+fn metaballs_from_the_games_buffer_move_with_their_previous_centres() {
+    use hadou::gpu::memory::{Memory, MemoryLocation};
+    use hadou::gpu::vk;
+    use hadou::{DeviceBall, DeviceBalls};
+    let scene =
+        "[camera]\nposition = [0, 1, 8]\nlook_at = [0, 0.3, 0]\nfov_y_deg = 50\nnear = 0.5\nfar = 60\n\
+                 [[light]]\ndirection = [-0.3, -1, -0.5]\n[[material]]\nname = \"slime\"\n[[metaballs]]\n\
+                 material = \"slime\"\nthreshold = 0.4\nballs = [{ centre = [0, 0, 0], radius = 1 }]\n";
+    let mut rt = common::runtime();
+    rt.load_scene(common::parse(scene)).unwrap();
+    let c = camera(DVec3::new(0.0, 1.0, 8.0));
+    rt.renderer().set_camera(c).unwrap();
+    rt.renderer().set_motion_vectors(true).unwrap();
+    let rest = [[-0.6f32, 0.0, 0.0, 1.2], [0.5, 0.3, 0.0, 1.0], [0.0, -0.4, 0.3, 1.1]];
+    let records = |d: [f32; 3], prev: [f32; 3]| -> Vec<DeviceBall> {
+        rest.iter()
+            .map(|r| DeviceBall {
+                centre_radius: [r[0] + d[0], r[1] + d[1], r[2] + d[2], r[3]],
+                q: [1.0, r[0] + prev[0], r[1] + prev[1], r[2] + prev[2]],
+            })
+            .collect()
+    };
+    let memory = Memory::new(rt.context()).unwrap();
+    let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+    let mut buffer =
+        memory.create_buffer(rt.context(), "game balls", 96, usage, MemoryLocation::CpuToGpu).unwrap();
+    let group = rt.renderer().metaballs_ids()[0];
+    let source = DeviceBalls { buffer: buffer.raw, offset: 0, count: 3, previous_centres: true };
+    rt.renderer().set_metaball_buffer(group, Some(source)).unwrap();
+    buffer.write(0, bytemuck::cast_slice(&records([0.0; 3], [0.0; 3]))).unwrap();
+    render(&mut rt, &[Aov::Motion]);
+    let d = [0.2f32, 0.1, -0.15];
+    buffer.write(0, bytemuck::cast_slice(&records(d, [0.0; 3]))).unwrap();
+    let out = render(&mut rt, &[Aov::Motion, Aov::Depth]);
+    let df = DVec3::new(d[0].into(), d[1].into(), d[2].into());
+    let (motion, depth) = (out.aov(Aov::Motion).unwrap(), out.aov(Aov::Depth).unwrap());
+    let (surface, worst) = check("the game's balls", motion, depth, (&c, &c, &c), |p| p - df);
+    println!("the game's balls: {surface} surface pixels, largest error {worst:.1e} px");
+    assert!(surface > 150, "{surface}");
+    // The same frame without previous centres: the group did not move, so neither did its surface.
+    let source = DeviceBalls { previous_centres: false, ..source };
+    rt.renderer().set_metaball_buffer(group, Some(source)).unwrap();
+    let still = render(&mut rt, &[Aov::Motion]);
+    assert!(still.aov(Aov::Motion).unwrap().data.iter().all(|&m| m == 0.0));
+    // The game's buffer goes before the device (the renderer draws no more frames from it).
+    drop((buffer, memory));
+    rt.finish();
+}
