@@ -87,11 +87,9 @@ impl Running {
         drop(surface);
         let messages = host.destroy();
         let (errors, warnings) = messages.counts();
+        println!("validation: {errors} errors, {warnings} warnings");
         if errors + warnings > 0 {
-            eprintln!(
-                "validation: {errors} errors, {warnings} warnings: {:?}",
-                messages.texts.lock().unwrap()
-            );
+            eprintln!("{:?}", messages.texts.lock().map(|t| t.clone()).unwrap_or_default());
         }
     }
 }
