@@ -1,16 +1,15 @@
 //! `--bench`: the wgpu host's frame cost against the ash game prototype's — the same world (game
 //! state, boxes, hadou scene), the same scripted play, the same size, two frames in flight, the
 //! colour read back every frame by both — in one process, rounds alternating so that both see the
-//! same machine load. Only the ratio is meant to be compared across machines.
+//! same machine load. Only ratios are meant to be compared across machines.
 
 use std::time::Instant;
 
 use ash::vk;
 
 use super::device::WgpuVulkan;
-use super::game::Game;
-use super::gpu::GameVk;
-use super::gpu::FRAMES_IN_FLIGHT;
+use super::game::{thread_cpu_ms, Game};
+use super::gpu::{GameVk, FRAMES_IN_FLIGHT};
 use super::headless::{frame, script};
 use super::host::{color_texture, WgpuHost};
 use super::readback::Readback;
@@ -19,14 +18,42 @@ const DT: f64 = 1.0 / 30.0;
 const WARMUP: usize = 10;
 
 fn load() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_default()
+    let text = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    text.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
 }
 
 /// The sum of hadou's pass GPU times of its newest finished frame (ms).
 fn hadou_gpu_ms(r: &hadou::Renderer) -> f64 {
     r.latest_timings().map_or(0.0, |t| t.passes.iter().map(|p| p.gpu_ms).sum())
+}
+
+/// Per frame, averaged over a round: wall time (every frame finished and read back), hadou's GPU
+/// time (its timestamps), and the CPU time of the host's thread (update, record, submit, read).
+#[derive(Clone, Copy, Default)]
+struct Cost {
+    wall: f64,
+    gpu: f64,
+    cpu: f64,
+}
+
+/// Runs `n` frames of `frame` on `state` and the final `drain`, returning their cost per frame.
+fn measure<T>(
+    n: usize,
+    state: &mut T,
+    frame: impl Fn(&mut T) -> Result<f64, String>,
+    drain: impl FnOnce(&mut T) -> Result<(), String>,
+) -> Result<Cost, String> {
+    let (start, cpu, mut gpu) = (Instant::now(), thread_cpu_ms(), 0.0);
+    for _ in 0..n {
+        gpu += frame(state)?;
+    }
+    drain(state)?;
+    let per = |x: f64| x / n as f64;
+    Ok(Cost {
+        wall: per(start.elapsed().as_secs_f64() * 1e3),
+        gpu: per(gpu),
+        cpu: per(thread_cpu_ms() - cpu),
+    })
 }
 
 struct Wgpu {
@@ -39,25 +66,26 @@ struct Wgpu {
 }
 
 impl Wgpu {
-    /// `n` frames, all finished and read back; returns (wall ms per frame, hadou GPU ms).
-    fn frames(&mut self, n: usize) -> Result<(f64, f64), String> {
-        let (start, mut gpu) = (Instant::now(), 0.0);
-        for _ in 0..n {
-            self.host.update(&script(self.frame), DT)?;
-            let slot = self.frame % self.pending.len();
-            let readback = frame(&mut self.host, &self.color, &self.view)?;
-            // begin_frame waited for this slot's previous frame: its copy maps without blocking.
-            if let Some(done) = self.pending[slot].replace(readback) {
-                done.read(&self.host.gpu.device)?;
-            }
-            gpu += hadou_gpu_ms(&self.host.world.as_ref().ok_or("no world")?.hadou);
-            self.frame += 1;
-        }
-        self.host.wait_all()?;
-        for done in self.pending.iter_mut().filter_map(Option::take) {
+    fn one(&mut self) -> Result<f64, String> {
+        self.host.update(&script(self.frame), DT)?;
+        let slot = self.frame % self.pending.len();
+        let readback = frame(&mut self.host, &self.color, &self.view)?;
+        // begin_frame waited for this slot's previous frame: its copy maps without blocking.
+        if let Some(done) = self.pending[slot].replace(readback) {
             done.read(&self.host.gpu.device)?;
         }
-        Ok((start.elapsed().as_secs_f64() * 1e3 / n as f64, gpu / n as f64))
+        self.frame += 1;
+        Ok(hadou_gpu_ms(&self.host.world.as_ref().ok_or("no world")?.hadou))
+    }
+
+    fn drain(&mut self) -> Result<(), String> {
+        self.host.wait_all()?;
+        let pending: Vec<Readback> = self.pending.iter_mut().filter_map(Option::take).collect();
+        pending.into_iter().try_for_each(|done| done.read(&self.host.gpu.device).map(drop))
+    }
+
+    fn frames(&mut self, n: usize) -> Result<Cost, String> {
+        measure(n, self, Self::one, Self::drain)
     }
 }
 
@@ -68,16 +96,15 @@ struct Ash {
 }
 
 impl Ash {
-    fn frames(&mut self, n: usize) -> Result<(f64, f64), String> {
-        let (start, mut gpu) = (Instant::now(), 0.0);
-        for _ in 0..n {
-            self.game.update(&script(self.frame), DT)?;
-            self.game.offscreen_submit(self.extent, &[])?;
-            gpu += hadou_gpu_ms(&self.game.hadou);
-            self.frame += 1;
-        }
-        self.game.offscreen_finish()?;
-        Ok((start.elapsed().as_secs_f64() * 1e3 / n as f64, gpu / n as f64))
+    fn one(&mut self) -> Result<f64, String> {
+        self.game.update(&script(self.frame), DT)?;
+        self.game.offscreen_submit(self.extent, &[])?;
+        self.frame += 1;
+        Ok(hadou_gpu_ms(&self.game.hadou))
+    }
+
+    fn frames(&mut self, n: usize) -> Result<Cost, String> {
+        measure(n, self, Self::one, |a| a.game.offscreen_finish().map(drop))
     }
 }
 
@@ -88,10 +115,9 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 pub fn run((width, height): (u32, u32), frames: usize, rounds: usize) -> Result<(), String> {
     let load_before = load();
-    let mut host = WgpuHost::new(WgpuVulkan::new(false)?, FRAMES_IN_FLIGHT)?;
+    let host = WgpuHost::new(WgpuVulkan::new(false)?, FRAMES_IN_FLIGHT)?;
     let color = color_texture(&host.gpu.device, width, height, wgpu::TextureFormat::Rgba8UnormSrgb);
     let view = color.create_view(&Default::default());
-    host.state = Default::default();
     let pending = (0..FRAMES_IN_FLIGHT).map(|_| None).collect();
     let mut w = Wgpu { host, color, view, pending, frame: 0 };
     let game = Game::new(GameVk::new(false, &[], &[], &|_, _, _, _| true)?)?;
@@ -100,28 +126,41 @@ pub fn run((width, height): (u32, u32), frames: usize, rounds: usize) -> Result<
     w.frames(WARMUP)?;
     a.frames(WARMUP)?;
     println!("{width}x{height}, {frames} frames per round, {FRAMES_IN_FLIGHT} frames in flight; load {load_before}");
-    println!("round  ash ms/frame  wgpu ms/frame  wgpu/ash  (hadou GPU ms: ash, wgpu)");
-    let mut ratios = Vec::new();
-    let (mut ash_ms, mut wgpu_ms) = (Vec::new(), Vec::new());
+    println!("round | ms/frame ash wgpu ratio | hadou GPU ms ash wgpu | host thread CPU ms ash wgpu ratio");
+    let mut rows = Vec::new();
     for round in 0..rounds {
-        // Alternate which goes first, so a drift in machine load falls on both.
-        let ((am, ag), (wm, wg)) = if round % 2 == 0 {
+        // Alternate which goes first, so that a drift in machine load falls on both.
+        let (ac, wc) = if round % 2 == 0 {
             let x = a.frames(frames)?;
             (x, w.frames(frames)?)
         } else {
             let y = w.frames(frames)?;
             (a.frames(frames)?, y)
         };
-        println!("{round:>5}  {am:>12.2}  {wm:>13.2}  {:>8.3}  ({ag:.2}, {wg:.2})", wm / am);
-        ratios.push(wm / am);
-        ash_ms.push(am);
-        wgpu_ms.push(wm);
+        println!(
+            "{round:>5} | {:>6.2} {:>6.2} {:>5.3} | {:>6.2} {:>6.2} | {:>5.2} {:>5.2} {:>5.3}",
+            ac.wall,
+            wc.wall,
+            wc.wall / ac.wall,
+            ac.gpu,
+            wc.gpu,
+            ac.cpu,
+            wc.cpu,
+            wc.cpu / ac.cpu
+        );
+        rows.push((ac, wc));
     }
+    let col = |f: &dyn Fn(&(Cost, Cost)) -> f64| median(rows.iter().map(f).collect());
     println!(
-        "median: ash {:.2} ms/frame, wgpu {:.2} ms/frame, wgpu/ash {:.3}; load after {}",
-        median(ash_ms),
-        median(wgpu_ms),
-        median(ratios),
+        "median | {:.2} {:.2} {:.3} | {:.2} {:.2} | {:.2} {:.2} {:.3}; load after {}",
+        col(&|r| r.0.wall),
+        col(&|r| r.1.wall),
+        col(&|r| r.1.wall / r.0.wall),
+        col(&|r| r.0.gpu),
+        col(&|r| r.1.gpu),
+        col(&|r| r.0.cpu),
+        col(&|r| r.1.cpu),
+        col(&|r| r.1.cpu / r.0.cpu),
         load()
     );
     let Wgpu { host, color, view, .. } = w;
