@@ -1,5 +1,6 @@
 //! hadou recorded into a wgpu frame (examples/wgpu_host), headless on lavapipe, validation and
-//! synchronization validation on (wgpu's instance, our messenger): zero errors, zero warnings.
+//! synchronization validation on (wgpu's instance, our messenger, alive until after the device is
+//! destroyed, so leaks count): zero errors, zero warnings.
 //! Each frame's pixels are compared with hadou's ash embedding path (the game prototype's device)
 //! recording the same frame onto the same input images — wgpu's colour and depth, read back just
 //! before hadou ran and uploaded into the ash game's images: bit for bit, as the same passes run
@@ -59,7 +60,7 @@ fn wgpu_frames() -> Vec<WgpuFrame> {
     for i in 0..FRAMES {
         host.update(&input(i), DT).unwrap();
         let mut encoder = host.begin_frame().unwrap();
-        host.record_game(&mut encoder, &color, &view);
+        host.record_game(&mut encoder, &color, &view).unwrap();
         let device = host.gpu.device.clone();
         let depth = &host.depth.as_ref().unwrap().texture;
         let before_color = Readback::record(&device, &mut encoder, &color, wgpu::TextureAspect::All);

@@ -20,7 +20,7 @@ pub fn frame(
     view: &wgpu::TextureView,
 ) -> Result<Readback, String> {
     let mut encoder = host.begin_frame()?;
-    host.record_game(&mut encoder, color, view);
+    host.record_game(&mut encoder, color, view)?;
     let recorded = host.record_hadou(&mut encoder, color, view)?;
     let readback = Readback::record(&host.gpu.device, &mut encoder, color, wgpu::TextureAspect::All);
     host.submit(encoder, recorded);

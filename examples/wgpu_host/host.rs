@@ -89,7 +89,7 @@ impl WgpuHost {
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::Texture,
         view: &wgpu::TextureView,
-    ) {
+    ) -> Result<(), String> {
         let size = (color.width(), color.height());
         if self.boxes.as_ref().is_none_or(|b| b.color_format != color.format()) {
             self.boxes = Some(BoxPainter::new(&self.gpu.device, color.format()));
@@ -97,7 +97,7 @@ impl WgpuHost {
         if self.depth.as_ref().is_none_or(|d| d.size != size) {
             // The old texture may still be read by frames in flight: wgpu keeps it alive until
             // they finish, but hadou was handed its raw image, so wait for them first.
-            self.wait_all().expect("waiting for the frames in flight");
+            self.wait_all()?;
             let texture = self.gpu.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("game depth"),
                 size: wgpu::Extent3d { width: size.0, height: size.1, depth_or_array_layers: 1 },
@@ -116,9 +116,10 @@ impl WgpuHost {
             });
             self.depth = Some(DepthTarget { texture, view, size });
         }
-        let (Some(boxes), Some(depth)) = (&self.boxes, &self.depth) else { return };
+        let (Some(boxes), Some(depth)) = (&self.boxes, &self.depth) else { return Ok(()) };
         let vp = wgpu_view_projection(size.0, size.1);
         boxes.record(&self.gpu.queue, encoder, view, &depth.view, vp, &self.state.boxes());
+        Ok(())
     }
 
     /// hadou's frame, recorded into `encoder` after wgpu's content: depth imported from the host's

@@ -67,7 +67,7 @@ impl Running {
         };
         let view = frame.texture.create_view(&Default::default());
         let mut encoder = self.host.begin_frame()?;
-        self.host.record_game(&mut encoder, &frame.texture, &view);
+        self.host.record_game(&mut encoder, &frame.texture, &view)?;
         let recorded = self.host.record_hadou(&mut encoder, &frame.texture, &view)?;
         self.host.submit(encoder, recorded);
         frame.present();
