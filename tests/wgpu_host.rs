@@ -237,3 +237,43 @@ fn hadou_in_a_wgpu_frame_matches_the_ash_embedding_bit_for_bit() {
     }
     assert!(with_wave >= 10 && with_wave + 3 <= FRAMES, "frames with a wave: {with_wave} of {FRAMES}");
 }
+
+/// The window's resize, headless: frames at one size, another, and the first again (the host
+/// makes its depth texture again, hadou its images of the new size, the old ones retired with
+/// the frames that used them), two in flight; each frame's colour has hadou's surfaces over
+/// wgpu's; zero validation messages.
+#[test]
+fn frames_across_resizes_stay_valid() {
+    let gpu = device::WgpuVulkan::new(true).unwrap_or_else(|e| panic!("wgpu on Vulkan: {e}"));
+    let mut host = host::WgpuHost::new(gpu, gpu::FRAMES_IN_FLIGHT).unwrap();
+    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+    let mut pending = Vec::new();
+    for (i, (w, h)) in
+        [(64, 40), (64, 40), (96, 56), (96, 56), (96, 56), (64, 40), (64, 40)].into_iter().enumerate()
+    {
+        let color = host::color_texture(&host.gpu.device, w, h, format);
+        let view = color.create_view(&Default::default());
+        host.update(&input(i), DT).unwrap();
+        let mut encoder = host.begin_frame().unwrap();
+        host.record_game(&mut encoder, &color, &view).unwrap();
+        let device = host.gpu.device.clone();
+        let before = Readback::record(&device, &mut encoder, &color, wgpu::TextureAspect::All);
+        let recorded = host.record_hadou(&mut encoder, &color, &view).unwrap();
+        let after = Readback::record(&device, &mut encoder, &color, wgpu::TextureAspect::All);
+        host.submit(encoder, recorded);
+        // The texture may be dropped now: wgpu keeps it until the frame that uses it finished.
+        pending.push(((w, h), before, after));
+    }
+    host.wait_all().unwrap();
+    let device = host.gpu.device.clone();
+    for (i, ((w, h), before, after)) in pending.into_iter().enumerate() {
+        let (before, after) = (before.read(&device).unwrap(), after.read(&device).unwrap());
+        assert_eq!(after.len(), (w * h * 4) as usize);
+        let changed = before.chunks_exact(4).zip(after.chunks_exact(4)).filter(|(b, a)| b != a).count();
+        assert!(changed > (w * h / 100) as usize, "frame {i} at {w}x{h}: hadou changed {changed} pixels");
+    }
+    drop(device);
+    let messages = host.destroy();
+    let (errors, warnings) = messages.counts();
+    assert!(errors == 0 && warnings == 0, "validation: {:?}", messages.texts.lock().unwrap());
+}
