@@ -23,6 +23,8 @@ mod host;
 mod painter;
 #[path = "../examples/wgpu_host/readback.rs"]
 mod readback;
+#[path = "../examples/game_prototype/slime_sim.rs"]
+mod slime_sim;
 #[path = "../examples/wgpu_host/world.rs"]
 mod world;
 

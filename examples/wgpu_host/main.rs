@@ -22,6 +22,8 @@ mod host;
 #[path = "../game_prototype/painter.rs"]
 mod painter;
 mod readback;
+#[path = "../game_prototype/slime_sim.rs"]
+mod slime_sim;
 mod window;
 mod world;
 
