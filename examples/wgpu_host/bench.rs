@@ -91,13 +91,27 @@ impl Wgpu {
 
 struct Ash {
     game: Game,
+    /// The slime, handed to hadou from the host as the wgpu host does.
+    slime: hadou::GroupId,
     extent: vk::Extent2D,
     frame: usize,
 }
 
 impl Ash {
+    /// The prototype with its slime handed to hadou from the host each frame, as the wgpu host
+    /// does (wgpu 26 gives no raw VkBuffer for hadou to read balls from): its own GPU slime is
+    /// detached from hadou (its compute dispatch still runs, writing 5 balls nobody reads).
+    fn new(extent: vk::Extent2D) -> Result<Ash, String> {
+        let mut game = Game::new(GameVk::new(false, &[], &[], &|_, _, _, _| true)?)?;
+        let slime = game.hadou.metaballs_named("slime").ok_or("no slime")?;
+        game.hadou.set_metaball_buffer(slime, None).map_err(|e| e.to_string())?;
+        Ok(Ash { game, slime, extent, frame: 0 })
+    }
+
     fn one(&mut self) -> Result<f64, String> {
         self.game.update(&script(self.frame), DT)?;
+        let balls = self.game.state.slime();
+        self.game.hadou.set_metaball_group(self.slime, &balls).map_err(|e| e.to_string())?;
         self.game.offscreen_submit(self.extent, &[])?;
         self.frame += 1;
         Ok(hadou_gpu_ms(&self.game.hadou))
@@ -120,8 +134,7 @@ pub fn run((width, height): (u32, u32), frames: usize, rounds: usize) -> Result<
     let view = color.create_view(&Default::default());
     let pending = (0..FRAMES_IN_FLIGHT).map(|_| None).collect();
     let mut w = Wgpu { host, color, view, pending, frame: 0 };
-    let game = Game::new(GameVk::new(false, &[], &[], &|_, _, _, _| true)?)?;
-    let mut a = Ash { game, extent: vk::Extent2D { width, height }, frame: 0 };
+    let mut a = Ash::new(vk::Extent2D { width, height })?;
     // Pipelines compiled, caches warm, the first shots fired in both.
     w.frames(WARMUP)?;
     a.frames(WARMUP)?;
