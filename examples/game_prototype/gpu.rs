@@ -23,7 +23,7 @@ impl Messages {
     }
 }
 
-unsafe extern "system" fn on_message(
+pub unsafe extern "system" fn on_message(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
     _: vk::DebugUtilsMessageTypeFlagsEXT,
     data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
@@ -402,7 +402,9 @@ impl GameVk {
     }
 
     pub fn create_host_buffer(&self, size: u64) -> Result<HostBuffer, String> {
-        let info = vk::BufferCreateInfo::default().size(size).usage(vk::BufferUsageFlags::TRANSFER_DST);
+        // TRANSFER_SRC too: tests/wgpu_host.rs uploads another host's images through it.
+        let usage = vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC;
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
         // SAFETY: as in create_image; the mapping covers `size` bytes of host-coherent memory and
         // lives until destroy_buffer frees the memory.
         unsafe {
@@ -563,5 +565,13 @@ impl HostBuffer {
     pub fn bytes(&self) -> &[u8] {
         // SAFETY: mapped for the buffer's lifetime, host-coherent, read after the fence.
         unsafe { std::slice::from_raw_parts(self.ptr, self.size as usize) }
+    }
+
+    /// Writes `bytes` at the start (before any command that reads the buffer is submitted).
+    pub fn write(&self, bytes: &[u8]) {
+        assert!(bytes.len() as u64 <= self.size, "{} bytes into a buffer of {}", bytes.len(), self.size);
+        // SAFETY: mapped, host-coherent, at least `bytes.len()` long (asserted); the caller writes
+        // before submitting the commands that read it, so the GPU does not read it meanwhile.
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), self.ptr as *mut u8, bytes.len()) };
     }
 }
