@@ -296,7 +296,8 @@ impl Renderer {
         Ok(WorldFrame { pre_exposure, instances, materials, prev_models })
     }
 
-    /// Records view `view` of the frame in frame slot `slot`, its camera the scene's.
+    /// Records view `view` of the frame in frame slot `slot`: its camera is the scene's while it
+    /// records (jittered); `camera` is the view's camera without the jitter (what motion is from).
     fn record_view(
         &mut self,
         cmd: vk::CommandBuffer,
