@@ -343,3 +343,112 @@ fn metaballs_from_the_games_buffer_move_with_their_previous_centres() {
     drop((buffer, memory));
     rt.finish();
 }
+
+/// The inputs written into a game's own images (`View::upscaler`) for its upscaler to read on the
+/// GPU: the motion image gets hadou's motion where hadou drew a surface and keeps the game's value
+/// elsewhere; the masks get the larger of the game's and hadou's (an R8 mask within half a step).
+/// A format the pass cannot write, and targets without motion vectors on, are refused.
+#[test]
+fn upscaler_targets_are_written_into_the_games_images() {
+    use hadou::gpu::barriers::{cmd_barriers, image_barrier, memory_barrier, ImageAccess};
+    use hadou::gpu::memory::{ImageHandles, Memory, MemoryLocation};
+    use hadou::gpu::recorder::Recorder;
+    use hadou::gpu::vk;
+    use hadou::{ExternalImage, UpscalerTargets, View, ViewCamera};
+    let (w, h) = (64u32, 48u32);
+    let extent = vk::Extent2D { width: w, height: h };
+    let (_leaks, ctx) = common::context();
+    let memory = Memory::new(&ctx).unwrap();
+    let usage =
+        vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+    let image = |name: &str, format| memory.create_image(&ctx, name, extent, format, usage).unwrap();
+    let (motion, reactive) =
+        (image("game motion", vk::Format::R32G32_SFLOAT), image("game reactive", vk::Format::R8_UNORM));
+    let readback = |name: &str, bytes: u64| {
+        let usage = vk::BufferUsageFlags::TRANSFER_DST;
+        memory.create_buffer(&ctx, name, bytes * u64::from(w * h), usage, MemoryLocation::GpuToCpu).unwrap()
+    };
+    let (motion_back, reactive_back) = (readback("motion back", 8), readback("reactive back", 1));
+    let mut host = common::host::Host::new(&ctx, 1);
+    let mut hadou = hadou::Renderer::new(ctx).unwrap();
+    hadou.load_scene(common::parse(BOX)).unwrap();
+    let external = |i: &hadou::gpu::memory::Image| ExternalImage {
+        image: i.raw,
+        view: i.view,
+        format: i.format,
+        layout: vk::ImageLayout::GENERAL,
+        final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+    };
+    let handles =
+        |i: &hadou::gpu::memory::Image| ImageHandles { raw: i.raw, view: i.view, format: i.format, extent };
+    let targets =
+        UpscalerTargets { motion: external(&motion), reactive: Some(external(&reactive)), composition: None };
+    let view = View { upscaler: Some(targets), ..View::headless(ViewCamera::Renderer, w, h) };
+    // Refused: no motion vectors yet; then a format the pass cannot write.
+    let cmd = host.begin(0);
+    assert!(hadou.record_views(cmd, 0.0, &[view]).unwrap_err().to_string().contains("set_motion_vectors"));
+    hadou.set_motion_vectors(true).unwrap();
+    let bad = UpscalerTargets {
+        motion: ExternalImage { format: vk::Format::R8G8B8A8_UNORM, ..targets.motion },
+        ..targets
+    };
+    let err = hadou.record_views(cmd, 0.0, &[View { upscaler: Some(bad), ..view }]).unwrap_err().to_string();
+    assert!(err.contains("View.upscaler.motion.format"), "{err}");
+    assert_eq!(hadou.next_frame(), 0);
+    host.submit(0);
+    let (game_motion, game_reactive) = ([7.0f32, -3.0, 0.0, 0.0], [0.25f32, 0.0, 0.0, 0.0]);
+    let mut aovs = None;
+    for (i, position) in [DVec3::new(0.3, 1.0, 8.0), DVec3::new(-0.4, 1.3, 7.7)].into_iter().enumerate() {
+        hadou.set_camera(camera(position)).unwrap();
+        let cmd = host.begin(0);
+        // The game's own values, then hadou's frame.
+        let rec = Recorder { ctx: hadou.context(), cmd };
+        let to_general: Vec<_> = [&motion, &reactive]
+            .iter()
+            .filter_map(|i| {
+                image_barrier(i.raw, i.format, ImageAccess::UNDEFINED, ImageAccess::CLEAR_GENERAL)
+            })
+            .collect();
+        cmd_barriers(&hadou.context().device, cmd, &to_general, &[]);
+        rec.clear_general_image(&handles(&motion), vk::ClearColorValue { float32: game_motion });
+        rec.clear_general_image(&handles(&reactive), vk::ClearColorValue { float32: game_reactive });
+        hadou.record_views(cmd, 0.0, &[view]).unwrap();
+        if i == 1 {
+            aovs = Some(hadou.record_aov_readback(cmd, &[Aov::Motion, Aov::Reactive, Aov::Normal]).unwrap());
+            let rec = Recorder { ctx: hadou.context(), cmd };
+            rec.copy_image_to_buffer(&handles(&motion), &motion_back);
+            rec.copy_image_to_buffer(&handles(&reactive), &reactive_back);
+            let to_host = memory_barrier(
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_WRITE,
+                vk::PipelineStageFlags2::HOST,
+                vk::AccessFlags2::HOST_READ,
+            );
+            cmd_barriers(&hadou.context().device, cmd, &[], &[to_host]);
+        }
+        host.submit(0);
+        host.wait_all();
+    }
+    let aovs = aovs.unwrap();
+    let (m, r, n) =
+        (aovs.aov(Aov::Motion).unwrap(), aovs.aov(Aov::Reactive).unwrap(), aovs.aov(Aov::Normal).unwrap());
+    let got_motion: &[f32] = bytemuck::cast_slice(motion_back.mapped().unwrap());
+    let got_reactive = reactive_back.mapped().unwrap();
+    let (mut surface, mut moving) = (0, 0);
+    for i in 0..(w * h) as usize {
+        let want = if n.data[4 * i + 3] == 1.0 { [m.data[2 * i], m.data[2 * i + 1]] } else { [7.0, -3.0] };
+        assert_eq!([got_motion[2 * i], got_motion[2 * i + 1]], want, "pixel {i}: motion");
+        surface += usize::from(n.data[4 * i + 3] == 1.0);
+        moving += usize::from(want[0] != 0.0 && want[0] != 7.0);
+        let want = r.data[i].max(0.25);
+        assert!(
+            (f32::from(got_reactive[i]) / 255.0 - want).abs() <= 0.5 / 255.0 + 1e-6,
+            "pixel {i}: reactive"
+        );
+    }
+    assert!(surface > 150 && moving > 150, "{surface} surface pixels, {moving} moving");
+    drop(aovs);
+    host.destroy();
+    drop((motion, reactive, motion_back, reactive_back, memory));
+    drop(hadou);
+}

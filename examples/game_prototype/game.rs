@@ -559,6 +559,7 @@ impl Game {
                     layout: attachment,
                     final_layout,
                 }),
+                upscaler: None,
             });
         }
         // The slime's balls at this frame's time, written before hadou's frame reads them.

@@ -45,9 +45,9 @@ pub use renderer::ids::{MaterialId, MeshId};
 pub use renderer::instances::{InstanceId, LightId};
 pub use renderer::world::{GroupId, MetaballsDesc, WaveDesc, WaveId};
 pub use renderer::{
-    AovReadback, DepthConvention, Exposure, ExternalColor, ExternalDepth, FrameInputs, FrameTimings,
-    GameMatrix, GameVector, RecordedFrame, Renderer, RendererOptions, View, ViewCamera, WaveUpdate,
-    MAX_VIEWS,
+    AovReadback, DepthConvention, Exposure, ExternalColor, ExternalDepth, ExternalImage, FrameInputs,
+    FrameTimings, GameMatrix, GameVector, RecordedFrame, Renderer, RendererOptions, UpscalerTargets, View,
+    ViewCamera, WaveUpdate, MAX_VIEWS,
 };
 pub use runtime::{FrameOutput, FrameRequest, Runtime, RuntimeOptions};
 

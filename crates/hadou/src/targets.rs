@@ -70,6 +70,11 @@ pub enum Target {
     GameDepth,
     /// The game's colour target of this frame (embedding), imported for the frame.
     GameColor,
+    /// The game's motion, reactive and composition images of this frame (`View::upscaler`),
+    /// imported for the frame.
+    GameMotion,
+    GameReactive,
+    GameComposition,
     /// An image an effect declared.
     Custom(&'static ImageDesc),
     /// `Custom(desc)` as the previous frame left it, read-only: a temporal effect (an
@@ -101,6 +106,9 @@ impl Target {
             Target::Composition => "composition",
             Target::GameDepth => "game depth",
             Target::GameColor => "game colour",
+            Target::GameMotion => "game motion",
+            Target::GameReactive => "game reactive",
+            Target::GameComposition => "game composition",
             Target::Custom(d) | Target::Previous(d) => d.name,
         }
     }
@@ -120,7 +128,11 @@ impl Target {
             Target::Motion => vk::Format::R32G32_SFLOAT,
             Target::Ldr => vk::Format::R8G8B8A8_UNORM,
             // The game's images carry their own format (`Targets::import`).
-            Target::GameDepth | Target::GameColor => vk::Format::UNDEFINED,
+            Target::GameDepth
+            | Target::GameColor
+            | Target::GameMotion
+            | Target::GameReactive
+            | Target::GameComposition => vk::Format::UNDEFINED,
             Target::Custom(d) | Target::Previous(d) => d.format,
         }
     }
@@ -137,7 +149,11 @@ impl Target {
             | Target::Reactive
             | Target::Composition => 4,
             Target::Hdr | Target::Normal | Target::Ids | Target::PeelLists | Target::Motion => 8,
-            Target::GameDepth | Target::GameColor => 0,
+            Target::GameDepth
+            | Target::GameColor
+            | Target::GameMotion
+            | Target::GameReactive
+            | Target::GameComposition => 0,
             Target::Custom(d) | Target::Previous(d) => d.texel_bytes,
         }
     }
@@ -153,7 +169,11 @@ impl Target {
             Target::Motion | Target::Reactive | Target::Composition => {
                 "motion vectors on (Renderer::set_motion_vectors)"
             }
-            Target::GameDepth | Target::GameColor => "a game's image handed to record_frame",
+            Target::GameDepth
+            | Target::GameColor
+            | Target::GameMotion
+            | Target::GameReactive
+            | Target::GameComposition => "a game's image handed to record_frame",
             Target::Custom(d) | Target::Previous(d) => d.needs,
             _ => "a frame recorded first",
         }
@@ -169,7 +189,14 @@ impl Target {
 
     /// Whether the image is the game's, imported each frame rather than made by hadou.
     pub fn is_external(self) -> bool {
-        matches!(self, Target::GameDepth | Target::GameColor)
+        matches!(
+            self,
+            Target::GameDepth
+                | Target::GameColor
+                | Target::GameMotion
+                | Target::GameReactive
+                | Target::GameComposition
+        )
     }
 
     fn usage(self) -> vk::ImageUsageFlags {
@@ -190,7 +217,11 @@ impl Target {
             // TRANSFER_DST: the peel pass clears its counters with vkCmdClearColorImage.
             Target::PeelCounts => base | vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
             Target::PeelLists => base | vk::ImageUsageFlags::STORAGE,
-            Target::GameDepth | Target::GameColor => vk::ImageUsageFlags::empty(),
+            Target::GameDepth
+            | Target::GameColor
+            | Target::GameMotion
+            | Target::GameReactive
+            | Target::GameComposition => vk::ImageUsageFlags::empty(),
             Target::Custom(d) => base | vk::ImageUsageFlags::STORAGE | d.usage,
             // The two images of a history swap roles: the same usage, and TRANSFER_DST for the
             // clear of a fresh history.

@@ -20,6 +20,7 @@ pub mod motion;
 pub mod peel;
 pub mod pipeline_memo;
 pub mod raster;
+pub mod upscaler_out;
 
 pub mod tonemap;
 pub mod translucency;

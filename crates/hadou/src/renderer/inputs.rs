@@ -124,6 +124,38 @@ pub struct ExternalColor {
     pub final_layout: vk::ImageLayout,
 }
 
+/// One of the game's images hadou writes into (`UpscalerTargets`), as a storage image: it needs
+/// `VK_IMAGE_USAGE_STORAGE_BIT`. Synchronization as for `ExternalDepth` (`layout` → `GENERAL` →
+/// `final_layout`).
+#[derive(Clone, Copy, Debug)]
+pub struct ExternalImage {
+    /// The image, frame-sized.
+    pub image: vk::Image,
+    /// A colour view of `image`.
+    pub view: vk::ImageView,
+    /// `image`'s format (what each use takes is said there).
+    pub format: vk::Format,
+    /// Its layout when hadou's commands start.
+    pub layout: vk::ImageLayout,
+    /// The layout hadou leaves it in.
+    pub final_layout: vk::ImageLayout,
+}
+
+/// A temporal upscaler's inputs written into the game's own images (motion vectors on,
+/// `Renderer::set_motion_vectors`), for its FSR / DLSS / TAA to read on the GPU: `motion`
+/// (R16G16_SFLOAT or R32G32_SFLOAT) gets hadou's motion where hadou drew a surface and keeps the
+/// game's own elsewhere; `reactive` and `composition` (R8_UNORM, R16_SFLOAT or R32_SFLOAT) get the
+/// larger of the game's value and hadou's (`Aov::UPSCALER` says what each holds).
+#[derive(Clone, Copy, Debug)]
+pub struct UpscalerTargets {
+    /// The game's motion vectors (`Aov::Motion`'s convention).
+    pub motion: ExternalImage,
+    /// The game's reactive mask, if it has one.
+    pub reactive: Option<ExternalImage>,
+    /// The game's transparency-and-composition mask, if it has one.
+    pub composition: Option<ExternalImage>,
+}
+
 /// One frame to record.
 #[derive(Clone, Copy, Debug)]
 pub struct FrameInputs {

@@ -40,7 +40,9 @@ pub mod world;
 
 pub use deform::vertex_normals;
 pub use game_math::{GameMatrix, GameVector};
-pub use inputs::{DepthConvention, ExternalColor, ExternalDepth, FrameInputs, RecordedFrame};
+pub use inputs::{
+    DepthConvention, ExternalColor, ExternalDepth, ExternalImage, FrameInputs, RecordedFrame, UpscalerTargets,
+};
 pub use look::Exposure;
 pub use readback::AovReadback;
 pub use timings::FrameTimings;
@@ -129,6 +131,7 @@ struct Edges {
     depth_out: Option<DepthOutPass>,
     tonemap: Option<TonemapPass>,
     composite: Option<CompositePass>,
+    upscaler_out: Option<crate::passes::upscaler_out::UpscalerOutPass>,
 }
 
 /// hadou's passes, scene data and images on one device. See the module docs for the frame contract.

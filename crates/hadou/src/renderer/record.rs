@@ -3,7 +3,7 @@
 //! imported, the scene's passes, the output (hadou's tonemapped image, or a composite into the
 //! game's colour).
 
-use super::inputs::{DepthConvention, FrameInputs, RecordedFrame};
+use super::inputs::{DepthConvention, ExternalImage, FrameInputs, RecordedFrame, UpscalerTargets};
 use super::motion::jittered;
 use super::slots::Slot;
 use super::views::{ResolvedCamera, View, ViewCamera, MAX_VIEWS};
@@ -17,6 +17,7 @@ use crate::passes::depth_import::DepthImportPass;
 use crate::passes::depth_out::DepthOutPass;
 use crate::passes::gpu_structs::FrameUniforms;
 use crate::passes::tonemap::TonemapPass;
+use crate::passes::upscaler_out::{mask_qualifier, motion_qualifier, UpscalerOutPass};
 use crate::passes::Pass;
 use crate::scene::camera::Camera;
 use crate::targets::{Target, Targets};
@@ -95,6 +96,7 @@ impl Renderer {
             extent: inputs.extent,
             depth: inputs.depth,
             color: inputs.color,
+            upscaler: None,
         };
         self.record_views(cmd, inputs.time, &[view])
     }
@@ -138,7 +140,8 @@ impl Renderer {
             let inputs = views[v].inputs(time);
             self.with_camera(cameras[v].1, |r| {
                 r.check_inputs(&inputs)?;
-                r.ensure_edges(&inputs)
+                r.ensure_edges(&inputs)?;
+                r.ensure_upscaler_out(&views[v])
             })?;
         }
         // A run-time bake that finished goes in before the frame's passes are prepared.
@@ -152,7 +155,8 @@ impl Renderer {
                 self.with_camera(cameras[v].1, |r| {
                     // The view's formats and depth convention (built above: nothing is built here).
                     r.ensure_edges(&inputs)?;
-                    r.record_view(cmd, &inputs, &world, (slot, v), cameras[v].0)
+                    r.ensure_upscaler_out(&views[v])?;
+                    r.record_view(cmd, (&inputs, views[v].upscaler), &world, (slot, v), cameras[v].0)
                 })
             })
         });
@@ -301,7 +305,7 @@ impl Renderer {
     fn record_view(
         &mut self,
         cmd: vk::CommandBuffer,
-        inputs: &FrameInputs,
+        (inputs, upscaler): (&FrameInputs, Option<UpscalerTargets>),
         world: &WorldFrame,
         (slot, view): (usize, usize),
         camera: Camera,
@@ -336,6 +340,9 @@ impl Renderer {
                 game_access(color.layout),
             );
         }
+        for (target, image) in upscaler_images(upscaler) {
+            targets.import(target, image.image, image.view, image.format, game_access(image.layout));
+        }
         // This view's passes: the game's depth in, the scene's, the output.
         let mut passes: Vec<&mut dyn Pass> = Vec::new();
         if let (Some(_), Some(p)) = (&inputs.depth, &mut self.edges.depth_import) {
@@ -349,6 +356,9 @@ impl Renderer {
             _ => {}
         }
         if let (Some(_), Some(out)) = (inputs.depth.filter(|d| d.write), &mut self.edges.depth_out) {
+            passes.push(out);
+        }
+        if let (Some(_), Some(out)) = (upscaler, &mut self.edges.upscaler_out) {
             passes.push(out);
         }
         let mut f = SlotFrame {
@@ -383,10 +393,53 @@ impl Renderer {
         if let Some(color) = &inputs.color {
             release.extend(targets.transition(Target::GameColor, game_access(color.final_layout)));
         }
+        for (target, image) in upscaler_images(upscaler) {
+            release.extend(targets.transition(target, game_access(image.final_layout)));
+        }
         cmd_barriers(&ctx.device, cmd, &release, &[]);
         targets.drop_imports();
         s.record_timestamp_copy(ctx, cmd);
         log::trace!("view {view} recorded in slot {index}");
+        Ok(())
+    }
+}
+
+/// The game's images of `upscaler` and the targets they are imported as.
+fn upscaler_images(upscaler: Option<UpscalerTargets>) -> Vec<(Target, ExternalImage)> {
+    let Some(u) = upscaler else { return Vec::new() };
+    let mut images = vec![(Target::GameMotion, u.motion)];
+    images.extend(u.reactive.map(|r| (Target::GameReactive, r)));
+    images.extend(u.composition.map(|c| (Target::GameComposition, c)));
+    images
+}
+
+impl Renderer {
+    /// Checks `view`'s upscaler targets and builds the pass that writes them for their formats.
+    fn ensure_upscaler_out(&mut self, view: &View) -> Result<(), Error> {
+        let Some(u) = view.upscaler else { return Ok(()) };
+        let refused = |what: String, expected: &str| Error::InvalidUpdate { what, expected: expected.into() };
+        if !self.loaded.as_ref().is_some_and(|l| l.scene.render.motion_vectors) {
+            return Err(refused(
+                "View.upscaler".into(),
+                "motion vectors on (Renderer::set_motion_vectors(true))",
+            ));
+        }
+        if motion_qualifier(u.motion.format).is_none() {
+            let what = format!("View.upscaler.motion.format {:?}", u.motion.format);
+            return Err(refused(what, "R16G16_SFLOAT or R32G32_SFLOAT (a storage image)"));
+        }
+        for (field, image) in [("reactive", u.reactive), ("composition", u.composition)] {
+            if let Some(f) = image.map(|i| i.format).filter(|f| mask_qualifier(*f).is_none()) {
+                let what = format!("View.upscaler.{field}.format {f:?}");
+                return Err(refused(what, "R8_UNORM, R16_SFLOAT or R32_SFLOAT (a storage image)"));
+            }
+        }
+        let formats = (u.motion.format, u.reactive.map(|i| i.format), u.composition.map(|i| i.format));
+        let (ctx, compiler) = (&self.ctx, &mut self.compiler);
+        self.edges
+            .upscaler_out
+            .get_or_insert_with(UpscalerOutPass::new)
+            .use_formats(ctx, compiler, formats)?;
         Ok(())
     }
 }

@@ -5,7 +5,7 @@
 
 use glam::DMat4;
 
-use super::inputs::{ExternalColor, ExternalDepth, FrameInputs};
+use super::inputs::{ExternalColor, ExternalDepth, FrameInputs, UpscalerTargets};
 use super::view_projection::camera_from_matrices;
 use super::Renderer;
 use crate::gpu::vk;
@@ -48,12 +48,14 @@ pub struct View {
     pub depth: Option<ExternalDepth>,
     /// As `FrameInputs::color`, for this view.
     pub color: Option<ExternalColor>,
+    /// A temporal upscaler's inputs written into the game's images (motion vectors on).
+    pub upscaler: Option<UpscalerTargets>,
 }
 
 impl View {
     /// A view of `width` × `height` into hadou's own images.
     pub fn headless(camera: ViewCamera, width: u32, height: u32) -> View {
-        View { camera, extent: vk::Extent2D { width, height }, depth: None, color: None }
+        View { camera, extent: vk::Extent2D { width, height }, depth: None, color: None, upscaler: None }
     }
 
     /// The frame inputs this view records with at scene time `time`.
