@@ -82,6 +82,21 @@ pub struct Input {
     pub reset: bool,
 }
 
+impl Input {
+    /// A key went down or up: whether it is one of the game's (README: Space, A/D, ←/→, R).
+    pub fn key(&mut self, code: winit::keyboard::KeyCode, down: bool) -> bool {
+        use winit::keyboard::KeyCode;
+        match code {
+            KeyCode::Space => self.charge = down,
+            KeyCode::KeyA | KeyCode::ArrowLeft => self.left = down,
+            KeyCode::KeyD | KeyCode::ArrowRight => self.right = down,
+            KeyCode::KeyR => self.reset = down,
+            _ => return false,
+        }
+        true
+    }
+}
+
 /// A fired shot: where it started and with what charge.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Shot {
@@ -241,6 +256,28 @@ pub fn camera() -> GameCamera {
         far: 100.0,
         reverse_z: false,
     }
+}
+
+/// The wave as `desc` says, now: spawned when it starts (charging), moved while it lives,
+/// despawned when it ends; the id it has then.
+pub fn sync_wave(
+    hadou: &mut Renderer,
+    wave: Option<WaveId>,
+    desc: Option<WaveDesc>,
+) -> Result<Option<WaveId>, String> {
+    let err = |e: hadou::Error| e.to_string();
+    Ok(match (desc, wave) {
+        (Some(desc), None) => Some(hadou.spawn_wave(&desc).map_err(err)?),
+        (Some(desc), Some(id)) => {
+            hadou.update_wave(id, &desc).map_err(err)?;
+            Some(id)
+        }
+        (None, Some(id)) => {
+            hadou.despawn_wave(id).map_err(err)?;
+            None
+        }
+        (None, None) => None,
+    })
 }
 
 /// The second view of split screen (`Game::split`, `V` in the window): from the right, above the
@@ -447,19 +484,7 @@ impl Game {
     pub fn update(&mut self, input: &Input, dt: f64) -> Result<(), String> {
         self.state.step(input, dt);
         let err = |e: hadou::Error| e.to_string();
-        // The wave lives while it is charged or flies: spawned, moved, despawned.
-        self.wave = match (self.state.wave_desc(), self.wave) {
-            (Some(desc), None) => Some(self.hadou.spawn_wave(&desc).map_err(err)?),
-            (Some(desc), Some(id)) => {
-                self.hadou.update_wave(id, &desc).map_err(err)?;
-                Some(id)
-            }
-            (None, Some(id)) => {
-                self.hadou.despawn_wave(id).map_err(err)?;
-                None
-            }
-            (None, None) => None,
-        };
+        self.wave = sync_wave(&mut self.hadou, self.wave, self.state.wave_desc())?;
         if self.sway {
             self.hadou.set_camera(self.main_camera().for_hadou()).map_err(err)?;
         }

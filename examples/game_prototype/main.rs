@@ -193,10 +193,7 @@ impl ApplicationHandler for App {
             } => {
                 let down = state == ElementState::Pressed;
                 match code {
-                    KeyCode::Space => self.input.charge = down,
-                    KeyCode::KeyA | KeyCode::ArrowLeft => self.input.left = down,
-                    KeyCode::KeyD | KeyCode::ArrowRight => self.input.right = down,
-                    KeyCode::KeyR => self.input.reset = down,
+                    _ if self.input.key(code, down) => {}
                     KeyCode::KeyP if down => {
                         if let Some(r) = &mut self.running {
                             if let Err(e) = r.game.toggle_prop(std::path::Path::new(game::PROP)) {

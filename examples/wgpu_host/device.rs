@@ -4,13 +4,12 @@
 //! messenger of our own that counts what the layer reports, hadou's commands included.
 #![allow(dead_code)]
 
-use std::ffi::c_void;
 use std::sync::Arc;
 
 use ash::vk;
 use wgpu::hal::api::Vulkan;
 
-use super::gpu::{on_message, Messages};
+use super::gpu::{messenger_info, Messages};
 
 /// wgpu's instance, adapter, device and queue, made for hadou to record into.
 pub struct WgpuVulkan {
@@ -134,17 +133,7 @@ fn create_messenger(
         return Err("wgpu did not enable VK_EXT_debug_utils".into());
     }
     let debug = ash::ext::debug_utils::Instance::new(shared.entry(), shared.raw_instance());
-    let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-        .message_severity(
-            vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
-        )
-        .message_type(
-            vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
-        )
-        .pfn_user_callback(Some(on_message))
-        .user_data(Arc::as_ptr(messages) as *mut c_void);
+    let info = messenger_info(messages);
     // SAFETY: `user_data` is `messages`, which WgpuVulkan keeps until `destroy` destroys the
     // messenger, before the instance.
     let messenger = unsafe { debug.create_debug_utils_messenger(&info, None) }

@@ -147,10 +147,7 @@ impl ApplicationHandler for App {
             } => {
                 let down = state == ElementState::Pressed;
                 match code {
-                    KeyCode::Space => self.input.charge = down,
-                    KeyCode::KeyA | KeyCode::ArrowLeft => self.input.left = down,
-                    KeyCode::KeyD | KeyCode::ArrowRight => self.input.right = down,
-                    KeyCode::KeyR => self.input.reset = down,
+                    _ if self.input.key(code, down) => {}
                     KeyCode::Escape => event_loop.exit(),
                     _ => {}
                 }

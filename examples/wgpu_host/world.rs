@@ -5,7 +5,7 @@
 
 use hadou::{GroupId, Renderer, WaveId};
 
-use super::game::{camera, GameState, HADOU_SCENE};
+use super::game::{camera, sync_wave, GameState, HADOU_SCENE};
 
 /// hadou's world of one host: the renderer and the ids the game state moves.
 pub struct HadouWorld {
@@ -36,18 +36,7 @@ impl HadouWorld {
     /// Hands hadou the state's wave (spawned, moved or despawned) and slime, as `Game::update` does.
     pub fn apply(&mut self, state: &GameState) -> Result<(), String> {
         let err = |e: hadou::Error| e.to_string();
-        self.wave = match (state.wave_desc(), self.wave) {
-            (Some(desc), None) => Some(self.hadou.spawn_wave(&desc).map_err(err)?),
-            (Some(desc), Some(id)) => {
-                self.hadou.update_wave(id, &desc).map_err(err)?;
-                Some(id)
-            }
-            (None, Some(id)) => {
-                self.hadou.despawn_wave(id).map_err(err)?;
-                None
-            }
-            (None, None) => None,
-        };
+        self.wave = sync_wave(&mut self.hadou, self.wave, state.wave_desc())?;
         self.hadou.set_metaball_group(self.slime, &state.slime()).map_err(err)
     }
 }

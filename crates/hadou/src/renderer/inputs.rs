@@ -109,24 +109,14 @@ pub struct ExternalDepth {
 /// tonemaps). Pixels where hadou drew a surface (its instances, metaballs, translucent objects,
 /// with the wave in front) are drawn *over* the game's colour; elsewhere the wave's glow is
 /// *added* to it (premultiplied alpha: src + (1 − α_src)·dst, α = 1 on hadou's surfaces, 0 elsewhere).
-/// Synchronization as for `ExternalDepth` (`layout` → `COLOR_ATTACHMENT_OPTIMAL` → `final_layout`).
-#[derive(Clone, Copy, Debug)]
-pub struct ExternalColor {
-    /// The colour image, frame-sized, with `VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT`.
-    pub image: vk::Image,
-    /// A colour view of `image`.
-    pub view: vk::ImageView,
-    /// `image`'s format: it decides what hadou writes (see above).
-    pub format: vk::Format,
-    /// Its layout when hadou's commands start.
-    pub layout: vk::ImageLayout,
-    /// The layout hadou leaves it in.
-    pub final_layout: vk::ImageLayout,
-}
+/// The image needs `VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT`. Synchronization as for `ExternalDepth`
+/// (`layout` → `COLOR_ATTACHMENT_OPTIMAL` → `final_layout`).
+pub type ExternalColor = ExternalImage;
 
-/// One of the game's images hadou writes into (`UpscalerTargets`), as a storage image: it needs
-/// `VK_IMAGE_USAGE_STORAGE_BIT`. Synchronization as for `ExternalDepth` (`layout` → `GENERAL` →
-/// `final_layout`).
+/// One of the game's images hadou writes into, frame-sized: the colour target (`ExternalColor`, a
+/// colour attachment) or an upscaler input (`UpscalerTargets`, a storage image: it needs
+/// `VK_IMAGE_USAGE_STORAGE_BIT`). Synchronization as for `ExternalDepth` (`layout` → what hadou
+/// writes it as → `final_layout`).
 #[derive(Clone, Copy, Debug)]
 pub struct ExternalImage {
     /// The image, frame-sized.
