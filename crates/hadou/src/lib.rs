@@ -6,6 +6,7 @@
 
 pub mod aov;
 pub mod bake;
+pub mod budget;
 pub mod builtin;
 pub mod compare;
 pub mod effect;

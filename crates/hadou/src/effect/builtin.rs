@@ -78,6 +78,11 @@ impl Effect for Translucency {
         }
     }
 
+    /// The light map's size (`effects::translucency::budget_levels`).
+    fn quality_levels(&self, scene: &Scene) -> Vec<crate::budget::QualityLevel> {
+        crate::effects::translucency::budget_levels(scene)
+    }
+
     fn passes(&self) -> Vec<EffectPass> {
         vec![
             EffectPass::new("light_id", translucency::needed, |b| {

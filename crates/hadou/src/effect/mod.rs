@@ -41,6 +41,7 @@ pub(crate) use scene_file::top_level_keys;
 pub use scene_file::SceneFile;
 pub use state::{EffectState, EffectStates};
 
+pub use crate::budget::QualityLevel;
 pub use crate::effects::tonemap::pre_exposure;
 pub use crate::gpu::barriers::ImageAccess;
 pub use crate::gpu::pipeline::{create_compute_pipeline, Blend, Bound, BufferRange, Pipeline};
@@ -88,6 +89,15 @@ pub trait Effect: Send + Sync + 'static {
     /// its data is removed, so none of its passes is needed.
     fn switch_off(&self, scene: &mut Scene) {
         scene.effects.remove(self.name());
+    }
+
+    /// The settings it offers the frame budget (`crate::budget`), from the most exact to the
+    /// cheapest, for the world as it is (empty, the default: none; the budget counts its passes
+    /// as a fixed cost). The level the budget picks is `scene.quality.level(self.name())`, read
+    /// where the effect reads its settings (its passes' `needed`, variant and `prepare`); `None`
+    /// means the effect's own settings.
+    fn quality_levels(&self, _scene: &Scene) -> Vec<QualityLevel> {
+        Vec::new()
     }
 }
 

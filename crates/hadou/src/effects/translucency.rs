@@ -154,6 +154,60 @@ pub fn light_map_size(scene: &Scene) -> u32 {
 /// `light_map_size` with the meshes' bounds known (see `LightView::fit_with`) and the light view
 /// already fitted to them (`None`: no light or no translucent instance).
 pub fn light_map_size_in(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)], view: Option<&LightView>) -> u32 {
+    light_map_size_at(scene, mesh_bounds, view, texel_voxels(scene))
+}
+
+/// The frame budget's light-map levels: (the texel's target in finest voxel edges, the cost over
+/// level 0's before it is measured). Level 0 is the default map; each level halves its side (a
+/// quarter of light_id's texels; the translucency pass's per-pixel work does not change, hence
+/// the priors well above ¼).
+pub const BUDGET_TEXELS: [(f64, f64); 4] = [(0.25, 1.0), (0.5, 0.75), (1.0, 0.6), (2.0, 0.55)];
+
+/// The effect's name (`Effect::name` of `effect::Translucency`): its key in `Scene::quality`.
+const NAME: &str = "translucency";
+
+/// The light map's texel target in finest voxel edges: the frame budget's level, else ¼.
+fn texel_voxels(scene: &Scene) -> f64 {
+    scene.quality.level(NAME).and_then(|l| BUDGET_TEXELS.get(l)).map_or(BUDGET_TEXELS[0].0, |t| t.0)
+}
+
+/// The frame budget's levels for the light map ([`BUDGET_TEXELS`]); none without a lit
+/// translucent instance. A level's error bounds the light map's share of the relative error of
+/// the transmittance T = exp(−σ·d): the entry point a texel gives is within 1.5·√2·texel·tan θ of
+/// the light's own (`lut_thickness`), which moves d by as much, so on entry faces at most 45° from
+/// the light (tan θ ≤ 1) |T − T*| / T* ≤ expm1(σ_max · 1.5·√2 · texel), σ_max the largest
+/// extinction of a translucent material. Steeper faces scale the term by tan θ at every level
+/// alike, which keeps the levels' order.
+pub fn budget_levels(scene: &Scene) -> Vec<crate::budget::QualityLevel> {
+    let bounds = mesh_bounds(scene);
+    let Some(view) = LightView::fit_with(scene, &bounds) else { return Vec::new() };
+    // Named by the texel target, not the size: a level keeps its name (and its measured cost) as
+    // instances move and the map's size with them.
+    let sigma = (scene.instances.iter())
+        .filter_map(|i| match scene.materials[i.material].kind {
+            MaterialKind::Translucent { sigma, .. } => Some(sigma.max_element()),
+            _ => None,
+        })
+        .fold(0.0, f64::max);
+    BUDGET_TEXELS
+        .iter()
+        .map(|&(voxels, hint)| {
+            let size = light_map_size_at(scene, &bounds, Some(&view), voxels);
+            let texel = 2.0 * view.radius / size as f64;
+            let error = (sigma * 1.5 * std::f64::consts::SQRT_2 * texel).exp_m1();
+            let error = if error.is_finite() { error } else { f64::MAX };
+            crate::budget::QualityLevel::new(format!("texel {voxels} voxel"), error, hint)
+        })
+        .collect()
+}
+
+/// `light_map_size_in` for a texel target of `texel_voxels` finest voxel edges.
+fn light_map_size_at(
+    scene: &Scene,
+    mesh_bounds: &[(DVec3, DVec3)],
+    view: Option<&LightView>,
+    texel_voxels: f64,
+) -> u32 {
     let Some((diameter, finest)) = view.map(|v| light_map_extent(scene, mesh_bounds, v)) else {
         return LIGHT_MAP_MIN;
     };
@@ -164,7 +218,7 @@ pub fn light_map_size_in(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)], view: Op
         )
     });
     let max = if peel { LIGHT_MAP_MAX_PEEL } else { LIGHT_MAP_MAX };
-    let texels = diameter / (0.25 * finest);
+    let texels = diameter / (texel_voxels * finest);
     if !(texels.is_finite() && texels > 0.0) {
         return max;
     }

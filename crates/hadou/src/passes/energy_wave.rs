@@ -8,6 +8,7 @@
 //! when every wave is analytic with a tolerance, the tile path of `energy_wave_tiles` (corners
 //! exact, smooth tiles interpolated within the tolerance, the rest exact).
 
+use crate::effects::energy_wave::effect::wave_tolerance;
 use super::energy_wave_tiles::{self, PathChoice, TileBuffers, TileGrid, TilePipelines};
 use super::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::effects::energy_wave::tolerance::tile_size;
@@ -78,10 +79,10 @@ pub fn wave_style(state: &WaveState, method: WaveMethod, tolerance: f64) -> Wave
 }
 
 /// The variant of the pass `scene` needs: "tolerance" when it has waves and every one is
-/// analytic with a tolerance above 0 (`Wave::effective_tolerance`), else exact; " reactive" after
+/// analytic with a tolerance above 0 (`wave_tolerance`), else exact; " reactive" after
 /// it with motion vectors on (the glow's share in the reactive mask).
 pub fn variant(scene: &Scene) -> String {
-    let tolerant = |w: &crate::scene::Wave| w.method == WaveMethod::Analytic && w.effective_tolerance() > 0.0;
+    let tolerant = |w: &crate::scene::Wave| w.method == WaveMethod::Analytic && wave_tolerance(scene, w) > 0.0;
     let waves = scene.waves();
     let tolerance = !waves.is_empty() && waves.iter().all(tolerant);
     let reactive = scene.render.motion_vectors;
@@ -174,7 +175,7 @@ impl Pass for EnergyWavePass {
         let live: Vec<(WaveState, WaveMethod, f64)> = scene
             .waves()
             .iter()
-            .map(|w| (w.at(frame.time), w.method, w.effective_tolerance()))
+            .map(|w| (w.at(frame.time), w.method, wave_tolerance(scene, w)))
             .filter(|(s, _, _)| s.a != 0.0 || s.b != 0.0)
             .collect();
         let waves: Vec<GpuWave> = live.iter().map(|(s, _, _)| gpu_wave(&wave_params(s), camera)).collect();

@@ -21,6 +21,7 @@
 
 pub mod assets;
 pub mod bakes;
+mod budget;
 mod deform;
 mod effects;
 mod game_math;
@@ -78,11 +79,19 @@ pub struct RendererOptions {
     /// The effects it runs (`Effects::builtin()` by default); a scene read with other effects'
     /// tables is refused by `load_scene`.
     pub effects: Effects,
+    /// A GPU time per frame, in ms, the effects' quality levels are fitted into
+    /// (`Renderer::set_frame_budget`, `crate::budget`); None: the scene's `[render] budget_ms`.
+    pub frame_budget_ms: Option<f64>,
 }
 
 impl Default for RendererOptions {
     fn default() -> Self {
-        RendererOptions { frames_in_flight: 2, pipeline_cache_dir: None, effects: Effects::builtin() }
+        RendererOptions {
+            frames_in_flight: 2,
+            pipeline_cache_dir: None,
+            effects: Effects::builtin(),
+            frame_budget_ms: None,
+        }
     }
 }
 
@@ -161,6 +170,8 @@ pub struct Renderer {
     /// Frames up to this one are known to have finished.
     finished_through: Option<u64>,
     latest: Option<FinishedFrame>,
+    /// The frame budget: its setting, its cost model, the levels frames were recorded with.
+    budget: budget::FrameBudget,
     effects: Effects,
     compiler: ShaderCompiler,
     pipeline_cache: Option<PipelineCache>,
@@ -182,6 +193,12 @@ impl Renderer {
         if !(1..=MAX_FRAMES_IN_FLIGHT).contains(&n) {
             return Err(Error::FramesInFlight(n));
         }
+        if let Some(ms) = options.frame_budget_ms.filter(|ms| !crate::budget::BUDGET_RANGE_MS.contains(ms)) {
+            return Err(Error::InvalidUpdate {
+                what: format!("RendererOptions::frame_budget_ms {ms}"),
+                expected: "a number of milliseconds in [0.001, 1000000]".into(),
+            });
+        }
         let memory = Memory::new(&ctx)?;
         let compiler = ShaderCompiler::new(crate::passes::SHADERS)?;
         let dir = options.pipeline_cache_dir.clone().or_else(crate::effects::bake_cache::default_cache_dir);
@@ -201,6 +218,7 @@ impl Renderer {
             current_readbacks: None,
             finished_through: None,
             latest: None,
+            budget: budget::FrameBudget::new(options.frame_budget_ms),
             effects: options.effects.clone(),
             compiler,
             pipeline_cache: Some(pipeline_cache),
@@ -266,6 +284,7 @@ impl Renderer {
     /// own fence: call it while nothing else submits to that queue.
     pub fn load_scene(&mut self, scene: Scene) -> Result<(), Error> {
         self.effects.check_scene(&scene)?;
+        self.reset_budget();
         let gpu = SceneGpu::new(&self.ctx, &self.memory, &scene)?;
         let mut passes = ScenePasses::default();
         passes.sync(&self.ctx, &self.memory, &mut self.compiler, &self.effects, &scene)?;
@@ -340,6 +359,7 @@ impl Renderer {
                 done = slot.finish(slot_index(i, v, in_flight), v, frame, &passes, &mut stats).or(done);
             }
             if let Some(done) = done {
+                self.budget.observe(done, &stats);
                 if self.latest.as_ref().is_none_or(|l| l.frame < done) {
                     self.latest = Some(FinishedFrame { frame: done, stats });
                 }

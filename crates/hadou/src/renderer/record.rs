@@ -146,6 +146,8 @@ impl Renderer {
         }
         // A run-time bake that finished goes in before the frame's passes are prepared.
         self.poll_bakes(false)?;
+        // The frame budget's levels for this frame.
+        self.apply_budget()?;
         // `[[mesh]] wobble`: the meshes' shapes at this frame's time.
         self.apply_wobble(time);
         let (frame, slot) = self.begin_frame(&live)?;

@@ -39,6 +39,7 @@ pub(crate) struct RenderDef {
     pub exposure_ev100: Option<Spanned<Num>>,
     pub background: Option<Spanned<Array<Num, 3>>>,
     pub ambient: Option<Spanned<Array<Num, 3>>>,
+    pub budget_ms: Option<Spanned<Num>>,
 }
 
 #[derive(Debug, Deserialize)]

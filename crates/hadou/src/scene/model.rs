@@ -30,6 +30,9 @@ pub struct Scene {
     /// The world data of the registered effects the scene uses (`crate::effect`), by effect name:
     /// what their scene-file tables said, changed at run time by `Renderer::update_effect`.
     pub effects: crate::effect::EffectStates,
+    /// The level the frame budget chose for each effect that offers levels (`crate::budget`);
+    /// empty without a budget: every effect uses its own settings.
+    pub quality: crate::budget::QualityChoice,
 }
 
 impl Scene {
@@ -61,6 +64,10 @@ pub struct RenderSettings {
     /// Write a temporal upscaler's inputs (`Aov::UPSCALER`: motion, reactive and composition
     /// masks); `Renderer::set_motion_vectors`.
     pub motion_vectors: bool,
+    /// `budget_ms`: the GPU time per frame the frame budget fits the effects' levels into
+    /// (`crate::budget`); `Renderer::set_frame_budget` and `RendererOptions::frame_budget_ms`
+    /// override it. None: no budget.
+    pub budget_ms: Option<f64>,
 }
 
 /// How `[render]` gives the exposure (docs/scene-format.md, "Exposure and light units").
@@ -359,6 +366,7 @@ impl Default for RenderSettings {
             background: DVec3::new(0.02, 0.02, 0.03),
             ambient: DVec3::splat(0.08),
             motion_vectors: false,
+            budget_ms: None,
         }
     }
 }

@@ -4,7 +4,7 @@
 //! for that data.
 
 use super::file;
-use crate::effect::{Effect, EffectPass, EffectState, SceneFile};
+use crate::effect::{Effect, EffectPass, EffectState, QualityLevel, SceneFile};
 use crate::passes::energy_wave::{variant, EnergyWavePass};
 use crate::scene::file_schema::{Tables, WaveDef};
 use crate::scene::{Scene, SceneError, Wave};
@@ -45,6 +45,40 @@ impl Effect for EnergyWave {
             },
         )
         .with_variant(variant)]
+    }
+
+    /// The tolerance τ of every analytic wave without a cutoff ([`BUDGET_LEVELS`]): τ bounds the
+    /// relative error of H per pixel (`tolerance.rs`, tested on hard rays). A wave with a cutoff
+    /// (no relative bound near it) or ray-marched keeps its own setting; none of those: no levels.
+    fn quality_levels(&self, scene: &Scene) -> Vec<QualityLevel> {
+        if !scene.waves().iter().any(takes_budget) {
+            return Vec::new();
+        }
+        BUDGET_LEVELS
+            .iter()
+            .map(|&(tolerance, hint)| {
+                let name = if tolerance == 0.0 { "exact".to_string() } else { format!("τ={tolerance:e}") };
+                QualityLevel::new(name, tolerance, hint)
+            })
+            .collect()
+    }
+}
+
+/// The frame budget's levels: (tolerance, cost over the exact pass's before it is measured). The
+/// priors are the seed's 512² speed-ups (docs/PERFORMANCE.md, "Energy wave with a tolerance").
+pub const BUDGET_LEVELS: [(f64, f64); 4] = [(0.0, 1.0), (1e-4, 0.95), (1e-3, 0.8), (1e-2, 0.65)];
+
+/// Whether the budget sets a wave's tolerance: analytic, without a cutoff.
+fn takes_budget(wave: &Wave) -> bool {
+    wave.method == crate::scene::WaveMethod::Analytic && wave.cutoff == 0.0
+}
+
+/// The tolerance a wave is evaluated at: the frame budget's level where it chose one and the
+/// wave takes it, else the wave's own (`Wave::effective_tolerance`).
+pub fn wave_tolerance(scene: &Scene, wave: &Wave) -> f64 {
+    match scene.quality.level(NAME).and_then(|l| BUDGET_LEVELS.get(l)) {
+        Some(&(tolerance, _)) if takes_budget(wave) => tolerance,
+        _ => wave.effective_tolerance(),
     }
 }
 

@@ -59,7 +59,7 @@
 // `!(x > y)` on purpose: false for NaN as well, like the GLSL it mirrors.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-mod effect;
+pub mod effect;
 pub mod file;
 pub mod tolerance;
 

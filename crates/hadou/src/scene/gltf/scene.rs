@@ -57,6 +57,7 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
         materials: imp.materials,
         instances: imp.instances,
         effects: Default::default(),
+        quality: Default::default(),
     })
 }
 
