@@ -11,55 +11,10 @@ use hadou::reference::{line_integral, wave_params};
 use hadou::scene::Scene;
 use hadou::{Aov, Error, FrameRequest, Runtime};
 
-/// A wave across the screen (the seed's strengths) and two translucent cubes far apart, so the
-/// light map spans a wide view at fine voxels (1,792² at level 0, 256² at the cheapest): both
-/// effects have a lever worth pulling.
+/// assets/scenes/budget.toml: a wave across the screen and two translucent cubes far apart, so
+/// both effects have a lever worth pulling.
 fn scene() -> Scene {
-    common::parse(
-        r#"
-        [render]
-        size = [256, 256]
-        [camera]
-        position = [0, 1, 12]
-        look_at = [0, 0, 0]
-        fov_y_deg = 50
-        far = 400
-        [[light]]
-        kind = "directional"
-        direction = [0, -0.25, 1]
-        intensity = 3
-        [[mesh]]
-        name = "cube"
-        kind = "cube"
-        size = 1.5
-        [[mesh]]
-        name = "wall"
-        kind = "plane"
-        size = 30
-        [[material]]
-        name = "jade"
-        kind = "translucent"
-        albedo = [0.55, 0.85, 0.65]
-        sigma = [3.0, 1.2, 2.2]
-        voxel_res = 64
-        [[instance]]
-        mesh = "wall"
-        transform = [{ rotate = { angle_deg = 90, axis = [1, 0, 0] } }, { translate = [0, 0, -6] }]
-        [[instance]]
-        mesh = "cube"
-        material = "jade"
-        transform = [{ translate = [-5, 0, 0] }]
-        [[instance]]
-        mesh = "cube"
-        material = "jade"
-        transform = [{ translate = [5, 0, 0] }]
-        [[wave]]
-        origin = [0, 0, 0]
-        direction = [1, 0.2, 0]
-        a = 60
-        b = 30
-        "#,
-    )
+    common::load("assets/scenes/budget.toml")
 }
 
 /// Frames rendered at each budget, and the last ones whose GPU frame is measured: 5 decisions

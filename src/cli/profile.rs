@@ -44,6 +44,10 @@ pub struct ProfileArgs {
     /// With --ab: where to write the other binary's pooled samples (--json gets this one's).
     #[arg(long, value_name = "FILE")]
     pub(super) json_other: Option<PathBuf>,
+    /// A GPU frame budget in ms: the effects' quality levels are fitted into it (hadou::budget;
+    /// overrides the scene's `[render] budget_ms`); the levels it picked are printed.
+    #[arg(long, value_name = "MS")]
+    pub(super) budget_ms: Option<f64>,
     #[command(flatten)]
     pub(super) gate: super::profile_diff::GateArgs,
 }
@@ -86,6 +90,9 @@ pub fn run(args: ProfileArgs) -> anyhow::Result<ExitCode> {
     super::check_outputs(&outputs, &super::scene_inputs(&args.scene, &scene))?;
     let mut runtime = Runtime::new(&RuntimeOptions::from_env())?;
     runtime.load_scene(scene)?;
+    if let Some(ms) = args.budget_ms {
+        runtime.renderer().set_frame_budget(Some(ms)).context("--budget-ms")?;
+    }
     let mut request = FrameRequest::new(width, height);
     request.color = false;
     let run_start = Instant::now();
@@ -112,6 +119,7 @@ pub fn run(args: ProfileArgs) -> anyhow::Result<ExitCode> {
     if std::io::stderr().is_terminal() {
         eprintln!();
     }
+    let budget = runtime.renderer().budget_status();
     let report = ProfileReport::new(
         args.scene.display().to_string(),
         runtime.device_info().clone(),
@@ -143,5 +151,26 @@ pub fn run(args: ProfileArgs) -> anyhow::Result<ExitCode> {
         let shown: Vec<String> = counters.iter().map(|(n, v)| format!("{n} {v}")).collect();
         println!("counters (max over the frames): {}", shown.join(", "));
     }
+    if let Some(b) = budget {
+        println!("{}", budget_line(&b));
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The frame budget after the run: the levels in use, with their predicted cost and error bound.
+fn budget_line(b: &hadou::budget::BudgetStatus) -> String {
+    let levels: Vec<String> = (b.effects.iter())
+        .map(|e| {
+            let l = &e.levels[e.chosen];
+            format!("{} {} ({:.3} ms, error {:.2e})", e.name, l.name, l.predicted_ms, l.error)
+        })
+        .collect();
+    format!(
+        "budget {:.3} ms: predicted {:.3} ms ({}), other passes {:.3} ms; levels: {}",
+        b.budget_ms,
+        b.predicted_ms,
+        if b.fits { "fits" } else { "does not fit at the cheapest levels" },
+        b.fixed_ms,
+        if levels.is_empty() { "no effect offers levels".to_string() } else { levels.join(", ") }
+    )
 }

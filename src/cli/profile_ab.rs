@@ -22,6 +22,9 @@ fn run_once(binary: &Path, args: &ProfileArgs, json: &Path) -> anyhow::Result<()
     }
     cmd.args(["--frames", &args.frames.to_string(), "--warmup", &args.warmup.to_string()]);
     cmd.args(["--dt", &args.dt.to_string()]).arg("--json").arg(json);
+    if let Some(ms) = args.budget_ms {
+        cmd.args(["--budget-ms", &ms.to_string()]);
+    }
     let out = cmd
         .stdin(Stdio::null())
         .output()

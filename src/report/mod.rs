@@ -4,6 +4,7 @@
 //! Pareto front). `write_report` writes everything into a folder atomically; `update_docs`
 //! rewrites the marked blocks of a markdown file (docs/PERFORMANCE.md) from the same tables.
 
+pub mod budget;
 pub mod ceilings;
 pub mod costs;
 pub mod csv;
@@ -28,7 +29,7 @@ pub use table::{Cell, Fmt, Table};
 use hadou::Runtime;
 
 /// The sections' ids, in report order (CSV and plot stems, docs markers).
-pub const SECTION_IDS: [&str; 5] = ["energy_wave", "translucency", "metaballs", "frame", "ceilings"];
+pub const SECTION_IDS: [&str; 6] = ["energy_wave", "translucency", "metaballs", "budget", "frame", "ceilings"];
 
 /// What to measure. `ReportOptions::new(quick)` gives the defaults of each mode.
 #[derive(Clone, Debug, PartialEq)]
@@ -94,6 +95,7 @@ impl ReportOptions {
         2 + (1 + energy_wave::TOLERANCES.len() + self.raymarch_steps.len())
             + (self.voxel_res.len() + self.peel_res.len() + self.pairs_res.len() + 2)
             + metaballs::STEPS
+            + budget::steps()
             + self.frame_sizes.len()
     }
 
@@ -213,7 +215,8 @@ pub fn run(
     let energy = energy_wave::section(runtime, opts, &ceilings, &mut steps)?;
     let translucency = translucency::section(runtime, opts, &ceilings, &mut steps)?;
     let metaballs = metaballs::section(runtime, opts, &mut steps)?;
+    let budget = budget::section(runtime, opts, &mut steps)?;
     let frame = frame::section(runtime, opts, &ceilings, &mut steps)?;
     steps.finish();
-    Ok(Report { header, sections: vec![energy, translucency, metaballs, frame, ceiling_section] })
+    Ok(Report { header, sections: vec![energy, translucency, metaballs, budget, frame, ceiling_section] })
 }

@@ -11,7 +11,8 @@ use crate::scene::{Scene, SceneError};
 pub const PREFIX: &str = "builtin:";
 
 /// (name, TOML text) of every built-in scene: each file of `assets/scenes`.
-pub const SCENES: [(&str, &str); 11] = [
+pub const SCENES: [(&str, &str); 12] = [
+    ("budget", include_str!("../../../assets/scenes/budget.toml")),
     ("empty", include_str!("../../../assets/scenes/empty.toml")),
     ("energy_wave", include_str!("../../../assets/scenes/energy_wave.toml")),
     ("energy_wave_open", include_str!("../../../assets/scenes/energy_wave_open.toml")),

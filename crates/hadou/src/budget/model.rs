@@ -10,6 +10,12 @@
 //!
 //! Updates are exponential moving averages with weight [`SMOOTHING`] (the first measurement
 //! replaces the prior).
+//!
+//! A level not measured yet is predicted from its measured neighbours: between two, its ratio is
+//! interpolated geometrically by where its hint lies between theirs (a wrong prior's scale, e.g.
+//! a light map whose time falls with its area, is corrected by every level measured); past the
+//! last one measured, that level's ratio times the hints' ratio. So a cheap level measured makes
+//! the levels between it and level 0 look cheaper too, and the budget tries them.
 
 use super::QualityLevel;
 
@@ -89,7 +95,27 @@ impl EffectCosts {
 
     /// Predicted ms at `level` (NaN before any frame).
     pub fn predicted(&self, level: usize) -> f64 {
-        self.scale.map_or(f64::NAN, |s| s * self.ratio[level])
+        self.scale.map_or(f64::NAN, |s| s * self.ratio_of(level))
+    }
+
+    /// The level's ratio: measured, or from its measured neighbours (see the module docs).
+    fn ratio_of(&self, level: usize) -> f64 {
+        if self.measured[level] {
+            return self.ratio[level];
+        }
+        let hint = |l: usize| self.levels[l].cost_hint;
+        // Level 0 is always measured (ratio 1), so a measured level below exists.
+        let below = (0..level).rev().find(|&l| self.measured[l]).unwrap_or(0);
+        let above = (level + 1..self.levels.len()).find(|&l| self.measured[l]);
+        let from_below = self.ratio[below] * hint(level) / hint(below);
+        let Some(above) = above else { return from_below };
+        let span = (hint(above) / hint(below)).ln();
+        let t = (hint(level) / hint(below)).ln() / span;
+        if !(t.is_finite() && span != 0.0) {
+            return from_below;
+        }
+        let t = t.clamp(0.0, 1.0);
+        self.ratio[below] * (self.ratio[above] / self.ratio[below]).powf(t)
     }
 
     /// Whether level `level`'s ratio was measured.
@@ -140,6 +166,35 @@ mod tests {
     }
 
     #[test]
+    fn a_level_not_measured_lies_between_its_measured_neighbours() {
+        let levels = vec![
+            QualityLevel::new("0", 0.0, 1.0),
+            QualityLevel::new("1", 1e-3, 0.75),
+            QualityLevel::new("2", 1e-2, 0.6),
+            QualityLevel::new("3", 1e-1, 0.55),
+        ];
+        let mut m = EffectCosts::new(levels);
+        m.observe(0, 30.0);
+        // The cheapest level turns out at 0.09 of level 0, far under its prior of 0.55: the
+        // levels between follow, in the hints' geometric proportion.
+        m.observe(3, 2.7);
+        let r = |l: usize| m.predicted(l) / 30.0;
+        let t = |h: f64| h.ln() / 0.55f64.ln();
+        assert!((r(1) - 0.09f64.powf(t(0.75))).abs() < 1e-12, "{}", r(1));
+        assert!((r(2) - 0.09f64.powf(t(0.6))).abs() < 1e-12);
+        assert!(r(0) > r(1) && r(1) > r(2) && r(2) > r(3));
+        // Past the last measured level: its ratio times the hints'.
+        let mut m = EffectCosts::new(vec![
+            QualityLevel::new("0", 0.0, 1.0),
+            QualityLevel::new("1", 1e-3, 0.5),
+            QualityLevel::new("2", 1e-2, 0.25),
+        ]);
+        m.observe(0, 10.0);
+        m.observe(1, 8.0);
+        assert!((m.predicted(2) - 4.0).abs() < 1e-12);
+    }
+
+    #[test]
     fn bad_times_and_levels_are_ignored_and_known_levels_kept() {
         let mut m = EffectCosts::new(levels());
         m.observe(0, f64::NAN);
@@ -151,6 +206,7 @@ mod tests {
         more.push(QualityLevel::new("faster", 1e-1, 0.25));
         let next = m.with_levels(more);
         assert!(next.is_measured(1) && !next.is_measured(2));
-        assert_eq!((next.predicted(1), next.predicted(2)), (1.0, 1.0));
+        // Level 2, past the last measured (1: ratio ¼, hint ½), at ¼ × 0.25 / 0.5.
+        assert_eq!((next.predicted(1), next.predicted(2)), (1.0, 0.5));
     }
 }

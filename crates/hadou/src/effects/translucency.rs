@@ -157,18 +157,21 @@ pub fn light_map_size_in(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)], view: Op
     light_map_size_at(scene, mesh_bounds, view, texel_voxels(scene))
 }
 
-/// The frame budget's light-map levels: (the texel's target in finest voxel edges, the cost over
-/// level 0's before it is measured). Level 0 is the default map; each level halves its side (a
-/// quarter of light_id's texels; the translucency pass's per-pixel work does not change, hence
-/// the priors well above ¼).
-pub const BUDGET_TEXELS: [(f64, f64); 4] = [(0.25, 1.0), (0.5, 0.75), (1.0, 0.6), (2.0, 0.55)];
+/// The frame budget's light-map levels: the texel's target in finest voxel edges. Level 0 is the
+/// default map; each level halves its side (where the map is above its smallest size).
+pub const BUDGET_TEXELS: [f64; 4] = [0.25, 0.5, 1.0, 2.0];
+/// The prior share of light_id (whose time goes with the map's texels) in the effect's passes at
+/// level 0; the rest (the translucency pass, per pixel) does not change with the map. A prior
+/// only, replaced by what is measured: on assets/scenes/budget.toml at 256² it was 87 % (light_id
+/// 20.7 of 23.9 ms, lavapipe); a scene with more translucent pixels has less.
+const LIGHT_ID_SHARE: f64 = 0.75;
 
 /// The effect's name (`Effect::name` of `effect::Translucency`): its key in `Scene::quality`.
 const NAME: &str = "translucency";
 
 /// The light map's texel target in finest voxel edges: the frame budget's level, else ¼.
 fn texel_voxels(scene: &Scene) -> f64 {
-    scene.quality.level(NAME).and_then(|l| BUDGET_TEXELS.get(l)).map_or(BUDGET_TEXELS[0].0, |t| t.0)
+    scene.quality.level(NAME).and_then(|l| BUDGET_TEXELS.get(l)).copied().unwrap_or(BUDGET_TEXELS[0])
 }
 
 /// The frame budget's levels for the light map ([`BUDGET_TEXELS`]); none without a lit
@@ -189,10 +192,12 @@ pub fn budget_levels(scene: &Scene) -> Vec<crate::budget::QualityLevel> {
             _ => None,
         })
         .fold(0.0, f64::max);
+    let size_0 = light_map_size_at(scene, &bounds, Some(&view), BUDGET_TEXELS[0]) as f64;
     BUDGET_TEXELS
         .iter()
-        .map(|&(voxels, hint)| {
+        .map(|&voxels| {
             let size = light_map_size_at(scene, &bounds, Some(&view), voxels);
+            let hint = (1.0 - LIGHT_ID_SHARE) + LIGHT_ID_SHARE * (size as f64 / size_0).powi(2);
             let texel = 2.0 * view.radius / size as f64;
             let error = (sigma * 1.5 * std::f64::consts::SQRT_2 * texel).exp_m1();
             let error = if error.is_finite() { error } else { f64::MAX };
