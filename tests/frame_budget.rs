@@ -52,7 +52,8 @@ fn wave_error(scene: &Scene, frame: &hadou::FrameOutput, w: u32, h: u32) -> f64 
         for x in 0..w {
             let i = (y * w + x) as usize;
             let (o, u) = cam.pixel_ray(x, y, w, h);
-            let reference: f64 = waves.iter().map(|p| line_integral(p, o, u, (depth[i] as f64).min(cam.far))).sum();
+            let reference: f64 =
+                waves.iter().map(|p| line_integral(p, o, u, (depth[i] as f64).min(cam.far))).sum();
             let gpu = energy[i] as f64;
             let error = if reference > 0.0 { (gpu - reference).abs() / reference } else { gpu };
             // NaN fails the comparison below through max's NaN handling: make it infinite.
@@ -198,9 +199,11 @@ fn settings_refusals_and_a_games_levels() {
 
 #[test]
 fn the_scene_file_gives_a_budget_or_an_error_at_its_place() {
-    let scene = common::parse("[render]\nbudget_ms = 12.5\n[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n");
+    let scene =
+        common::parse("[render]\nbudget_ms = 12.5\n[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n");
     assert_eq!(scene.render.budget_ms, Some(12.5));
-    let e = hadou::scene::parse_scene("[render]\nbudget_ms = -3\n", std::path::Path::new("b.toml")).unwrap_err();
+    let e =
+        hadou::scene::parse_scene("[render]\nbudget_ms = -3\n", std::path::Path::new("b.toml")).unwrap_err();
     let e = e.to_string();
     assert!(e.contains("b.toml:2:") && e.contains("budget_ms") && e.contains("[0.001, 1000000]"), "{e}");
 }

@@ -166,6 +166,25 @@ fn quick_report_has_every_row() {
         }
     }
 
+    // The frame budget: every level of both effects pinned, and three budgets' picks.
+    let fronts = Csv::read(&out.join("budget_fronts.csv"));
+    let levels = hadou::effects::energy_wave::effect::BUDGET_LEVELS.len()
+        + hadou::effects::translucency::BUDGET_TEXELS.len();
+    assert_eq!(fronts.rows.len(), levels);
+    for row in &fronts.rows {
+        finite(row, "passes ms p50");
+        finite(row, "error bound");
+    }
+    assert!(fronts.rows.iter().any(|r| r["on the front"] == "yes"));
+    let picks = Csv::read(&out.join("budget_picks.csv"));
+    assert_eq!(picks.rows.len(), hadou_cli::report::budget::BUDGET_SHARES.len());
+    for row in &picks.rows {
+        for column in ["budget ms", "gpu frame ms p50", "predicted ms", "summed error bound"] {
+            finite(row, column);
+        }
+        assert!(row["levels"].contains("energy_wave") && row["levels"].contains("translucency"), "{row:?}");
+    }
+
     let ceilings = Csv::read(&out.join("ceilings.csv"));
     for kernel in ["fma", "fma+add", "copy"] {
         let row = ceilings.row("kernel", kernel);
@@ -177,7 +196,7 @@ fn quick_report_has_every_row() {
         assert!(rounds >= 1.0 && rounds.fract() == 0.0, "{kernel}: {rounds} loop rounds");
     }
 
-    for plot in ["energy_wave", "translucency", "metaballs", "metaballs_mismatch"] {
+    for plot in ["energy_wave", "translucency", "metaballs", "metaballs_mismatch", "budget"] {
         let path = out.join(format!("{plot}.png"));
         let img = image::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert!(img.width() > 100 && img.height() > 100);

@@ -29,7 +29,8 @@ pub use table::{Cell, Fmt, Table};
 use hadou::Runtime;
 
 /// The sections' ids, in report order (CSV and plot stems, docs markers).
-pub const SECTION_IDS: [&str; 6] = ["energy_wave", "translucency", "metaballs", "budget", "frame", "ceilings"];
+pub const SECTION_IDS: [&str; 6] =
+    ["energy_wave", "translucency", "metaballs", "budget", "frame", "ceilings"];
 
 /// What to measure. `ReportOptions::new(quick)` gives the defaults of each mode.
 #[derive(Clone, Debug, PartialEq)]

@@ -56,13 +56,23 @@ impl QualityLevel {
     pub fn check(levels: &[QualityLevel]) -> Result<(), String> {
         for (i, l) in levels.iter().enumerate() {
             if !(l.error.is_finite() && l.error >= 0.0) {
-                return Err(format!("level {i} ({}) has error {}: finite and >= 0 expected", l.name, l.error));
+                return Err(format!(
+                    "level {i} ({}) has error {}: finite and >= 0 expected",
+                    l.name, l.error
+                ));
             }
             if !(l.cost_hint.is_finite() && l.cost_hint > 0.0) {
-                return Err(format!("level {i} ({}) has cost hint {}: finite and > 0 expected", l.name, l.cost_hint));
+                return Err(format!(
+                    "level {i} ({}) has cost hint {}: finite and > 0 expected",
+                    l.name, l.cost_hint
+                ));
             }
             if i > 0 && l.error < levels[i - 1].error {
-                return Err(format!("level {i} ({}) is more exact than level {}: levels go from exact to cheap", l.name, i - 1));
+                return Err(format!(
+                    "level {i} ({}) is more exact than level {}: levels go from exact to cheap",
+                    l.name,
+                    i - 1
+                ));
             }
         }
         Ok(())

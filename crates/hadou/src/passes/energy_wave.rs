@@ -8,9 +8,9 @@
 //! when every wave is analytic with a tolerance, the tile path of `energy_wave_tiles` (corners
 //! exact, smooth tiles interpolated within the tolerance, the rest exact).
 
-use crate::effects::energy_wave::effect::wave_tolerance;
 use super::energy_wave_tiles::{self, PathChoice, TileBuffers, TileGrid, TilePipelines};
 use super::{Binding, FrameContext, Pass, PassRecording, Reader};
+use crate::effects::energy_wave::effect::wave_tolerance;
 use crate::effects::energy_wave::tolerance::tile_size;
 use crate::effects::energy_wave::WaveParams;
 use crate::effects::energy_wave_f32::{gpu_wave, GpuWave};
@@ -82,7 +82,8 @@ pub fn wave_style(state: &WaveState, method: WaveMethod, tolerance: f64) -> Wave
 /// analytic with a tolerance above 0 (`wave_tolerance`), else exact; " reactive" after
 /// it with motion vectors on (the glow's share in the reactive mask).
 pub fn variant(scene: &Scene) -> String {
-    let tolerant = |w: &crate::scene::Wave| w.method == WaveMethod::Analytic && wave_tolerance(scene, w) > 0.0;
+    let tolerant =
+        |w: &crate::scene::Wave| w.method == WaveMethod::Analytic && wave_tolerance(scene, w) > 0.0;
     let waves = scene.waves();
     let tolerance = !waves.is_empty() && waves.iter().all(tolerant);
     let reactive = scene.render.motion_vectors;

@@ -6,7 +6,9 @@ use std::collections::VecDeque;
 use super::Renderer;
 use crate::budget::choose::decide;
 use crate::budget::model::{EffectCosts, SMOOTHING};
-use crate::budget::{BudgetStatus, EffectBudget, LevelCost, QualityChoice, QualityLevel, BUDGET_RANGE_MS, DECIDE_EVERY};
+use crate::budget::{
+    BudgetStatus, EffectBudget, LevelCost, QualityChoice, QualityLevel, BUDGET_RANGE_MS, DECIDE_EVERY,
+};
 use crate::frame::FrameStats;
 use crate::Error;
 
@@ -151,7 +153,8 @@ impl Renderer {
         let frame = self.next_frame;
         if self.budget.decided_at.is_none_or(|d| frame >= d + DECIDE_EVERY) {
             self.model_effects()?;
-            let measured = self.budget.fixed_ms.is_some() && self.budget.effects.iter().all(|e| e.costs.has_scale());
+            let measured =
+                self.budget.fixed_ms.is_some() && self.budget.effects.iter().all(|e| e.costs.has_scale());
             if measured {
                 self.budget.decided_at = Some(frame);
             }

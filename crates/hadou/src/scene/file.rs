@@ -133,7 +133,17 @@ pub fn parse_scene_with(text: &str, path: &Path, effects: &Effects) -> Result<Sc
         );
     }
     let quality = Default::default();
-    Ok(Scene { source: path.to_path_buf(), render, camera, lights, meshes, materials, instances, effects, quality })
+    Ok(Scene {
+        source: path.to_path_buf(),
+        render,
+        camera,
+        lights,
+        meshes,
+        materials,
+        instances,
+        effects,
+        quality,
+    })
 }
 
 /// A scene framed by a camera hadou places (no `[camera]`, no glTF camera): its `[[instance]]`s
@@ -265,8 +275,10 @@ fn exposure(o: &Owner, d: &RenderDef) -> Result<(f64, ExposureMode), SceneError>
 /// `exposure_ev100`: 1 / (1.2 · 2^EV100) must be a normal f32 and so must its inverse (the
 /// pre-exposure, effects::tonemap::pre_exposure): |EV100| ≤ 120 keeps both within 2^±121.
 /// `budget_ms`: a GPU frame time (`crate::budget::BUDGET_RANGE_MS`).
-const BUDGET_MS: Rule =
-    Rule { ok: |v| crate::budget::BUDGET_RANGE_MS.contains(&v), bound: "in [0.001, 1000000] (ms of GPU time per frame)" };
+const BUDGET_MS: Rule = Rule {
+    ok: |v| crate::budget::BUDGET_RANGE_MS.contains(&v),
+    bound: "in [0.001, 1000000] (ms of GPU time per frame)",
+};
 const EV100: Rule = Rule { ok: |v| (-120.0..=120.0).contains(&v), bound: "in [-120, 120]" };
 
 fn camera(ctx: Ctx, def: Option<&Spanned<CameraDef>>) -> Result<Camera, SceneError> {
