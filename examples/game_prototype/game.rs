@@ -414,7 +414,19 @@ impl Game {
         // SAFETY: GameVk's handles are valid and enable EnabledFeatures::REQUIRED; Game::destroy
         // drops hadou before the device is destroyed.
         let ctx = unsafe { hadou::gpu::GpuContext::from_raw(vk.hadou_raw()) }.map_err(|e| e.to_string())?;
-        let options = hadou::RendererOptions { frames_in_flight: frames, effects, ..Default::default() };
+        // GAME_BUDGET_MS=16 fits hadou's GPU frame into 16 ms (the wave's tolerance, the light map).
+        let frame_budget_ms = match std::env::var("GAME_BUDGET_MS") {
+            Ok(v) => Some(
+                v.parse::<f64>().map_err(|e| format!("GAME_BUDGET_MS={v}: {e} (expected milliseconds)"))?,
+            ),
+            Err(_) => None,
+        };
+        let options = hadou::RendererOptions {
+            frames_in_flight: frames,
+            effects,
+            frame_budget_ms,
+            ..Default::default()
+        };
         let mut hadou = Renderer::with_options(ctx, &options).map_err(|e| e.to_string())?;
         let scene = hadou::scene::parse_scene(HADOU_SCENE, "game_prototype.toml".as_ref())
             .map_err(|e| e.to_string())?;

@@ -6,7 +6,8 @@
 //! Per-pass GPU times (hadou's latest finished frame) are in the window title.
 //!
 //! `cargo run --release --example game_prototype` (HADOU_VALIDATION=1 turns validation on,
-//! GAME_FRAMES=N quits after N frames, GAME_SPLIT=1 starts in split screen).
+//! GAME_FRAMES=N quits after N frames, GAME_SPLIT=1 starts in split screen, GAME_BUDGET_MS=MS
+//! gives hadou a frame budget).
 
 mod game;
 mod gpu;
