@@ -376,17 +376,23 @@ pub enum Bound {
     Sampled(vk::ImageView, vk::Sampler),
     /// A uniform texel buffer (`usamplerBuffer`), see `gpu::texel_buffer`.
     UniformTexel(vk::BufferView),
+    /// Nothing at this binding: a pass whose later bindings are there without this one (an
+    /// optional input of another variant). A shader that declares the binding is refused by
+    /// `bind_set`, as for a binding past the end of the list.
+    Unused,
 }
 
 impl Bound {
-    pub fn descriptor_type(&self) -> vk::DescriptorType {
-        match self {
+    /// The descriptor type; None for `Unused`.
+    pub fn descriptor_type(&self) -> Option<vk::DescriptorType> {
+        Some(match self {
             Bound::Uniform(_) => vk::DescriptorType::UNIFORM_BUFFER,
             Bound::Storage(_) => vk::DescriptorType::STORAGE_BUFFER,
             Bound::StorageImage(_) => vk::DescriptorType::STORAGE_IMAGE,
             Bound::Sampled(..) => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
             Bound::UniformTexel(_) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
-        }
+            Bound::Unused => return None,
+        })
     }
 }
 
@@ -424,16 +430,14 @@ pub fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, bindings: &[(u32, Bou
     let writes: Vec<vk::WriteDescriptorSet> = bindings
         .iter()
         .enumerate()
-        .map(|(i, (index, b))| {
-            let w = vk::WriteDescriptorSet::default()
-                .dst_set(set)
-                .dst_binding(*index)
-                .descriptor_type(b.descriptor_type());
-            match b {
+        .filter_map(|(i, (index, b))| {
+            let w = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(*index).descriptor_type(b.descriptor_type()?);
+            Some(match b {
                 Bound::Uniform(_) | Bound::Storage(_) => w.buffer_info(&buffer_infos[i]),
                 Bound::StorageImage(_) | Bound::Sampled(..) => w.image_info(&image_infos[i]),
                 Bound::UniformTexel(_) => w.texel_buffer_view(&texel_views[i]),
-            }
+                Bound::Unused => return None,
+            })
         })
         .collect();
     // SAFETY: the set is not in use by a pending frame; all handles are live.
@@ -461,7 +465,7 @@ pub fn bind_set(
                 });
             }
         }
-        let given = given.map(Bound::descriptor_type);
+        let given = given.and_then(Bound::descriptor_type);
         if given != Some(b.ty) {
             return Err(GpuError::Shader {
                 name: pipeline.name.clone(),

@@ -235,10 +235,8 @@ impl Pass for EnergyWavePass {
             ]);
         }
         if self.reactive {
-            // Binding 9; the tile buffers' 6–8 are bound to nothing the exact pass reads without them.
-            while bindings.len() < 9 {
-                bindings.push(Binding::Bound(Bound::Uniform(frame.uniforms)));
-            }
+            // Binding 9; without the tile buffers 6–8 hold nothing (the exact pass declares none).
+            bindings.resize(9, Binding::Bound(Bound::Unused));
             bindings.push(Binding::write(Target::Reactive));
         }
         Ok(bindings)

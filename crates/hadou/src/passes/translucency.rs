@@ -768,11 +768,9 @@ impl Pass for TranslucencyPass {
             bindings.extend([Binding::read(Target::PeelCounts), Binding::read(Target::PeelLists)]);
         }
         if let Some((image, sampler)) = &data.pairs {
-            // Bindings are by position: without the peel lists, 13 and 14 are placeholders the
-            // shader does not declare (the set binds only what it declares).
-            while bindings.len() < 15 {
-                bindings.push(Binding::Bound(Bound::UniformTexel(data.fields.view)));
-            }
+            // Bindings are by position: without the peel lists, 13 and 14 hold nothing (the
+            // shader does not declare them).
+            bindings.resize(15, Binding::Bound(Bound::Unused));
             bindings.push(Binding::Bound(Bound::Sampled(image.view, sampler.raw)));
         }
         Ok(bindings)
