@@ -4,11 +4,10 @@
 
 mod common;
 
+use common::march_bound::{raymarch_bound, MarchUlps};
+
 use glam::DVec3;
-use hadou::effects::energy_wave::{
-    emitted, frame as wave_frame, line_integral, raymarch, WaveFrame, WaveParams, CLAMP_MIN, CLAMP_RATIO,
-    MAX_LENGTH,
-};
+use hadou::effects::energy_wave::{emitted, frame as wave_frame, line_integral, raymarch, WaveParams};
 use hadou::passes::energy_wave::wave_params;
 use hadou::scene::Scene;
 use hadou::testing::Comparison;
@@ -231,62 +230,13 @@ fn extreme_cameras_stay_finite_and_match_f64() {
     }
 }
 
-/// Units in the last place of an f32 ray march, per sample (see [`raymarch_bound`]).
-struct MarchUlps {
-    /// Rounding of the sample's own arithmetic, relative to the sample.
-    fixed: f64,
-    /// Error of the sample's position per unit of s (s·u·per_s), relative to its distance r.
-    per_s: f64,
-    /// Error of the position per unit of |O − M| (inputs rounded after the reference's), over r.
-    per_om: f64,
-}
-
 /// The pass against f64 on the exact camera ray and wave. On top of the twin's 10u fixed and 12u
 /// per unit s (tests/energy_wave_math.rs): Vulkan allows 2.5 ulp for a division and 2 for the
 /// inversesqrt behind sqrt (3u each: fixed 16); the GPU's pixel ray (`camera_pixel_ray`: ndc,
 /// rounded lens vectors, normalize) is off by ≤ 21u and D by ≤ 2u, moving a sample by 23u·s
 /// (per_s 12 + 23 → 40 with the slower ops); q₀ and R rounded to f32 move it by ≤ √2·u·|O − M|.
+/// The bound itself, derived, is `common::march_bound::raymarch_bound`.
 const GPU_MARCH: MarchUlps = MarchUlps { fixed: 16.0, per_s: 40.0, per_om: 2.0 };
-
-/// A first-order bound on the relative error of an f32 ray march (GLSL `wave_raymarch`) against
-/// `raymarch_frame` in f64; the derivation (u = 2⁻²⁴ per op) is at the same function in
-/// tests/energy_wave_math.rs: a sample t_i off by ≤ t_i·u·(fixed + (per_s·s_i + per_om·|O − M|)/r_i),
-/// r_i its smaller distance, and the running sum by ≤ u·Σ S_k; relative to S, plus 2u for ·ds.
-fn raymarch_bound(f: &WaveFrame, u: DVec3, l: f64, steps: u32, offset: f64, k: &MarchUlps) -> f64 {
-    if l.is_nan() || l <= 0.0 || steps == 0 {
-        return 0.0;
-    }
-    let ulp = 2f64.powi(-24);
-    let ds = l.min(MAX_LENGTH) / steps as f64;
-    let floor = f64::max(CLAMP_RATIO * ds, CLAMP_MIN);
-    let om = (f.q0 * f.q0 + f.r.length_squared()).sqrt();
-    let (c, ud, e2) = (f.d.cross(u), u.dot(f.d), f.core * f.core);
-    let (mut sum, mut partials, mut weighted) = (0.0, 0.0, 0.0);
-    for i in 0..steps {
-        let s = (i as f64 + offset) * ds;
-        let q = f.q0 + s * ud;
-        let pc = f.r + s * c;
-        let r2 = pc.dot(pc);
-        let rm = f64::max((q * q + r2 + e2).sqrt(), floor);
-        let qt = f.qt + s * ud;
-        let dl2 = if q <= 0.0 {
-            q * q + r2
-        } else if f.finite && qt >= 0.0 {
-            qt * qt + r2
-        } else {
-            r2
-        };
-        let rl = f64::max((dl2 + e2).sqrt(), floor);
-        let t = f.a / rm + f.b / rl;
-        weighted += t * (k.fixed + (k.per_s * s + k.per_om * om) / f64::min(rm, rl));
-        sum += t;
-        partials += sum;
-    }
-    if sum == 0.0 {
-        return 0.0;
-    }
-    ulp * ((weighted + partials) / sum + 2.0)
-}
 
 /// The ray-marched baseline in the pass matches its f64 twin (same midpoint samples), every pixel
 /// within its derived bound (`raymarch_bound` with `GPU_MARCH`).

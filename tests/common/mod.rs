@@ -5,6 +5,7 @@
 pub mod cli;
 pub mod gltf_writer;
 pub mod host;
+pub mod march_bound;
 pub mod mutate;
 pub mod xvfb;
 

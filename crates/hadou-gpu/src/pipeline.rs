@@ -431,7 +431,10 @@ pub fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, bindings: &[(u32, Bou
         .iter()
         .enumerate()
         .filter_map(|(i, (index, b))| {
-            let w = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(*index).descriptor_type(b.descriptor_type()?);
+            let w = vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(*index)
+                .descriptor_type(b.descriptor_type()?);
             Some(match b {
                 Bound::Uniform(_) | Bound::Storage(_) => w.buffer_info(&buffer_infos[i]),
                 Bound::StorageImage(_) | Bound::Sampled(..) => w.image_info(&image_infos[i]),

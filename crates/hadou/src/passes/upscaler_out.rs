@@ -84,7 +84,13 @@ impl Pass for UpscalerOutPass {
         self.extent = frame.extent;
         let (_, reactive, composition) = self.formats.unwrap_or((vk::Format::UNDEFINED, None, None));
         // Bindings 5 and 6: the masks the game gave; a pipeline without one declares nothing there.
-        let mask = |given: bool, target| if given { Binding::read_write(target) } else { Binding::Bound(Bound::Unused) };
+        let mask = |given: bool, target| {
+            if given {
+                Binding::read_write(target)
+            } else {
+                Binding::Bound(Bound::Unused)
+            }
+        };
         Ok(vec![
             Binding::read(Target::Ids),
             Binding::read(Target::Motion),
