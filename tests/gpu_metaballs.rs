@@ -13,9 +13,11 @@
 
 mod common;
 
-use glam::{DMat3, DVec3};
+use common::metaball_bound::{self, angle};
+
+use glam::DVec3;
 use hadou::effects::energy_wave::line_integral;
-use hadou::effects::metaballs::{cast, gradient, CastMethod, Kernel, MetaHit, MetaballGroupParams};
+use hadou::effects::metaballs::{cast, CastMethod, Kernel, MetaHit, MetaballGroupParams};
 use hadou::effects::metaballs_compare::{compare_metaballs, MetaballFrame};
 use hadou::effects::metaballs_f32::{tangency, BAND_C};
 use hadou::effects::metaballs_trace::{TRACE_BISECT, TRACE_MIN_STEP};
@@ -85,60 +87,12 @@ fn groups_at(scene: &Scene, time: f64) -> Vec<MetaballGroupParams> {
 }
 
 /// How far an f32 cast may lie from the exact hit of `g` at world distance `t` on a ray outside
-/// the tangency band: (relative depth, normal angle in radians), from the f32 error model of the
-/// band (`metaballs_f32` module docs). In object space (t′ = t·t_scale, unit direction), over the
-/// balls whose support holds the hit (R_max the largest radius):
-/// - g = F − T is evaluated to within δ = BAND_C·ε·(S + X·G), with S ≤ T + Σ|q|·B (B the largest
-///   chord Bernstein coefficient: 104/45 for wyvill6, 8/5 for murakami4; restricting a chord only
-///   averages them), X ≤ ‖o′‖ + t′ + 2R_max and G = Σ|q|γ/R. Outside the band the root is simple
-///   and no extremum comes within δ of zero, so δ moves it by at most δ/|g′(t′)|;
-/// - the clipping answers the middle of a bracket ≤ 2⁻²² of an interval that lies in one support
-///   chord (≤ 2R_max): 2⁻²²·R_max more; the group's method adds its own term (`method_term`);
-/// - t = t′/t_scale, in f32 and stored: 4ε relative.
-///
-/// The normal ∝ −∇F at the f32 hit: the offset Δt′ above turns it by ≤ ‖∇²F‖·Δt′/‖∇F‖ (the
-/// Hessian's Frobenius norm at the hit, twice for its change over Δt′); ∇F in f32 sums terms of
-/// size ≤ G (BAND_C·ε·G) at a position rounded to ε·X per coordinate (2ε·X·‖∇²F‖); M⁻ᵀ into the
-/// world turns an angle by at most cond(M); normalising adds 2ε. (The same model is checked ray
-/// by ray on the shader's cast itself in tests/metaballs_gpu.rs.)
+/// the tangency band: (relative depth, normal angle in radians), `common::metaball_bound::f32_bound`
+/// with the group's method's own term (`method_term`). (The same model is checked ray by ray on the
+/// shader's cast itself in tests/metaballs_gpu.rs.)
 fn f32_bound(g: &MetaballGroupParams, o: DVec3, d: DVec3, t: f64) -> (f64, f64) {
-    let eps = f64::from(f32::EPSILON);
-    let ray = g.transform.ray_to_object(o, d);
-    let tp = t * ray.t_scale;
-    let p = ray.origin + ray.dir * tp;
-    let b_max = match g.kernel {
-        Kernel::Wyvill6 => 104.0 / 45.0,
-        Kernel::Murakami4 => 1.6,
-    };
-    let gamma = g.kernel.max_slope();
-    let (mut s, mut gs, mut r_max) = (g.threshold, 0.0, 0.0);
-    let mut hessian = DMat3::ZERO;
-    for b in g.balls.iter().filter(|b| (p - b.centre).length() < b.radius) {
-        s += b.q.abs() * b_max;
-        gs += b.q.abs() * gamma / b.radius;
-        if b.radius > r_max {
-            r_max = b.radius;
-        }
-        // ∇²(q·f(‖x‖²/R²)) = q·(2f′(s)·I/R² + 4f″(s)·x xᵀ/R⁴).
-        let (x, r2) = (p - b.centre, b.radius * b.radius);
-        let rp = x.length_squared() / r2;
-        let f2 = match g.kernel {
-            Kernel::Wyvill6 => -8.0 / 3.0 * rp + 34.0 / 9.0,
-            Kernel::Murakami4 => 2.0,
-        };
-        let outer = DMat3::from_cols(x * x.x, x * x.y, x * x.z);
-        hessian += DMat3::from_diagonal(DVec3::splat(2.0 * b.q * g.kernel.df(rp) / r2))
-            + outer * (4.0 * b.q * f2 / (r2 * r2));
-    }
-    let h = 2.0 * frobenius(hessian);
-    let x = ray.origin.length() + tp + 2.0 * r_max;
-    let grad = gradient(g, p);
-    let dt = BAND_C * eps * (s + x * gs) / grad.dot(ray.dir).abs()
-        + 2f64.powi(-22) * r_max
-        + method_term(g, ray.t_scale);
-    let normal = h * dt + BAND_C * eps * gs + 2.0 * eps * x * h;
-    let m = DMat3::from_mat4(g.transform.matrix);
-    (dt / tp + 4.0 * eps, condition(m) * normal / grad.length() + 2.0 * eps)
+    let t_scale = g.transform.ray_to_object(o, d).t_scale;
+    metaball_bound::f32_bound(g, o, d, t, method_term(g, t_scale))
 }
 
 /// A cast method's own distance from the root (object units): sphere tracing bisects a bracket
@@ -163,28 +117,6 @@ fn method_term(g: &MetaballGroupParams, t_scale: f64) -> f64 {
 /// ≤ 2⁻¹¹, so the vector moves by ≤ 2⁻¹¹ of its length and turns by ≤ 2⁻¹¹ rad), components below
 /// the least normal half (6.1·10⁻⁵) by ≤ 2⁻²⁵ absolutely (2⁻²⁴ for all three, to spare).
 const NORMAL_AOV_STEP: f64 = 1.0 / 2048.0 + 1.0 / 16_777_216.0;
-
-/// cond₂(M) = σ_max/σ_min, each by 64 power iterations on MᵀM (and on its inverse).
-fn condition(m: DMat3) -> f64 {
-    let sigma_max = |a: DMat3| {
-        let ata = a.transpose() * a;
-        let mut v = DVec3::new(0.6, 0.5, 0.62).normalize();
-        for _ in 0..64 {
-            v = (ata * v).normalize();
-        }
-        (ata * v).length().sqrt()
-    };
-    sigma_max(m) * sigma_max(m.inverse())
-}
-
-fn frobenius(m: DMat3) -> f64 {
-    (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
-}
-
-/// The angle between two vectors in radians, accurate near 0 (atan2 of |a × b| and a·b).
-fn angle(a: DVec3, b: DVec3) -> f64 {
-    a.cross(b).length().atan2(a.dot(b))
-}
 
 /// A frame's metaball depth (and normals) against the f64 reference on every pixel.
 struct Checked {

@@ -6,6 +6,7 @@ pub mod cli;
 pub mod gltf_writer;
 pub mod host;
 pub mod march_bound;
+pub mod metaball_bound;
 pub mod mutate;
 pub mod xvfb;
 
