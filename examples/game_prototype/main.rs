@@ -9,40 +9,25 @@
 //! GAME_FRAMES=N quits after N frames, GAME_SPLIT=1 starts in split screen, GAME_BUDGET_MS=MS
 //! gives hadou a frame budget).
 
+mod app;
 mod game;
 mod gpu;
 mod painter;
 mod slime_sim;
 
 use std::cell::Cell;
-use std::time::Instant;
+use std::sync::Arc;
 
 use ash::vk;
 use game::{ColorTarget, Game, Input};
 use hadou::present::{PresentConfig, Presenter};
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle, RawDisplayHandle, RawWindowHandle};
-use winit::application::ApplicationHandler;
-use winit::event::{ElementState, KeyEvent, WindowEvent};
-use winit::event_loop::{ActiveEventLoop, EventLoop};
-use winit::keyboard::{KeyCode, PhysicalKey};
-use winit::window::{Window, WindowId};
+use winit::keyboard::KeyCode;
+use winit::window::Window;
 
 struct Running {
     game: Game,
     presenter: Presenter,
-}
-
-#[derive(Default)]
-struct App {
-    window: Option<Window>,
-    running: Option<Running>,
-    input: Input,
-    last: Option<Instant>,
-    title_at: Option<Instant>,
-    failed: Option<String>,
-    frames: u64,
-    /// `GAME_FRAMES=N`: quit after N frames (smoke runs under Xvfb).
-    frame_limit: Option<u64>,
 }
 
 fn handles(window: &Window) -> Result<(RawDisplayHandle, RawWindowHandle), String> {
@@ -92,7 +77,27 @@ fn start(window: &Window) -> Result<Running, String> {
     Ok(Running { game, presenter })
 }
 
-impl Running {
+impl app::Running for Running {
+    fn start(window: Arc<Window>) -> Result<Running, String> {
+        start(&window)
+    }
+
+    fn resized(&mut self, _width: u32, _height: u32) {
+        self.presenter.window_resized();
+    }
+
+    fn key(&mut self, code: KeyCode) {
+        match code {
+            KeyCode::KeyP => {
+                if let Err(e) = self.game.toggle_prop(std::path::Path::new(game::PROP)) {
+                    eprintln!("prop: {e}");
+                }
+            }
+            KeyCode::KeyV => self.game.split = !self.game.split,
+            _ => {}
+        }
+    }
+
     fn frame(&mut self, window: &Window, input: &Input, dt: f64) -> Result<(), String> {
         self.game.update(input, dt)?;
         let size = window.inner_size();
@@ -109,22 +114,6 @@ impl Running {
             return Err(e);
         }
         self.presenter.present(self.game.vk.queue, &acquired).map_err(|e| e.to_string())
-    }
-
-    /// Records the frame into the acquired image and submits it (the last fallible step).
-    fn record_and_submit(&mut self, acquired: &hadou::present::Acquired) -> Result<(), String> {
-        // The presenter waited on this slot's fence: frame n − FRAMES_IN_FLIGHT has finished.
-        self.game.vk.begin_waited_slot(acquired.slot)?;
-        let target = ColorTarget {
-            image: acquired.image,
-            view: acquired.view,
-            format: acquired.format,
-            extent: acquired.extent,
-            final_layout: vk::ImageLayout::PRESENT_SRC_KHR,
-        };
-        self.game.record(&target)?;
-        let wait = (acquired.wait, vk::PipelineStageFlags2::ALL_COMMANDS);
-        self.game.vk.submit(wait, acquired.signal, acquired.fence)
     }
 
     fn title(&mut self) -> String {
@@ -154,108 +143,26 @@ impl Running {
     }
 }
 
-impl ApplicationHandler for App {
-    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
-        if self.window.is_some() {
-            return;
-        }
-        let attributes = Window::default_attributes()
-            .with_title("hadou game prototype")
-            .with_inner_size(winit::dpi::LogicalSize::new(960.0, 540.0));
-        let window = match event_loop.create_window(attributes) {
-            Ok(w) => w,
-            Err(e) => {
-                self.failed = Some(format!("cannot open a window: {e}"));
-                event_loop.exit();
-                return;
-            }
+impl Running {
+    /// Records the frame into the acquired image and submits it (the last fallible step).
+    fn record_and_submit(&mut self, acquired: &hadou::present::Acquired) -> Result<(), String> {
+        // The presenter waited on this slot's fence: frame n − FRAMES_IN_FLIGHT has finished.
+        self.game.vk.begin_waited_slot(acquired.slot)?;
+        let target = ColorTarget {
+            image: acquired.image,
+            view: acquired.view,
+            format: acquired.format,
+            extent: acquired.extent,
+            final_layout: vk::ImageLayout::PRESENT_SRC_KHR,
         };
-        match start(&window) {
-            Ok(r) => self.running = Some(r),
-            Err(e) => {
-                self.failed = Some(e);
-                event_loop.exit();
-            }
-        }
-        self.window = Some(window);
-    }
-
-    fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
-        match event {
-            WindowEvent::CloseRequested => event_loop.exit(),
-            WindowEvent::Resized(_) => {
-                if let Some(r) = &mut self.running {
-                    r.presenter.window_resized();
-                }
-            }
-            WindowEvent::KeyboardInput {
-                event: KeyEvent { physical_key: PhysicalKey::Code(code), state, .. },
-                ..
-            } => {
-                let down = state == ElementState::Pressed;
-                match code {
-                    _ if self.input.key(code, down) => {}
-                    KeyCode::KeyP if down => {
-                        if let Some(r) = &mut self.running {
-                            if let Err(e) = r.game.toggle_prop(std::path::Path::new(game::PROP)) {
-                                eprintln!("prop: {e}");
-                            }
-                        }
-                    }
-                    KeyCode::KeyV if down => {
-                        if let Some(r) = &mut self.running {
-                            r.game.split = !r.game.split;
-                        }
-                    }
-                    KeyCode::Escape => event_loop.exit(),
-                    _ => {}
-                }
-            }
-            WindowEvent::RedrawRequested => {
-                let (Some(window), Some(running)) = (&self.window, &mut self.running) else { return };
-                let now = Instant::now();
-                let dt = self.last.map(|l| (now - l).as_secs_f64()).unwrap_or(0.0).min(0.1);
-                self.last = Some(now);
-                if let Err(e) = running.frame(window, &self.input, dt) {
-                    self.failed = Some(e);
-                    event_loop.exit();
-                    return;
-                }
-                self.frames += 1;
-                if self.frame_limit.is_some_and(|n| self.frames >= n) {
-                    event_loop.exit();
-                }
-                if self.title_at.is_none_or(|t| now.duration_since(t).as_secs_f64() > 0.5) {
-                    window.set_title(&running.title());
-                    self.title_at = Some(now);
-                }
-            }
-            _ => {}
-        }
-    }
-
-    fn about_to_wait(&mut self, _: &ActiveEventLoop) {
-        if let Some(w) = &self.window {
-            w.request_redraw();
-        }
+        self.game.record(&target)?;
+        let wait = (acquired.wait, vk::PipelineStageFlags2::ALL_COMMANDS);
+        self.game.vk.submit(wait, acquired.signal, acquired.fence)
     }
 }
 
 fn main() {
-    let event_loop = match EventLoop::new() {
-        Ok(l) => l,
-        Err(e) => {
-            eprintln!("error: no window system: {e}");
-            std::process::exit(1);
-        }
-    };
-    let frame_limit = std::env::var("GAME_FRAMES").ok().and_then(|n| n.parse().ok());
-    let mut app = App { frame_limit, ..App::default() };
-    let result = event_loop.run_app(&mut app);
-    if let Some(r) = app.running.take() {
-        r.stop();
-    }
-    if let Some(e) = app.failed.or(result.err().map(|e| e.to_string())) {
+    if let Err(e) = app::run::<Running>("hadou game prototype") {
         eprintln!("error: {e}");
         std::process::exit(1);
     }

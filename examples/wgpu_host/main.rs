@@ -10,6 +10,8 @@
 //! - `-- --bench [--size 640x360] [--frames 60] [--rounds 3]`: frame cost of this host against the
 //!   ash game prototype, same world, same size, same process (docs/PERFORMANCE.md).
 
+#[path = "../game_prototype/app.rs"]
+mod app;
 mod bench;
 mod boxes;
 mod device;
