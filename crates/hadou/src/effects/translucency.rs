@@ -289,6 +289,28 @@ pub fn translucent_colour(
 mod tests {
     use super::*;
 
+    /// The budget's levels: errors rise as the map's side halves (down to its smallest), the
+    /// level on the scene sizes the map, and a scene without a lit translucent instance has none.
+    #[test]
+    fn budget_levels_halve_the_map_and_raise_the_error() {
+        let mut scene = crate::builtin::scene("budget").unwrap();
+        let levels = budget_levels(&scene);
+        assert_eq!(levels.len(), BUDGET_TEXELS.len());
+        assert!(crate::budget::QualityLevel::check(&levels).is_ok(), "{levels:?}");
+        assert_eq!(levels[0].cost_hint, 1.0);
+        let mut sizes = Vec::new();
+        for l in 0..levels.len() {
+            scene.quality.set(NAME, Some(l));
+            sizes.push(light_map_size(&scene));
+        }
+        assert_eq!(sizes, [3584, 1792, 1024, 512], "{levels:?}");
+        assert!(levels.windows(2).all(|w| w[1].error > w[0].error && w[1].cost_hint < w[0].cost_hint));
+        scene.quality.set(NAME, None);
+        assert_eq!(light_map_size(&scene), 3584, "no level: the default texel");
+        scene.lights.clear();
+        assert!(budget_levels(&scene).is_empty());
+    }
+
     #[test]
     fn view_covers_its_points_and_orders_them_along_the_light() {
         let pts = [DVec3::new(-2.0, 0.0, 0.0), DVec3::new(3.0, 1.0, -1.0), DVec3::new(0.5, -2.0, 2.0)];

@@ -93,3 +93,25 @@ impl Scene {
         &mut self.effects.get_or_insert_with(NAME, Waves::default).0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The budget's level sets the tolerance of analytic waves without a cutoff; a wave with a
+    /// cutoff keeps its own (exact by default) and a scene of only such waves has no levels.
+    #[test]
+    fn budget_levels_set_the_tolerance_of_waves_that_take_it() {
+        let mut scene = crate::builtin::scene("budget").unwrap();
+        assert_eq!(EnergyWave.quality_levels(&scene).len(), BUDGET_LEVELS.len());
+        let plain = scene.waves()[0].clone();
+        let mut cut = plain.clone();
+        cut.cutoff = 1.0;
+        assert_eq!(wave_tolerance(&scene, &plain), plain.effective_tolerance());
+        scene.quality.set(NAME, Some(3));
+        assert_eq!(wave_tolerance(&scene, &plain), 1e-2);
+        assert_eq!(wave_tolerance(&scene, &cut), 0.0);
+        scene.waves_mut()[0] = cut;
+        assert!(EnergyWave.quality_levels(&scene).is_empty());
+    }
+}
