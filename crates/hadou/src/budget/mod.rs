@@ -80,7 +80,9 @@ impl QualityLevel {
 }
 
 /// The levels the frame budget chose, by effect name (`Scene::quality`); an effect without an
-/// entry uses its own settings (the scene's, the game's).
+/// entry uses its own settings (the scene's, the game's). Set by hand on a scene loaded without a
+/// budget, it pins levels (the report measures each effect's front so); with a budget, the budget
+/// overwrites it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct QualityChoice(BTreeMap<String, usize>);
 

@@ -9,7 +9,7 @@ use crate::budget::model::{EffectCosts, SMOOTHING};
 use crate::budget::{
     BudgetStatus, EffectBudget, LevelCost, QualityChoice, QualityLevel, BUDGET_RANGE_MS, DECIDE_EVERY,
 };
-use crate::frame::FrameStats;
+use crate::frame::{FrameStats, PassTiming};
 use crate::Error;
 
 /// One effect with levels: its passes (whose times are its cost) and its model.
@@ -20,7 +20,7 @@ struct Modelled {
     costs: EffectCosts,
 }
 
-/// The budget's state; `Renderer::budget`.
+/// The budget's state (`Renderer::set_frame_budget`, `budget_status`).
 #[derive(Clone, Debug, Default)]
 pub(super) struct FrameBudget {
     /// `set_frame_budget` / `RendererOptions::frame_budget_ms`; None: the scene's `budget_ms`.
@@ -57,8 +57,8 @@ impl FrameBudget {
         let Some((_, levels)) = self.recorded.pop_front().filter(|(f, _)| *f == frame) else { return };
         let pass_ms = |name: &str| -> f64 {
             // A frame's later views name their passes "view N/pass".
-            let base = |p: &str| p.rsplit('/').next().unwrap_or(p).to_string();
-            stats.passes.iter().filter(|p| base(&p.name) == name).map(|p| p.gpu_ms).sum()
+            let base = |p: &PassTiming| p.name.rsplit('/').next() == Some(name);
+            stats.passes.iter().filter(|p| base(p)).map(|p| p.gpu_ms).sum()
         };
         let mut modelled = 0.0;
         for e in &mut self.effects {
@@ -183,6 +183,10 @@ impl Renderer {
         }
         let levels = self.levels_in_use();
         let levels = self.budget.effects.iter().zip(levels).map(|(e, l)| (e.name, l)).collect();
+        // A frame number recorded before and not submitted (an error) is recorded again.
+        while self.budget.recorded.back().is_some_and(|(f, _)| *f >= frame) {
+            self.budget.recorded.pop_back();
+        }
         self.budget.recorded.push_back((frame, levels));
         while self.budget.recorded.len() > RECORDED_KEPT {
             self.budget.recorded.pop_front();

@@ -134,7 +134,9 @@ impl Renderer {
 
     /// Sets the relative error of H per pixel the energy pass may trade for speed for a wave
     /// (spawned or from the scene file): 0 evaluates every pixel exactly, None restores the
-    /// default (`Wave::effective_tolerance`); in [0, 1).
+    /// default (`Wave::effective_tolerance`); in [0, 1). While a frame budget is on
+    /// (`set_frame_budget`), the budget's level sets the tolerance of every analytic wave without
+    /// a cutoff instead.
     pub fn set_wave_tolerance(&mut self, id: WaveId, tolerance: Option<f64>) -> Result<(), Error> {
         if let Some(t) = tolerance {
             if !(0.0..1.0).contains(&t) {
