@@ -146,8 +146,8 @@ impl Renderer {
     }
 
     /// Before recording frame `next_frame`: with a budget, re-decides the levels every
-    /// `DECIDE_EVERY` frames (each frame until every effect with levels was measured: they start
-    /// at level 0), applies a change, and remembers the levels the frame is recorded with.
+    /// `DECIDE_EVERY` frames (the first time, every effect with levels starts at level 0 to be
+    /// measured), applies a change, and remembers the levels the frame is recorded with.
     pub(super) fn apply_budget(&mut self) -> Result<(), Error> {
         let Some(budget) = self.budget_ms() else { return Ok(()) };
         let frame = self.next_frame;
@@ -155,9 +155,9 @@ impl Renderer {
             self.model_effects()?;
             let measured =
                 self.budget.fixed_ms.is_some() && self.budget.effects.iter().all(|e| e.costs.has_scale());
-            if measured {
-                self.budget.decided_at = Some(frame);
-            }
+            // Until every effect was measured the levels stay, and are asked for again next time
+            // (not every frame: an effect's levels may walk the scene's meshes).
+            self.budget.decided_at = Some(frame);
             let current = self.levels_in_use();
             let next = if measured {
                 let options: Vec<Vec<(f64, f64)>> = (self.budget.effects.iter())
