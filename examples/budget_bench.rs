@@ -18,7 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let info = runtime.device_info().clone();
     println!("device: {} ({})\n", info.name, info.driver);
     let mut show = |label: &str, done: usize, total: usize| eprintln!("[{done}/{total}] {label}");
-    let mut steps = Steps::new(budget::steps(), &mut show);
+    let mut steps = Steps::new(budget::steps(&opts), &mut show);
     let section = budget::section(&mut runtime, &opts, &mut steps).map_err(|e| format!("{e:?}"))?;
     println!("{}", section.markdown(2, "."));
     Ok(())

@@ -18,11 +18,12 @@ pub const BUDGET_SHARES: [f64; 3] = [1.2, 0.6, 0.3];
 /// Frames a budget runs before its frames are measured: five decisions.
 const SETTLE: usize = 5 * DECIDE_EVERY as usize;
 
-/// Progress steps: the exact frame, each level of the scene's two effects, each budget.
-pub fn steps() -> usize {
-    1 + hadou::effects::energy_wave::effect::BUDGET_LEVELS.len()
-        + hadou::effects::translucency::BUDGET_TEXELS.len()
-        + BUDGET_SHARES.len()
+/// Progress steps: the exact frame, each level the built-in effects offer on the scene (read
+/// from the effects, as the budget does), each budget.
+pub fn steps(opts: &ReportOptions) -> usize {
+    let effects = hadou::effect::Effects::builtin();
+    let levels = |scene: &Scene| effects.iter().map(|e| e.quality_levels(scene).len()).sum::<usize>();
+    1 + opts.load_scene("budget.toml").map_or(0, |s| levels(&s)) + BUDGET_SHARES.len()
 }
 
 /// `warmup` frames, then `frames` measured.

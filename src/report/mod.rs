@@ -96,7 +96,7 @@ impl ReportOptions {
         2 + (1 + energy_wave::TOLERANCES.len() + self.raymarch_steps.len())
             + (self.voxel_res.len() + self.peel_res.len() + self.pairs_res.len() + 2)
             + metaballs::STEPS
-            + budget::steps()
+            + budget::steps(self)
             + self.frame_sizes.len()
     }
 
