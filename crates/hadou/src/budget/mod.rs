@@ -8,7 +8,7 @@
 //! 1. **measures** each effect's passes every finished frame and keeps a cost model per effect
 //!    ([`model::EffectCosts`]): the ms of its level 0 *now* (tracking the world: a wave that
 //!    grows on screen costs more) times each level's ratio to it (measured on the first frames at
-//!    that level, the prior until then);
+//!    that level; until then from its measured neighbours and the effect's prior);
 //! 2. **decides** every [`DECIDE_EVERY`] frames ([`choose::choose`]): the levels whose predicted
 //!    sum, with the passes that offer no level, fits the budget with the least summed error bound;
 //!    nothing fits: the cheapest levels, and the status says so;
@@ -51,8 +51,8 @@ impl QualityLevel {
         QualityLevel { name: name.into(), error, cost_hint }
     }
 
-    /// Whether a list of levels is one the budget takes: not empty, errors finite, ≥ 0 and not
-    /// decreasing, hints finite and > 0.
+    /// Whether a list of levels is one the budget takes: errors finite, ≥ 0 and not decreasing,
+    /// hints finite and > 0 (an empty list: the effect offers none).
     pub fn check(levels: &[QualityLevel]) -> Result<(), String> {
         for (i, l) in levels.iter().enumerate() {
             if !(l.error.is_finite() && l.error >= 0.0) {
@@ -157,8 +157,9 @@ pub struct LevelCost {
     pub name: String,
     /// `QualityLevel::error`.
     pub error: f64,
-    /// Predicted ms of the effect's passes at this level (the model: measured, or level 0's ms
-    /// times the hint until measured); NaN before any frame was measured.
+    /// Predicted ms of the effect's passes at this level (`model::EffectCosts::predicted`:
+    /// measured, or from its measured neighbours and the hints); NaN before any frame was
+    /// measured.
     pub predicted_ms: f64,
     /// Whether this level's ratio to level 0 was measured (else it is the effect's prior).
     pub measured: bool,
