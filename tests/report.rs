@@ -169,7 +169,7 @@ fn quick_report_has_every_row() {
     // The frame budget: every level of both effects pinned, and three budgets' picks.
     let fronts = Csv::read(&out.join("budget_fronts.csv"));
     let levels = hadou::effects::energy_wave::effect::BUDGET_LEVELS.len()
-        + hadou::effects::translucency::BUDGET_TEXELS.len();
+        + hadou::effects::translucency_budget::BUDGET_LEVELS.len();
     assert_eq!(fronts.rows.len(), levels);
     for row in &fronts.rows {
         finite(row, "passes ms p50");

@@ -6,9 +6,9 @@
 //! that level and a prior guess of its cost. The renderer (`Renderer::set_frame_budget`)
 //!
 //! 1. **measures** each effect's passes every finished frame and keeps a cost model per effect
-//!    ([`model::EffectCosts`]): the ms of its level 0 *now* (tracking the world: a wave that
-//!    grows on screen costs more) times each level's ratio to it (measured on the first frames at
-//!    that level; until then from its measured neighbours and the effect's prior);
+//!    ([`model::EffectCosts`]): each level's own time, the level in use following the world
+//!    frame by frame (a wave that grows on screen costs more), a level never used predicted from
+//!    its measured neighbours and the effect's prior;
 //! 2. **decides** every [`DECIDE_EVERY`] frames ([`choose::choose`]): the levels whose predicted
 //!    sum, with the passes that offer no level, fits the budget with the least summed error bound;
 //!    nothing fits: the cheapest levels, and the status says so;
@@ -122,7 +122,9 @@ pub struct BudgetStatus {
     pub predicted_ms: f64,
     /// The measured cost of the passes that offer no level (the raster, metaballs, ...).
     pub fixed_ms: f64,
-    /// Whether the prediction fits the budget (false: even the cheapest levels do not).
+    /// Whether `predicted_ms` fits the budget. False right after a decision: even the cheapest
+    /// levels do not fit; between decisions: the levels in use stopped fitting, and the next
+    /// decision moves them.
     pub fits: bool,
     /// Frames measured so far.
     pub frames_measured: u64,
@@ -161,6 +163,6 @@ pub struct LevelCost {
     /// measured, or from its measured neighbours and the hints); NaN before any frame was
     /// measured.
     pub predicted_ms: f64,
-    /// Whether this level's ratio to level 0 was measured (else it is the effect's prior).
+    /// Whether this level was measured (else it is predicted from its neighbours and the prior).
     pub measured: bool,
 }

@@ -1,26 +1,23 @@
-//! The cost model of one effect: ms of its level 0 now (the scale) times each level's ratio to it.
+//! The cost model of one effect: each level's own measured time, and a prediction for the levels
+//! not measured yet.
 //!
-//! The scale follows the world (a wave that fills more of the screen costs more at every level);
-//! the ratios are what a level saves, which depends on the scene far less. So a level not used
-//! for a while is predicted from the scale measured at the level in use, not from a stale time.
-//! - At level 0 every frame updates the scale.
-//! - The first [`RATIO_FRAMES`] frames of a stay at another level update that level's ratio
-//!   against the scale the stay began with (the world cannot be told from the level by one
-//!   frame); later frames of the stay update the scale through the ratio.
-//!
-//! Updates are exponential moving averages with weight [`SMOOTHING`] (the first measurement
-//! replaces the prior).
-//!
-//! A level not measured yet is predicted from its measured neighbours: between two, its ratio is
-//! interpolated geometrically by where its hint lies between theirs (a wrong prior's scale, e.g.
-//! a light map whose time falls with its area, is corrected by every level measured); past the
-//! last one measured, that level's ratio times the hints' ratio. So a cheap level measured makes
-//! the levels between it and level 0 look cheaper too, and the budget tries them.
+//! - A level's cost is a moving average (weight [`SMOOTHING`]) of the effect's passes' time in
+//!   the frames recorded at that level, leaving out the first [`SETTLE_FRAMES`] of each stay
+//!   (a level that just changed a pass's variant, or the material table, pays for it once).
+//!   The level in use follows the world frame by frame; a level not in use keeps what it cost
+//!   when it was last used, and is measured again when the budget goes back to it. (Predicting
+//!   the others from the one in use through ratios was tried: one badly measured ratio then
+//!   moved every prediction, and the budget went back and forth between levels on lavapipe.)
+//! - A level never measured is predicted from its measured neighbours: between two, its cost is
+//!   interpolated geometrically by where its hint lies between theirs; past the last one
+//!   measured, that level's cost times the hints' ratio. So one cheap level measured makes the
+//!   levels between it and level 0 look cheaper too, and the budget tries them (a wrong prior,
+//!   e.g. a light map whose time falls with its area, is corrected by every level measured).
 
 use super::QualityLevel;
 
-/// Frames at the start of a stay at a level that measure its ratio.
-pub const RATIO_FRAMES: u32 = 3;
+/// Frames at the start of each stay at a level that are not measured.
+pub const SETTLE_FRAMES: u32 = 1;
 /// The weight of a new frame in the moving averages.
 pub const SMOOTHING: f64 = 0.3;
 
@@ -29,29 +26,21 @@ pub const SMOOTHING: f64 = 0.3;
 pub struct EffectCosts {
     /// The effect's levels, exact first.
     pub levels: Vec<QualityLevel>,
-    /// Cost of each level over level 0's (level 0: 1); the hint until measured.
-    ratio: Vec<f64>,
-    measured: Vec<bool>,
-    /// ms of level 0 now; None until a frame was measured.
-    scale: Option<f64>,
-    /// The level of the current stay and how many frames of it were measured.
+    /// Each level's smoothed ms, once measured.
+    ms: Vec<Option<f64>>,
+    /// The level of the current stay and how many of its frames came back.
     stay: Option<(usize, u32)>,
 }
 
-fn blend(old: f64, new: f64) -> f64 {
-    old + SMOOTHING * (new - old)
+fn blend(old: Option<f64>, new: f64) -> f64 {
+    old.map_or(new, |o| o + SMOOTHING * (new - o))
 }
 
 impl EffectCosts {
-    /// A model with the levels' hints as ratios (normalized to level 0's) and nothing measured.
+    /// A model with nothing measured.
     pub fn new(levels: Vec<QualityLevel>) -> Self {
-        let base = levels.first().map_or(1.0, |l| l.cost_hint);
-        let ratio = levels.iter().map(|l| l.cost_hint / base).collect();
-        let mut measured = vec![false; levels.len()];
-        if let Some(m) = measured.first_mut() {
-            *m = true;
-        }
-        EffectCosts { levels, ratio, measured, scale: None, stay: None }
+        let ms = vec![None; levels.len()];
+        EffectCosts { levels, ms, stay: None }
     }
 
     /// Keeps what was measured of the levels that keep their name when the effect's levels change
@@ -59,14 +48,14 @@ impl EffectCosts {
     /// map's texel).
     pub fn with_levels(&self, levels: Vec<QualityLevel>) -> Self {
         let mut next = EffectCosts::new(levels);
-        if self.levels.first().map(|l| &l.name) == next.levels.first().map(|l| &l.name) {
-            next.scale = self.scale;
-            for (i, l) in next.levels.iter().enumerate() {
-                if let Some(j) = self.levels.iter().position(|o| o.name == l.name) {
-                    (next.ratio[i], next.measured[i]) = (self.ratio[j], self.measured[j]);
-                }
+        for (i, l) in next.levels.iter().enumerate() {
+            if let Some(j) = self.levels.iter().position(|o| o.name == l.name) {
+                next.ms[i] = self.ms[j];
             }
         }
+        next.stay = self
+            .stay
+            .filter(|(l, _)| next.levels.get(*l).map(|x| &x.name) == self.levels.get(*l).map(|x| &x.name));
         next
     }
 
@@ -80,52 +69,44 @@ impl EffectCosts {
             _ => 0,
         };
         self.stay = Some((level, frames.saturating_add(1)));
-        let Some(scale) = self.scale.filter(|s| *s > 0.0) else {
-            self.scale = Some(ms / self.ratio[level]);
-            return;
-        };
-        if level != 0 && frames < RATIO_FRAMES {
-            let r = ms / scale;
-            self.ratio[level] = if self.measured[level] { blend(self.ratio[level], r) } else { r };
-            self.measured[level] = true;
-        } else {
-            self.scale = Some(blend(scale, ms / self.ratio[level]));
+        // The first frames at a level settle; a level never measured takes its first frame.
+        if frames >= SETTLE_FRAMES || self.ms.iter().all(Option::is_none) {
+            self.ms[level] = Some(blend(self.ms[level], ms));
         }
     }
 
-    /// Predicted ms at `level` (NaN before any frame).
+    /// Predicted ms at `level` (NaN before any level was measured).
     pub fn predicted(&self, level: usize) -> f64 {
-        self.scale.map_or(f64::NAN, |s| s * self.ratio_of(level))
-    }
-
-    /// The level's ratio: measured, or from its measured neighbours (see the module docs).
-    fn ratio_of(&self, level: usize) -> f64 {
-        if self.measured[level] {
-            return self.ratio[level];
+        if let Some(ms) = self.ms[level] {
+            return ms;
         }
         let hint = |l: usize| self.levels[l].cost_hint;
-        // Level 0 is always measured (ratio 1), so a measured level below exists.
-        let below = (0..level).rev().find(|&l| self.measured[l]).unwrap_or(0);
-        let above = (level + 1..self.levels.len()).find(|&l| self.measured[l]);
-        let from_below = self.ratio[below] * hint(level) / hint(below);
-        let Some(above) = above else { return from_below };
-        let span = (hint(above) / hint(below)).ln();
-        let t = (hint(level) / hint(below)).ln() / span;
-        if !(t.is_finite() && span != 0.0) {
-            return from_below;
+        let below = (0..level).rev().find_map(|l| self.ms[l].map(|ms| (l, ms)));
+        let above = (level + 1..self.levels.len()).find_map(|l| self.ms[l].map(|ms| (l, ms)));
+        match (below, above) {
+            (Some((b, mb)), Some((a, ma))) => {
+                let span = (hint(a) / hint(b)).ln();
+                let t = (hint(level) / hint(b)).ln() / span;
+                if t.is_finite() && span != 0.0 {
+                    mb * (ma / mb).powf(t.clamp(0.0, 1.0))
+                } else {
+                    mb * hint(level) / hint(b)
+                }
+            }
+            (Some((b, mb)), None) => mb * hint(level) / hint(b),
+            (None, Some((a, ma))) => ma * hint(level) / hint(a),
+            (None, None) => f64::NAN,
         }
-        let t = t.clamp(0.0, 1.0);
-        self.ratio[below] * (self.ratio[above] / self.ratio[below]).powf(t)
     }
 
-    /// Whether level `level`'s ratio was measured.
+    /// Whether level `level` was measured.
     pub fn is_measured(&self, level: usize) -> bool {
-        self.measured[level]
+        self.ms[level].is_some()
     }
 
-    /// Whether any frame was measured.
+    /// Whether any level was measured.
     pub fn has_scale(&self) -> bool {
-        self.scale.is_some()
+        self.ms.iter().any(Option::is_some)
     }
 }
 
@@ -144,25 +125,28 @@ mod tests {
         m.observe(0, 10.0);
         assert_eq!((m.predicted(0), m.predicted(1)), (10.0, 5.0));
         assert!(!m.is_measured(1));
-        // At level 1 the pass takes 8 ms: the ratio is 0.8, the scale stays 10.
+        // The first frame at level 1 settles; the next is measured.
+        m.observe(1, 30.0);
+        assert!(!m.is_measured(1));
         m.observe(1, 8.0);
         assert!(m.is_measured(1));
-        assert!((m.predicted(1) - 8.0).abs() < 1e-12 && (m.predicted(0) - 10.0).abs() < 1e-12);
+        assert_eq!((m.predicted(0), m.predicted(1)), (10.0, 8.0));
     }
 
     #[test]
-    fn the_scale_follows_the_world_at_a_level_not_in_use() {
+    fn the_level_in_use_follows_the_world_and_the_others_keep_their_cost() {
         let mut m = EffectCosts::new(levels());
         m.observe(0, 10.0);
-        for _ in 0..RATIO_FRAMES {
-            m.observe(1, 8.0);
-        }
-        // The world doubles in cost while level 1 is in use: level 0's prediction doubles too.
+        m.observe(1, 8.0);
+        // The world doubles in cost while level 1 is in use.
         for _ in 0..40 {
             m.observe(1, 16.0);
         }
-        assert!((m.predicted(0) - 20.0).abs() < 1e-3, "{}", m.predicted(0));
         assert!((m.predicted(1) - 16.0).abs() < 1e-3);
+        assert_eq!(m.predicted(0), 10.0, "level 0 is measured again when used again");
+        m.observe(0, 20.0);
+        m.observe(0, 20.0);
+        assert!((m.predicted(0) - 13.0).abs() < 1e-9);
     }
 
     #[test]
@@ -177,19 +161,21 @@ mod tests {
         m.observe(0, 30.0);
         // The cheapest level turns out at 0.09 of level 0, far under its prior of 0.55: the
         // levels between follow, in the hints' geometric proportion.
+        m.observe(3, 99.0);
         m.observe(3, 2.7);
         let r = |l: usize| m.predicted(l) / 30.0;
         let t = |h: f64| h.ln() / 0.55f64.ln();
         assert!((r(1) - 0.09f64.powf(t(0.75))).abs() < 1e-12, "{}", r(1));
         assert!((r(2) - 0.09f64.powf(t(0.6))).abs() < 1e-12);
         assert!(r(0) > r(1) && r(1) > r(2) && r(2) > r(3));
-        // Past the last measured level: its ratio times the hints'.
+        // Past the last measured level: its cost times the hints' ratio.
         let mut m = EffectCosts::new(vec![
             QualityLevel::new("0", 0.0, 1.0),
             QualityLevel::new("1", 1e-3, 0.5),
             QualityLevel::new("2", 1e-2, 0.25),
         ]);
         m.observe(0, 10.0);
+        m.observe(1, 8.0);
         m.observe(1, 8.0);
         assert!((m.predicted(2) - 4.0).abs() < 1e-12);
     }
@@ -202,11 +188,12 @@ mod tests {
         assert!(!m.has_scale());
         m.observe(0, 4.0);
         m.observe(1, 1.0);
+        m.observe(1, 1.0);
         let mut more = levels();
         more.push(QualityLevel::new("faster", 1e-1, 0.25));
         let next = m.with_levels(more);
         assert!(next.is_measured(1) && !next.is_measured(2));
-        // Level 2, past the last measured (1: ratio ¼, hint ½), at ¼ × 0.25 / 0.5.
+        // Level 2, past the last measured (1: 1 ms, hint ½), at 1 × 0.25 / 0.5.
         assert_eq!((next.predicted(1), next.predicted(2)), (1.0, 0.5));
     }
 }

@@ -78,9 +78,9 @@ impl Effect for Translucency {
         }
     }
 
-    /// The light map's size (`effects::translucency::budget_levels`).
+    /// The light map's size, then TSM instead of the tables (`effects::translucency_budget`).
     fn quality_levels(&self, scene: &Scene) -> Vec<crate::budget::QualityLevel> {
-        crate::effects::translucency::budget_levels(scene)
+        crate::effects::translucency_budget::budget_levels(scene)
     }
 
     fn passes(&self) -> Vec<EffectPass> {

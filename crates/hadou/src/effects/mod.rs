@@ -16,5 +16,6 @@ pub mod thickness_lut;
 pub mod thickness_pairs;
 pub mod tonemap;
 pub mod translucency;
+pub mod translucency_budget;
 pub mod upscaler;
 pub mod voxelize;

@@ -154,60 +154,11 @@ pub fn light_map_size(scene: &Scene) -> u32 {
 /// `light_map_size` with the meshes' bounds known (see `LightView::fit_with`) and the light view
 /// already fitted to them (`None`: no light or no translucent instance).
 pub fn light_map_size_in(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)], view: Option<&LightView>) -> u32 {
-    light_map_size_at(scene, mesh_bounds, view, texel_voxels(scene))
-}
-
-/// The frame budget's light-map levels: the texel's target in finest voxel edges. Level 0 is the
-/// default map; each level halves its side (where the map is above its smallest size).
-pub const BUDGET_TEXELS: [f64; 4] = [0.25, 0.5, 1.0, 2.0];
-/// The prior share of light_id (whose time goes with the map's texels) in the effect's passes at
-/// level 0; the rest (the translucency pass, per pixel) does not change with the map. A prior
-/// only, replaced by what is measured: on assets/scenes/budget.toml at 256² it was 87 % (light_id
-/// 20.7 of 23.9 ms, lavapipe); a scene with more translucent pixels has less.
-const LIGHT_ID_SHARE: f64 = 0.75;
-
-/// The effect's name (`Effect::name` of `effect::Translucency`): its key in `Scene::quality`.
-const NAME: &str = "translucency";
-
-/// The light map's texel target in finest voxel edges: the frame budget's level, else ¼.
-fn texel_voxels(scene: &Scene) -> f64 {
-    scene.quality.level(NAME).and_then(|l| BUDGET_TEXELS.get(l)).copied().unwrap_or(BUDGET_TEXELS[0])
-}
-
-/// The frame budget's levels for the light map ([`BUDGET_TEXELS`]); none without a lit
-/// translucent instance. A level's error bounds the light map's share of the relative error of
-/// the transmittance T = exp(−σ·d): the entry point a texel gives is within 1.5·√2·texel·tan θ of
-/// the light's own (`lut_thickness`), which moves d by as much, so on entry faces at most 45° from
-/// the light (tan θ ≤ 1) |T − T*| / T* ≤ expm1(σ_max · 1.5·√2 · texel), σ_max the largest
-/// extinction of a translucent material. Steeper faces scale the term by tan θ at every level
-/// alike, which keeps the levels' order.
-pub fn budget_levels(scene: &Scene) -> Vec<crate::budget::QualityLevel> {
-    let bounds = mesh_bounds(scene);
-    let Some(view) = LightView::fit_with(scene, &bounds) else { return Vec::new() };
-    // Named by the texel target, not the size: a level keeps its name (and its measured cost) as
-    // instances move and the map's size with them.
-    let sigma = (scene.instances.iter())
-        .filter_map(|i| match scene.materials[i.material].kind {
-            MaterialKind::Translucent { sigma, .. } => Some(sigma.max_element()),
-            _ => None,
-        })
-        .fold(0.0, f64::max);
-    let size_0 = light_map_size_at(scene, &bounds, Some(&view), BUDGET_TEXELS[0]) as f64;
-    BUDGET_TEXELS
-        .iter()
-        .map(|&voxels| {
-            let size = light_map_size_at(scene, &bounds, Some(&view), voxels);
-            let hint = (1.0 - LIGHT_ID_SHARE) + LIGHT_ID_SHARE * (size as f64 / size_0).powi(2);
-            let texel = 2.0 * view.radius / size as f64;
-            let error = (sigma * 1.5 * std::f64::consts::SQRT_2 * texel).exp_m1();
-            let error = if error.is_finite() { error } else { f64::MAX };
-            crate::budget::QualityLevel::new(format!("texel {voxels} voxel"), error, hint)
-        })
-        .collect()
+    light_map_size_at(scene, mesh_bounds, view, super::translucency_budget::texel_voxels(scene))
 }
 
 /// `light_map_size_in` for a texel target of `texel_voxels` finest voxel edges.
-fn light_map_size_at(
+pub(crate) fn light_map_size_at(
     scene: &Scene,
     mesh_bounds: &[(DVec3, DVec3)],
     view: Option<&LightView>,
@@ -288,28 +239,6 @@ pub fn translucent_colour(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The budget's levels: errors rise as the map's side halves (down to its smallest), the
-    /// level on the scene sizes the map, and a scene without a lit translucent instance has none.
-    #[test]
-    fn budget_levels_halve_the_map_and_raise_the_error() {
-        let mut scene = crate::builtin::scene("budget").unwrap();
-        let levels = budget_levels(&scene);
-        assert_eq!(levels.len(), BUDGET_TEXELS.len());
-        assert!(crate::budget::QualityLevel::check(&levels).is_ok(), "{levels:?}");
-        assert_eq!(levels[0].cost_hint, 1.0);
-        let mut sizes = Vec::new();
-        for l in 0..levels.len() {
-            scene.quality.set(NAME, Some(l));
-            sizes.push(light_map_size(&scene));
-        }
-        assert_eq!(sizes, [3584, 1792, 1024, 512], "{levels:?}");
-        assert!(levels.windows(2).all(|w| w[1].error > w[0].error && w[1].cost_hint < w[0].cost_hint));
-        scene.quality.set(NAME, None);
-        assert_eq!(light_map_size(&scene), 3584, "no level: the default texel");
-        scene.lights.clear();
-        assert!(budget_levels(&scene).is_empty());
-    }
 
     #[test]
     fn view_covers_its_points_and_orders_them_along_the_light() {

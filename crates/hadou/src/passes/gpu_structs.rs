@@ -201,6 +201,9 @@ pub fn material_records(scene: &Scene, p: f64) -> Vec<MaterialData> {
                 MaterialData { albedo, kind: [MATERIAL_LAMBERT, 0, 0, 0], sigma: [0.0; 4], emission }
             }
             MaterialKind::Translucent { sigma, thickness, .. } => {
+                // The frame budget's TSM level: the tables are not read (they stay uploaded).
+                let tsm = crate::effects::translucency_budget::tsm_instead_of_tables(scene);
+                let thickness = if tsm && thickness.is_baked() { ThicknessMode::Tsm } else { thickness };
                 let mode = match thickness {
                     ThicknessMode::Lut => THICKNESS_LUT,
                     ThicknessMode::Tsm => THICKNESS_TSM,

@@ -641,8 +641,11 @@ pub fn needed(scene: &Scene) -> bool {
 }
 
 /// Some instance reads a thickness LUT: the pass is built with the field's march (WITH_LUT).
+/// Under the frame budget's TSM level none does.
 pub fn reads_lut(scene: &Scene) -> bool {
-    (0..scene.instances.len()).any(|i| matches!(translucent_mode(scene, i), Some((_, ThicknessMode::Lut))))
+    !crate::effects::translucency_budget::tsm_instead_of_tables(scene)
+        && (0..scene.instances.len())
+            .any(|i| matches!(translucent_mode(scene, i), Some((_, ThicknessMode::Lut))))
 }
 
 /// The pass's build: with the march (a LUT) and/or the peel lists, as the scene needs.

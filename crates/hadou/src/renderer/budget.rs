@@ -33,7 +33,6 @@ pub(super) struct FrameBudget {
     frames_measured: u64,
     /// The frame the last decision was made before.
     decided_at: Option<u64>,
-    fits: bool,
 }
 
 /// How many recorded frames' levels are kept for frames not yet reported finished.
@@ -41,7 +40,7 @@ const RECORDED_KEPT: usize = 64;
 
 impl FrameBudget {
     pub(super) fn new(own_ms: Option<f64>) -> Self {
-        FrameBudget { own_ms, fits: true, ..Default::default() }
+        FrameBudget { own_ms, ..Default::default() }
     }
 
     /// Forgets what was measured (a new scene), keeping the setting.
@@ -134,7 +133,7 @@ impl Renderer {
             budget_ms,
             predicted_ms,
             fixed_ms,
-            fits: self.budget.fits,
+            fits: predicted_ms <= budget_ms,
             frames_measured: self.budget.frames_measured,
             effects,
         })
@@ -167,7 +166,6 @@ impl Renderer {
                     })
                     .collect();
                 let choice = decide(budget, self.budget.fixed_ms.unwrap_or(0.0), &options, &current);
-                self.budget.fits = choice.fits;
                 choice.levels
             } else {
                 current
@@ -178,6 +176,8 @@ impl Renderer {
             }
             if let Some(l) = self.loaded.as_mut().filter(|l| l.scene.quality != chosen) {
                 l.scene.quality = chosen;
+                // The material table may follow a level (translucency's TSM).
+                l.tables_dirty = true;
                 self.sync_passes()?;
             }
         }
