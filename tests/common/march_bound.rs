@@ -2,7 +2,7 @@
 //! for the f32 twin, tests/gpu_energy_wave.rs for the pass, each with its own `MarchUlps`).
 
 use glam::DVec3;
-use hadou::effects::energy_wave::{WaveFrame, CLAMP_MIN, CLAMP_RATIO, MAX_LENGTH};
+use hadou::effects::energy_wave::{sample_distances, WaveFrame, CLAMP_MIN, CLAMP_RATIO, MAX_LENGTH};
 
 /// Units in the last place of the f32 ray march, per sample (see [`raymarch_bound`]).
 pub struct MarchUlps {
@@ -33,23 +33,11 @@ pub fn raymarch_bound(f: &WaveFrame, u: DVec3, l: f64, steps: u32, offset: f64, 
     let ds = l.min(MAX_LENGTH) / steps as f64;
     let floor = f64::max(CLAMP_RATIO * ds, CLAMP_MIN);
     let om = (f.q0 * f.q0 + f.r.length_squared()).sqrt();
-    let (c, ud, e2) = (f.d.cross(u), u.dot(f.d), f.core * f.core);
+    let (c, ud) = (f.d.cross(u), u.dot(f.d));
     let (mut sum, mut partials, mut weighted) = (0.0, 0.0, 0.0);
     for i in 0..steps {
         let s = (i as f64 + offset) * ds;
-        let q = f.q0 + s * ud;
-        let pc = f.r + s * c;
-        let r2 = pc.dot(pc);
-        let rm = f64::max((q * q + r2 + e2).sqrt(), floor);
-        let qt = f.qt + s * ud;
-        let dl2 = if q <= 0.0 {
-            q * q + r2
-        } else if f.finite && qt >= 0.0 {
-            qt * qt + r2
-        } else {
-            r2
-        };
-        let rl = f64::max((dl2 + e2).sqrt(), floor);
+        let (rm, rl) = sample_distances(f, c, ud, s, floor);
         let t = f.a / rm + f.b / rl;
         weighted += t * (k.fixed + (k.per_s * s + k.per_om * om) / f64::min(rm, rl));
         sum += t;

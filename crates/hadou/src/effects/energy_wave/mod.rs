@@ -479,6 +479,13 @@ pub fn line_integral_quadrature(w: &WaveParams, origin: DVec3, u: DVec3, l: f64)
 
 /// E along the ray from a frame, with the distance floored at `fl` (the ray-march twin).
 fn density_frame(f: &WaveFrame, c: DVec3, ud: f64, s: f64, fl: f64) -> f64 {
+    let (rm, rl) = sample_distances(f, c, ud, s, fl);
+    f.a / rm + f.b / rl
+}
+
+/// A ray-march sample's two softened distances at s along the ray (c = D × u, ud = u·D), each
+/// floored at `fl`: to M, √(|P − M|² + ε²), and to the beam, √(dist(P, beam)² + ε²).
+pub fn sample_distances(f: &WaveFrame, c: DVec3, ud: f64, s: f64, fl: f64) -> (f64, f64) {
     let e2 = f.core * f.core;
     let q = f.q0 + s * ud;
     let pc = f.r + s * c;
@@ -493,7 +500,7 @@ fn density_frame(f: &WaveFrame, c: DVec3, ud: f64, s: f64, fl: f64) -> f64 {
         r2
     };
     let rl = (dl2 + e2).sqrt().max(fl);
-    f.a / rm + f.b / rl
+    (rm, rl)
 }
 
 /// The ray-march baseline from a frame: `steps` samples at s_i = (i + offset)·L/N, each weighted
