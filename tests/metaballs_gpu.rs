@@ -432,7 +432,9 @@ fn glsl_variants_match_the_f32_twin() {
 
 /// The streamed cast (`mb_clip_stream`) on the device against its f32 twin and f64: crowds of 40,
 /// 48 and 150 overlapping supports (`testing::crowded_metaballs`; more than the 32 slots hold at
-/// one point), half the groups sphere-traced (a crowded ray is streamed with clipping whatever
+/// one point, and at 150 more than the cast's cache of 128 chords, so the rest of the ray walks
+/// the whole list) and tubes of 300 supports met one after another (`testing::crowded_tube`: ~88
+/// on a point, gathered in rounds of the cache), half the groups sphere-traced (a crowded ray is streamed with clipping whatever
 /// the method). Same operations on both sides, so outside the tangency band hit/miss agree,
 /// depths and normals within twice `f32_bound` (as for the slot casts above) and the f64 bounds
 /// hold.
@@ -442,10 +444,15 @@ fn glsl_streamed_casts_match_the_f32_twin() {
     let mut rng = Rng(0x7374_7265_616d_6564);
     let (mut groups, mut params, mut balls, mut lists) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut rays, mut ray_f64) = (Vec::new(), Vec::new());
-    for (gi, k) in [40usize, 48, 150, 40, 48, 150].into_iter().enumerate() {
+    let crowds = [(40usize, false), (48, false), (150, false), (300, true)];
+    for (gi, (k, tube)) in crowds.into_iter().chain(crowds).enumerate() {
         let gi = gi as u32;
-        let mut g = hadou::testing::crowded_metaballs(&mut rng, k);
-        let trace = gi >= 3;
+        let mut g = if tube {
+            hadou::testing::crowded_tube(&mut rng, k)
+        } else {
+            hadou::testing::crowded_metaballs(&mut rng, k)
+        };
+        let trace = gi >= crowds.len() as u32;
         if trace {
             g.method = CastMethod::SphereTrace { steps: 256 };
         }

@@ -627,19 +627,26 @@ fn sphere_tracing_finds_the_exact_first_root() {
 }
 
 /// Crowds of 48 and 500 overlapping supports (`testing::crowded_metaballs`: every ray through the
-/// middle is inside all of them at once, far more than the 32 slots) in front of and around two
-/// dense balls: the f32 twin streams the crowded part (MB_STREAMED) and must agree with f64
-/// outside the tangency band like any other ray — nothing behind the crowd is lost.
+/// middle is inside all of them at once, far more than the 32 slots, and at 500 more than the
+/// streamed cast's cache of 128 chords holds) in front of and around two dense balls, and a tube
+/// of 400 supports a ray meets one after another (`testing::crowded_tube`: ~118 on each point,
+/// gathered in several rounds of the cache): the f32 twin streams the crowded part (MB_STREAMED)
+/// and must agree with f64 outside the tangency band like any other ray — nothing behind the
+/// crowd is lost.
 #[test]
 fn crowded_supports_f32_twin_matches_f64() {
     let mut rng = Rng(0x0c20_3d0d_5eed_0048);
-    for k in [48usize, 500] {
+    for (k, tube) in [(48usize, false), (500, false), (400, true)] {
         let (mut agree, mut streamed, mut hits, mut in_band) = (0usize, 0usize, 0usize, 0usize);
         let mut depth = Comparison::new(format!("{k} supports, f32 vs f64: relative depth"));
         let mut normal = Comparison::new(format!("{k} supports, f32 vs f64: normal, degrees"));
         // Fewer groups of 500 (each ray costs ~500 × its streamed walks, in f64 and f32).
         for _ in 0..(if k > 100 { 1 } else { 3 }) {
-            let g = hadou::testing::crowded_metaballs(&mut rng, k);
+            let g = if tube {
+                hadou::testing::crowded_tube(&mut rng, k)
+            } else {
+                hadou::testing::crowded_metaballs(&mut rng, k)
+            };
             let packed = PackedGroup::new(&g);
             let centre = g.transform.transform_point(DVec3::new(0.05, -0.05, -1.35));
             // Cameras on the fog's side (+z in object space) so every ray crosses it first.
@@ -667,7 +674,7 @@ fn crowded_supports_f32_twin_matches_f64() {
                 agree += 1;
             }
         }
-        println!("{k} overlapping supports: {agree} rays agree ({hits} hits, {streamed} streamed, {in_band} in the band)");
+        println!("{k} supports (tube: {tube}): {agree} rays agree ({hits} hits, {streamed} streamed, {in_band} in the band)");
         // The band's contract (`metaballs_f32` module docs); 67 and 30 hits when written.
         depth.assert_within(1e-4, 20);
         normal.assert_within(0.5, 20);

@@ -608,8 +608,40 @@ bool mb_ball_chord(MetaBall ball, MetaRay r, out vec2 ct, out float a) {
     { const int i = 0; step; } { const int i = 1; step; } { const int i = 2; step; } { const int i = 3; step; } \
     { const int i = 4; step; } { const int i = 5; step; } { const int i = 6; step; } { const int i = 7; step; }
 
-// Walk 1, one ball: the next chord end after t_cur (t_next) and the field bound (B) over
-// [t_cur, t_hi]. False past the list's end or, sorted, past the window (so are all later balls).
+// Walk 1, one chord [ct.x, ct.y] (a, q; `meets`: the ray crosses the support): the next chord end
+// after t_cur (t_next) and the field bound (B) over [t_cur, t_hi].
+void mb_bound_step(uint kernel, bool meets, vec2 ct, float a, float q, float t_cur, float t_hi, inout float t_next,
+                   inout float B) {
+    if (meets && ct.y > t_cur && ct.x < t_hi) {
+        t_next = min(t_next, ct.x > t_cur ? ct.x : ct.y);
+        float half_chord = 0.5 * (ct.y - ct.x);
+        float mid = ct.x + half_chord;
+        float s0 = (max(t_cur, ct.x) - mid) / half_chord;
+        float s1 = (min(t_hi, ct.y) - mid) / half_chord;
+        float s2 = s0 <= 0.0 && s1 >= 0.0 ? 0.0 : min(s0 * s0, s1 * s1);
+        B += max(q, 0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
+    }
+}
+
+// Walk 2, one chord (as mb_bound_step; g_term its |q|γ/R): its share of the piece [t_cur, t_hi]
+// (Bernstein coefficients c, their magnitudes `scale`, and G), when the chord contains t_cur.
+void mb_piece_step(uint kernel, bool meets, vec2 ct, float a, float q, float g_term, float t_cur, float t_hi,
+                   inout float c[7], inout float scale[7], inout float G) {
+    if (meets && ct.x <= t_cur && ct.y > t_cur) {
+        float chord = ct.y - ct.x;
+        float dj[7];
+        mb_chord_bernstein(kernel, a, q, dj);
+        mb_restrict(dj, clamp((t_cur - ct.x) / chord, 0.0, 1.0), clamp((t_hi - ct.x) / chord, 0.0, 1.0));
+        for (int j = 0; j < 7; ++j) {
+            c[j] += dj[j];
+            scale[j] += abs(dj[j]);
+        }
+        G += g_term;
+    }
+}
+
+// Walk 1 over the list, one ball. False past the list's end or, sorted, past the window (so are
+// all later balls).
 bool mb_stream_bound(uint kernel, MetaRay r, uint index, bool listed, float t_cur, float t_hi,
                      inout float t_next, inout float B) {
     if (!listed) return false;
@@ -617,20 +649,12 @@ bool mb_stream_bound(uint kernel, MetaRay r, uint index, bool listed, float t_cu
     if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) return false;
     vec2 ct;
     float a;
-    if (mb_ball_chord(ball, r, ct, a) && ct.y > t_cur && ct.x < t_hi) {
-        t_next = min(t_next, ct.x > t_cur ? ct.x : ct.y);
-        float half_chord = 0.5 * (ct.y - ct.x);
-        float mid = ct.x + half_chord;
-        float s0 = (max(t_cur, ct.x) - mid) / half_chord;
-        float s1 = (min(t_hi, ct.y) - mid) / half_chord;
-        float s2 = s0 <= 0.0 && s1 >= 0.0 ? 0.0 : min(s0 * s0, s1 * s1);
-        B += max(ball.coeffs.x, 0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
-    }
+    bool meets = mb_ball_chord(ball, r, ct, a);
+    mb_bound_step(kernel, meets, ct, a, ball.coeffs.x, t_cur, t_hi, t_next, B);
     return true;
 }
 
-// Walk 2, one ball: its chord's share of the piece [t_cur, t_hi] (Bernstein coefficients c, their
-// magnitudes `scale`, and G), when the chord contains t_cur. False as mb_stream_bound.
+// Walk 2 over the list, one ball. False as mb_stream_bound.
 bool mb_stream_piece(uint kernel, MetaRay r, uint index, bool listed, float t_cur, float t_hi,
                      inout float c[7], inout float scale[7], inout float G) {
     if (!listed) return false;
@@ -638,17 +662,8 @@ bool mb_stream_piece(uint kernel, MetaRay r, uint index, bool listed, float t_cu
     if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) return false;
     vec2 ct;
     float a;
-    if (mb_ball_chord(ball, r, ct, a) && ct.x <= t_cur && ct.y > t_cur) {
-        float chord = ct.y - ct.x;
-        float dj[7];
-        mb_chord_bernstein(kernel, a, ball.coeffs.x, dj);
-        mb_restrict(dj, clamp((t_cur - ct.x) / chord, 0.0, 1.0), clamp((t_hi - ct.x) / chord, 0.0, 1.0));
-        for (int j = 0; j < 7; ++j) {
-            c[j] += dj[j];
-            scale[j] += abs(dj[j]);
-        }
-        G += ball.coeffs.z;
-    }
+    bool meets = mb_ball_chord(ball, r, ct, a);
+    mb_piece_step(kernel, meets, ct, a, ball.coeffs.x, ball.coeffs.z, t_cur, t_hi, c, scale, G);
     return true;
 }
 
@@ -664,101 +679,230 @@ bool mb_stream_grad(uint kernel, MetaRay r, uint index, bool listed, vec3 p, flo
     return true;
 }
 
-// Bézier clipping streamed from the list itself: the first crossing of F = T with t′ ∈ [t0, t_end]
-// over every ball of MB_INDEX(list_begin) … MB_INDEX(list_begin + list_count − 1), however many
-// supports overlap (the slots hold MB_MAX_RAY_BALLS; a point inside more than that is cast here).
-// Nothing is stored per ball: every walk over the list recomputes the chords, so the cost is walks
-// × list length. A first walk finds the next chord end t_next and the field bound (mb_field_bound's,
+// The ray's chords a streamed cast keeps (mb_clip_stream): the first MB_CACHE_BALLS of the list
+// meeting the round's span, in list order. Per invocation (private), so a chord's walk reads a
+// few floats instead of a ball and its chord's arithmetic, and walks only the ray's own chords
+// instead of the whole run up to the window. Its size is a cost, not a cap: a fuller cache means
+// fewer rounds but longer walks, and more chords than it holds on one point walk the list. 128
+// measured best on the dense fluid at 256² (docs/PERFORMANCE.md, "Crowded supports").
+#ifndef MB_CACHE_BALLS
+#define MB_CACHE_BALLS 128
+#endif
+vec4 mb_cache_chord[MB_CACHE_BALLS];  // entry, exit, a, q
+vec2 mb_cache_meta[MB_CACHE_BALLS];   // |q|γ/R (coeffs.z), the ball's id (uintBitsToFloat)
+float mb_cache_key[MB_CACHE_BALLS];   // mb_entry_key: with MB_LIST_SORTED, ascending
+
+// The gather, one ball: its chord into the cache when it meets [t_cur, limit) and the cache has
+// room, else `limit` drops to its entry (the round then ends there). False as mb_stream_bound,
+// past `limit`.
+bool mb_cache_gather(MetaRay r, uint index, bool listed, float t_cur, inout float limit, inout uint n) {
+    if (!listed) return false;
+    uint id = MB_INDEX(index);
+    MetaBall ball = MB_BALL(id);
+    float key = mb_entry_key(ball, r.o);
+    if (MB_LIST_SORTED != 0 && key >= limit) return false;
+    vec2 ct;
+    float a;
+    if (mb_ball_chord(ball, r, ct, a) && ct.y > t_cur && ct.x < limit) {
+        if (n < uint(MB_CACHE_BALLS)) {
+            mb_cache_chord[n] = vec4(ct, a, ball.coeffs.x);
+            mb_cache_key[n] = key;
+            mb_cache_meta[n] = vec2(ball.coeffs.z, uintBitsToFloat(id));
+            ++n;
+        } else {
+            limit = min(limit, ct.x);
+        }
+    }
+    return true;
+}
+
+// After walk 1: the window [t_cur, t_hi] holds no root when the bound B stays under T by more
+// than the band; then the next window starts at its end, twice as wide (true). Else the window
+// shrinks to its first piece [t_cur, t_next] (false).
+bool mb_window_skip(float B, float T, float X, float t_next, float t_end, inout float t_cur, inout float t_hi) {
+    if (B < T - mb_delta(B + T, X + t_hi, 0.0)) {
+        float width = t_hi - t_cur;
+        t_cur = t_hi;
+        t_hi = min(t_cur + 2.0 * width, t_end);
+        return true;
+    }
+    t_hi = min(t_hi, t_next);
+    return false;
+}
+
+// After walk 2: clips the piece [t_cur, t_hi] (its coefficients c − T, magnitudes, G) exactly as
+// mb_clip_slots clips an interval (same δ, floors, tolerance, and MB_MAX_ITERATIONS per piece;
+// MB_TANGENT from the clipping only). True with t_found at a root; else, without one, the next
+// window is twice the piece.
+bool mb_piece_clip(MetaGroup g, MetaRay r, float c[7], float scale[7], float G, float X, float t_end,
+                   inout float t_cur, inout float t_hi, inout MetaHit hit, inout float t_found) {
+    float T = g.params.x;
+    float S = 0.0;
+    for (int i = 0; i < 7; ++i) S = max(S, scale[i]);
+    float delta = mb_delta(S + T, X + t_hi, G);
+    float tol = g.params.y;
+    float alpha_tol = tol > 0.0 ? max(MB_ALPHA_TOL, tol * r.ts / (t_hi - t_cur)) : MB_ALPHA_TOL;
+    uint steps = 0u;
+    float alpha = mb_first_root(c, MB_FLAT_C * MB_EPS * (S + T), delta, alpha_tol, steps, hit.flags);
+    hit.iterations += steps;
+    if ((hit.flags & MB_NOT_CONVERGED) != 0u) return false;
+    if (alpha >= 0.0) {
+        if (MB_TANGENT_FLAGS != 0 && mb_shallow_root(c, alpha, delta)) hit.flags |= MB_TANGENT;
+        t_found = t_cur + alpha * (t_hi - t_cur);
+        return true;
+    }
+    float width = t_hi - t_cur;
+    t_cur = t_hi;
+    t_hi = min(t_cur + 2.0 * width, t_end);
+    return false;
+}
+
+// Bézier clipping by windows: the first crossing of F = T with t′ ∈ [t_cur, t_end] over `count`
+// chords, walked by WALK_BOUND(k, i) and WALK_PIECE(k, i) (chord k + i; false past the last one
+// the walk needs). A first walk finds the next chord end t_next and the field bound (mb_field_bound's,
 // over every chord meeting the window) on the window [t_cur, t_hi]: where it shows no root the
 // window is skipped and the next one is twice as wide; otherwise a second walk sums the
 // coefficients of the window's first piece [t_cur, min(t_hi, t_next)] — no chord end inside, so
-// one polynomial (seed 2.2) — and clips it exactly as mb_clip_slots clips an interval (same δ,
-// floors, tolerance, and MB_MAX_ITERATIONS per piece; MB_TANGENT from the clipping only); the
-// next window is twice that piece. Every window ends at a chord end or doubles, so a cast takes
-// at most one piece per chord end and one walk per doubling across the f32 range between them,
-// hence the guard; past it, MB_NOT_CONVERGED.
+// one polynomial (seed 2.2) — and clips it; the next window is twice that piece. Every window ends
+// at a chord end or doubles, so a cast takes at most one piece per chord end and one walk per
+// doubling across the f32 range between them, hence the guard (MB_STREAM_WALKS); past it,
+// MB_NOT_CONVERGED. Sets `found` and t_found.
+#define MB_CLIP_WINDOWS(count, START, WALK_BOUND, WALK_PIECE)                                     \
+    {                                                                                      \
+        float t_hi = t_end;                                                                \
+        uint walks = 0u;                                                                   \
+        uint max_walks = MB_STREAM_WALKS * (2u * min(count, 1u << 20) + 1u);               \
+        while (!found && t_cur < t_end) {                                                  \
+            if (walks >= max_walks) {                                                      \
+                hit.flags |= MB_NOT_CONVERGED;                                             \
+                break;                                                                     \
+            }                                                                              \
+            ++walks;                                                                       \
+            float t_next = t_end;                                                          \
+            float B = 0.0;                                                                 \
+            uint k = START;                                                                \
+            bool dead = true;                                                              \
+            bool more = true;                                                              \
+            do {                                                                           \
+                MB_STREAM_BLOCK(more = WALK_BOUND(k, uint(i)))                             \
+                k += MB_STREAM_UNROLL;                                                     \
+            } while (more);                                                                \
+            if (mb_window_skip(B, T, X, t_next, t_end, t_cur, t_hi)) continue;             \
+            float c[7];                                                                    \
+            float scale[7];                                                                \
+            for (int i = 0; i < 7; ++i) {                                                  \
+                c[i] = -T;                                                                 \
+                scale[i] = 0.0;                                                            \
+            }                                                                              \
+            float G = 0.0;                                                                 \
+            k = START;                                                                     \
+            more = true;                                                                   \
+            do {                                                                           \
+                MB_STREAM_BLOCK(more = WALK_PIECE(k, uint(i)))                             \
+                k += MB_STREAM_UNROLL;                                                     \
+            } while (more);                                                                \
+            found = mb_piece_clip(g, r, c, scale, G, X, t_end, t_cur, t_hi, hit, t_found); \
+            if ((hit.flags & MB_NOT_CONVERGED) != 0u) break;                               \
+        }                                                                                  \
+    }
+
+// The windows' walks over the list (every ball, its chord computed again each time).
+#define MB_RUN_BOUND(k, i) \
+    mb_stream_bound(kernel, r, list_begin + k + i, k + i < list_count, t_cur, t_hi, t_next, B)
+#define MB_RUN_PIECE(k, i) \
+    mb_stream_piece(kernel, r, list_begin + k + i, k + i < list_count, t_cur, t_hi, c, scale, G)
+// … and over the cache (its first n chords).
+#define MB_CACHE_BOUND(k, i) mb_cache_bound(kernel, k + i, n, t_cur, t_hi, t_next, B, dead, first)
+#define MB_CACHE_PIECE(k, i) mb_cache_piece(kernel, k + i, n, t_cur, t_hi, c, scale, G)
+
+bool mb_cache_bound(uint kernel, uint j, uint n, float t_cur, float t_hi, inout float t_next, inout float B,
+                    inout bool dead, inout uint first) {
+    uint s = min(j, uint(MB_CACHE_BALLS - 1));
+    vec4 ch = mb_cache_chord[s];
+    bool in_window = j < n && (MB_LIST_SORTED == 0 || mb_cache_key[s] < t_hi);
+    mb_bound_step(kernel, in_window, ch.xy, ch.z, ch.w, t_cur, t_hi, t_next, B);
+    // Chords before `first` end before t_cur: no later window meets them.
+    dead = dead && j < n && !(ch.y > t_cur);
+    if (dead) first = j + 1u;
+    return in_window && j + 1u < n;
+}
+
+bool mb_cache_piece(uint kernel, uint j, uint n, float t_cur, float t_hi, inout float c[7], inout float scale[7],
+                    inout float G) {
+    uint s = min(j, uint(MB_CACHE_BALLS - 1));
+    vec4 ch = mb_cache_chord[s];
+    bool in_window = j < n && (MB_LIST_SORTED == 0 || mb_cache_key[s] < t_hi);
+    mb_piece_step(kernel, in_window, ch.xy, ch.z, ch.w, mb_cache_meta[s].x, t_cur, t_hi, c, scale, G);
+    return in_window && j + 1u < n;
+}
+
+// Bézier clipping streamed from the list itself: the first crossing of F = T with t′ ∈ [t0, t_end]
+// over every ball of MB_INDEX(list_begin) … MB_INDEX(list_begin + list_count − 1), however many
+// supports overlap (the slots hold MB_MAX_RAY_BALLS; a point inside more than that is cast here).
+// Rounds: a walk over the list gathers the chords meeting [t_cur, t_end) into the cache, up to
+// MB_CACHE_BALLS of them; the round's span ends at the entry of the first chord left out (`limit`:
+// every chord entering before it is cached), and the windows (MB_CLIP_WINDOWS) walk the cache over
+// [t_cur, limit]. A miss goes on from `limit`, past at least one more entry. Where more than
+// MB_CACHE_BALLS chords contain t_cur itself the rest of the ray is cast by windows walking the
+// whole list (nothing stored per ball, so no count is too many; each walk recomputes the chords).
 MetaHit mb_clip_stream(MetaGroup g, MetaRay r, vec3 dir, uint list_begin, uint list_count, float t0,
-                       float t_end, MetaHit hit) {
+                       float t_end_ray, MetaHit hit) {
     uint kernel = g.info.x;
     float T = g.params.x;
     float X = length(r.o);
     float t_cur = t0;
-    float t_hi = t_end;
-    uint walks = 0u;
-    uint max_walks = MB_STREAM_WALKS * (2u * min(list_count, 1u << 20) + 1u);
     float t_found = 0.0;
     bool found = false;
-    while (!found && t_cur < t_end) {
-        if (walks >= max_walks) {
-            hit.flags |= MB_NOT_CONVERGED;
-            return hit;
-        }
-        ++walks;
-        // The next chord end after t_cur and the field bound over [t_cur, t_hi].
-        float t_next = t_end;
-        float B = 0.0;
+    bool cached = true;
+    uint n = 0u;
+    do {
+        n = 0u;
+        float limit = t_end_ray;
         uint k = 0u;
         bool more = true;
         do {
-            MB_STREAM_BLOCK(more = mb_stream_bound(kernel, r, list_begin + k + uint(i), k + uint(i) < list_count,
-                                                   t_cur, t_hi, t_next, B))
+            MB_STREAM_BLOCK(more = mb_cache_gather(r, list_begin + k + uint(i), k + uint(i) < list_count, t_cur,
+                                                   limit, n))
             k += MB_STREAM_UNROLL;
         } while (more);
-        if (B < T - mb_delta(B + T, X + t_hi, 0.0)) {
-            // No root in the window: on to the next one, twice as wide.
-            float width = t_hi - t_cur;
-            t_cur = t_hi;
-            t_hi = min(t_cur + 2.0 * width, t_end);
-            continue;
+        if (!(limit > t_cur)) {
+            cached = false;
+            break;
         }
-        // The window may hold a root: clip its first piece, [t_cur, t_next].
-        t_hi = min(t_hi, t_next);
-        // One piece: Σ q·f of the chords containing it as one Bernstein polynomial, minus T.
-        float c[7];
-        float scale[7];
-        for (int i = 0; i < 7; ++i) {
-            c[i] = -T;
-            scale[i] = 0.0;
-        }
-        float G = 0.0;
-        k = 0u;
-        more = true;
-        do {
-            MB_STREAM_BLOCK(more = mb_stream_piece(kernel, r, list_begin + k + uint(i), k + uint(i) < list_count,
-                                                   t_cur, t_hi, c, scale, G))
-            k += MB_STREAM_UNROLL;
-        } while (more);
-        float S = 0.0;
-        for (int i = 0; i < 7; ++i) S = max(S, scale[i]);
-        float delta = mb_delta(S + T, X + t_hi, G);
-        float tol = g.params.y;
-        float alpha_tol = tol > 0.0 ? max(MB_ALPHA_TOL, tol * r.ts / (t_hi - t_cur)) : MB_ALPHA_TOL;
-        // MB_MAX_ITERATIONS per piece: a crowded ray may clip many pieces before its root.
-        uint steps = 0u;
-        float alpha = mb_first_root(c, MB_FLAT_C * MB_EPS * (S + T), delta, alpha_tol, steps, hit.flags);
-        hit.iterations += steps;
-        if ((hit.flags & MB_NOT_CONVERGED) != 0u) return hit;
-        if (alpha >= 0.0) {
-            if (MB_TANGENT_FLAGS != 0 && mb_shallow_root(c, alpha, delta)) hit.flags |= MB_TANGENT;
-            t_found = t_cur + alpha * (t_hi - t_cur);
-            found = true;
-        } else {
-            float width = t_hi - t_cur;
-            t_cur = t_hi;
-            t_hi = min(t_cur + 2.0 * width, t_end);
-        }
+        float t_end = limit;
+        uint first = 0u;
+        MB_CLIP_WINDOWS(n, first, MB_CACHE_BOUND, MB_CACHE_PIECE)
+        if (found || (hit.flags & MB_NOT_CONVERGED) != 0u) break;
+        t_cur = limit;
+    } while (t_cur < t_end_ray);
+    if (!cached) {
+        float t_end = t_end_ray;
+        uint first = 0u;
+        MB_CLIP_WINDOWS(list_count, 0u, MB_RUN_BOUND, MB_RUN_PIECE)
     }
-    if (!found) return hit;
-    // The normal: ∇F over the balls whose support contains the point (others add nothing).
+    if ((hit.flags & MB_NOT_CONVERGED) != 0u || !found) return hit;
+    // The normal: ∇F over the balls whose support contains the point (others add nothing); every
+    // such ball's chord contains t_found, so it is in the cache when the cache found it.
     vec3 p = r.o + r.d * t_found;
     vec3 grad = vec3(0.0);
-    uint k = 0u;
-    bool more = true;
-    do {
-        MB_STREAM_BLOCK(more = mb_stream_grad(kernel, r, list_begin + k + uint(i), k + uint(i) < list_count, p,
-                                              t_found, grad))
-        k += MB_STREAM_UNROLL;
-    } while (more);
+    if (cached) {
+        uint j = 0u;
+        do {
+            MetaBall ball = MB_BALL(floatBitsToUint(mb_cache_meta[min(j, uint(MB_CACHE_BALLS - 1))].y));
+            vec3 w = p - ball.centre_radius.xyz;
+            float inv_r2 = 1.0 / (ball.centre_radius.w * ball.centre_radius.w);
+            if (j < n) grad += w * (2.0 * ball.coeffs.x * inv_r2 * mb_kernel_deriv(kernel, dot(w, w) * inv_r2));
+            ++j;
+        } while (j < n);
+    } else {
+        uint k = 0u;
+        bool more = true;
+        do {
+            MB_STREAM_BLOCK(more = mb_stream_grad(kernel, r, list_begin + k + uint(i), k + uint(i) < list_count, p,
+                                                  t_found, grad))
+            k += MB_STREAM_UNROLL;
+        } while (more);
+    }
     mb_finish_grad(hit, g, r, dir, grad, t_found);
     return hit;
 }

@@ -52,6 +52,32 @@ impl Rng {
     }
 }
 
+/// A metaball group whose supports crowd along a tube: `k` faint balls (radii 1–1.2, centres
+/// within 0.2 of the z axis, spread evenly over z ∈ [−0.5, 7], listed from +z down: nearest first
+/// for rays from +z, as the metaballs pass sorts its runs) in front of the two dense balls of
+/// [`crowded_metaballs`], under a random scale, rotation and translation. A ray from +z in object
+/// space meets all k supports one after another, about k/3.4 of them on each point (more than the
+/// 32 slots), so a streamed cast of it gathers its chords in several rounds of the cache
+/// (`MB_CACHE_BALLS` = 128 when k > 128). Σq on a point stays near 0.1, under T = 0.5.
+pub fn crowded_tube(rng: &mut Rng, k: usize) -> crate::effects::metaballs::MetaballGroupParams {
+    use crate::effects::metaballs::Ball;
+    let mut group = crowded_metaballs(rng, 0);
+    let per_point = k as f64 / 3.4;
+    let mut balls: Vec<Ball> = (0..k)
+        .map(|i| {
+            let z = 7.0 - 7.5 * (i as f64 + rng.range(0.0, 1.0)) / k as f64;
+            Ball {
+                centre: DVec3::new(rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), z),
+                radius: rng.range(1.0, 1.2),
+                q: 0.35 / per_point,
+            }
+        })
+        .collect();
+    balls.append(&mut group.balls);
+    group.balls = balls;
+    group
+}
+
 /// A metaball group whose supports crowd: `k` faint balls (Σq = 0.35 < T = 0.5, so no surface of
 /// their own) with centres within 0.3 of (0, 0, 0.8) and radii 2–2.4 — every point within 1.4
 /// of that centre lies in all k supports — in front of and around two dense balls near

@@ -47,7 +47,9 @@
 //! - [`MB_MAX_RAY_BALLS`] = 32 supports per ray in slots, the nearest by entry: a miss before the
 //!   entry of the nearest ball left out casts again from there; where more than 32 supports
 //!   contain one point, the rest of the ray is streamed from the list ([`MB_STREAMED`],
-//!   `stream::clip_stream`), which holds nothing per ball and so has no cap;
+//!   `stream::clip_stream`): it gathers the ray's chords 128 at a time (`MB_CACHE_BALLS`, each
+//!   round up to the entry of the first one left out), and where more than 128 contain one point
+//!   it walks the list itself, holding nothing per ball, so it has no cap;
 //! - [`MB_MAX_ITERATIONS`] = 256 clip steps per cast (measured: ≤ 8 on simple roots, ~7–17 on
 //!   double roots): beyond, [`MB_NOT_CONVERGED`] and a miss;
 //! - [`MB_STACK_SIZE`] = 24 pending halves, provably enough: each pushed half is wider than

@@ -18,9 +18,10 @@
 //! (each pixel marking its own), and a pixel whose chords did not all fit searches up to the
 //! first one left out, then goes on from there in the next round. Where that cannot move on (more
 //! than 32 supports overlap at one point, or the other rays' balls took the slots) the rest of
-//! the ray is cast streamed from the tile's run
-//! (`mb_clip_stream`: every walk recomputes the chords from the ball buffer, so no count of
-//! overlapping supports is too many; the pixel costs walks × run length). Those streamed casts
+//! the ray is cast streamed from the tile's run (`mb_clip_stream`: a walk over the run gathers
+//! the ray's next 128 chords into a per-invocation cache, and the clipping's windows walk those;
+//! where more than 128 supports overlap at one point the windows walk the run itself, every walk
+//! recomputing the chords, so no count of overlapping supports is too many). Those streamed casts
 //! run in a second, indirect dispatch over the tiles holding a crowded pixel (the first lists
 //! them, with each pixel's crowded runs in a [`PendingRecord`]): lavapipe runs a branch's code for
 //! the whole SIMD group even where no lane takes it, so inside the first dispatch the long cast

@@ -1,6 +1,8 @@
-//! `mb_clip_stream` of shaders/common/metaballs.glsl in f32, line by line: Bézier clipping read
-//! straight from the ball list, for rays with more supports on one point than the slots hold.
-//! The window logic and why it ends are in the shader's comment.
+//! `mb_clip_stream` of shaders/common/metaballs.glsl in f32, line by line: Bézier clipping over the
+//! ray's chords gathered from the ball list, for rays with more supports on one point than the
+//! slots hold. The rounds, the windows and why they end are in the shader's comments.
+
+use std::cmp::Ordering;
 
 use glam::Vec3;
 
@@ -12,6 +14,8 @@ use super::{
 
 /// `MB_STREAM_WALKS`: walks per chord end a streamed cast may spend.
 pub const MB_STREAM_WALKS: u32 = 300;
+/// `MB_CACHE_BALLS`: the chords a streamed cast keeps per round.
+pub const MB_CACHE_BALLS: usize = 128;
 
 /// `mb_ball_chord`: the support chord [en, ex] and a = D/R², or None when the ray misses it.
 fn mb_ball_chord(ball: &GpuMetaBall, r: &MetaRay) -> Option<([f32; 2], f32)> {
@@ -27,10 +31,139 @@ fn mb_ball_chord(ball: &GpuMetaBall, r: &MetaRay) -> Option<([f32; 2], f32)> {
     (dd > 0.0).then_some((ct, a))
 }
 
-/// The list's balls in order (the twin reads the whole list: `MB_LIST_SORTED` only skips balls
-/// that cannot meet the window, so it changes the cost, not the answer).
-fn walk<'a>(balls: &'a [GpuMetaBall], list: &'a [u32]) -> impl Iterator<Item = &'a GpuMetaBall> + 'a {
-    list.iter().map(move |&id| &balls[id as usize])
+/// A chord the windows walk: a cache slot (`mb_cache_chord`, `mb_cache_meta`), or a ball of the
+/// list with its chord computed again.
+#[derive(Clone, Copy)]
+struct Chord {
+    ct: [f32; 2],
+    a: f32,
+    q: f32,
+    g_term: f32,
+    id: u32,
+}
+
+/// The chords of the list's balls that the ray crosses, in list order: what the walks over the
+/// whole list see (the shader's sorted walks only leave out balls that cannot meet the window, so
+/// that changes the cost, not the sums).
+fn list_chords(balls: &[GpuMetaBall], list: &[u32], r: &MetaRay) -> Vec<Chord> {
+    list.iter()
+        .filter_map(|&id| {
+            let ball = &balls[id as usize];
+            let (ct, a) = mb_ball_chord(ball, r)?;
+            Some(Chord { ct, a, q: ball.coeffs[0], g_term: ball.coeffs[2], id })
+        })
+        .collect()
+}
+
+/// The gather (`mb_cache_gather` over the list): the first [`MB_CACHE_BALLS`] chords meeting
+/// [t_cur, limit), in list order, and `limit`: the entry of the first one left out.
+fn gather(balls: &[GpuMetaBall], list: &[u32], r: &MetaRay, t_cur: f32, t_end: f32) -> (Vec<Chord>, f32) {
+    let mut cache = Vec::with_capacity(MB_CACHE_BALLS);
+    let mut limit = t_end;
+    for chord in list_chords(balls, list, r) {
+        if chord.ct[1] > t_cur && chord.ct[0] < limit {
+            if cache.len() < MB_CACHE_BALLS {
+                cache.push(chord);
+            } else {
+                limit = limit.min(chord.ct[0]);
+            }
+        }
+    }
+    (cache, limit)
+}
+
+/// `MB_CLIP_WINDOWS`: Bézier clipping by windows over `chords` from t_cur to t_end; the root's t′,
+/// or None (with `MB_NOT_CONVERGED` in `hit` when the walks ran out).
+fn clip_windows(
+    g: &GpuMetaGroup,
+    chords: &[Chord],
+    r: &MetaRay,
+    t_cur: &mut f32,
+    t_end: f32,
+    hit: &mut MetaHitF32,
+) -> Option<f32> {
+    let kernel = g.info[0];
+    let tt = g.params[0];
+    let x = r.o.length();
+    let mut t_hi = t_end;
+    let mut walks = 0u32;
+    let max_walks = MB_STREAM_WALKS * (2 * (chords.len() as u32).min(1 << 20) + 1);
+    while *t_cur < t_end {
+        if walks >= max_walks {
+            hit.flags |= MB_NOT_CONVERGED;
+            return None;
+        }
+        walks += 1;
+        // Walk 1 (mb_bound_step): the next chord end and the field bound over the window.
+        let mut t_next = t_end;
+        let mut bound = 0.0f32;
+        for ch in chords {
+            let ct = ch.ct;
+            if !(ct[1] > *t_cur && ct[0] < t_hi) {
+                continue;
+            }
+            t_next = t_next.min(if ct[0] > *t_cur { ct[0] } else { ct[1] });
+            let half_chord = 0.5 * (ct[1] - ct[0]);
+            let mid = ct[0] + half_chord;
+            let s0 = (t_cur.max(ct[0]) - mid) / half_chord;
+            let s1 = (t_hi.min(ct[1]) - mid) / half_chord;
+            let s2 = if s0 <= 0.0 && s1 >= 0.0 { 0.0 } else { (s0 * s0).min(s1 * s1) };
+            bound += ch.q.max(0.0) * mb_kernel(kernel, 1.0 - ch.a * (1.0 - s2));
+        }
+        // mb_window_skip
+        if bound < tt - mb_delta(bound + tt, x + t_hi, 0.0) {
+            let width = t_hi - *t_cur;
+            *t_cur = t_hi;
+            t_hi = (*t_cur + 2.0 * width).min(t_end);
+            continue;
+        }
+        t_hi = t_hi.min(t_next);
+        // Walk 2 (mb_piece_step): the piece's coefficients.
+        let mut c = [-tt; 7];
+        let mut scale = [0.0f32; 7];
+        let mut gsum = 0.0f32;
+        for ch in chords {
+            let ct = ch.ct;
+            if !(ct[0] <= *t_cur && ct[1] > *t_cur) {
+                continue;
+            }
+            let chord = ct[1] - ct[0];
+            let mut dj = [0.0f32; 7];
+            mb_chord_bernstein(kernel, ch.a, ch.q, &mut dj);
+            mb_restrict(
+                &mut dj,
+                ((*t_cur - ct[0]) / chord).clamp(0.0, 1.0),
+                ((t_hi - ct[0]) / chord).clamp(0.0, 1.0),
+            );
+            for k in 0..7 {
+                c[k] += dj[k];
+                scale[k] += dj[k].abs();
+            }
+            gsum += ch.g_term;
+        }
+        // mb_piece_clip
+        let s = scale.iter().fold(0.0f32, |m, &v| m.max(v));
+        let delta = mb_delta(s + tt, x + t_hi, gsum);
+        let tol = g.params[1];
+        let alpha_tol = if tol > 0.0 { MB_ALPHA_TOL.max(tol * r.ts / (t_hi - *t_cur)) } else { MB_ALPHA_TOL };
+        let floor = MB_FLAT_C * MB_EPS * (s + tt);
+        let mut steps = 0u32;
+        let alpha = mb_first_root(&c, floor, delta, alpha_tol, &mut steps, &mut hit.flags);
+        hit.iterations += steps;
+        if hit.flags & MB_NOT_CONVERGED != 0 {
+            return None;
+        }
+        if alpha >= 0.0 {
+            if mb_shallow_root(&c, alpha, delta) {
+                hit.flags |= super::MB_TANGENT;
+            }
+            return Some(*t_cur + alpha * (t_hi - *t_cur));
+        }
+        let width = t_hi - *t_cur;
+        *t_cur = t_hi;
+        t_hi = (*t_cur + 2.0 * width).min(t_end);
+    }
+    None
 }
 
 /// `mb_clip_stream`: the first crossing of F = T with t′ ∈ [t0, t_end] over every ball of `list`.
@@ -46,92 +179,97 @@ pub(super) fn clip_stream(
     mut hit: MetaHitF32,
 ) -> MetaHitF32 {
     let kernel = g.info[0];
-    let tt = g.params[0];
-    let x = r.o.length();
-    let (mut t_cur, mut t_hi) = (t0, t_end);
-    let mut walks = 0u32;
-    let max_walks = MB_STREAM_WALKS * (2 * (list.len() as u32).min(1 << 20) + 1);
-    let mut found = None;
-    while found.is_none() && t_cur < t_end {
-        if walks >= max_walks {
-            hit.flags |= MB_NOT_CONVERGED;
-            return hit;
+    let mut t_cur = t0;
+    // Rounds over the cache; where more than MB_CACHE_BALLS chords contain t_cur, the rest by
+    // windows over the whole list. `cached`: the chords of the round that found the root.
+    let (found, cached) = loop {
+        let (chords, limit) = gather(balls, list, r, t_cur, t_end);
+        // The shader's `!(limit > t_cur)`, NaN included.
+        if limit.partial_cmp(&t_cur) != Some(Ordering::Greater) {
+            break (clip_windows(g, &list_chords(balls, list, r), r, &mut t_cur, t_end, &mut hit), None);
         }
-        walks += 1;
-        let mut t_next = t_end;
-        let mut bound = 0.0f32;
-        for ball in walk(balls, list) {
-            let Some((ct, a)) = mb_ball_chord(ball, r) else { continue };
-            if !(ct[1] > t_cur && ct[0] < t_hi) {
-                continue;
-            }
-            t_next = t_next.min(if ct[0] > t_cur { ct[0] } else { ct[1] });
-            let half_chord = 0.5 * (ct[1] - ct[0]);
-            let mid = ct[0] + half_chord;
-            let s0 = (t_cur.max(ct[0]) - mid) / half_chord;
-            let s1 = (t_hi.min(ct[1]) - mid) / half_chord;
-            let s2 = if s0 <= 0.0 && s1 >= 0.0 { 0.0 } else { (s0 * s0).min(s1 * s1) };
-            bound += ball.coeffs[0].max(0.0) * mb_kernel(kernel, 1.0 - a * (1.0 - s2));
+        let found = clip_windows(g, &chords, r, &mut t_cur, limit, &mut hit);
+        if found.is_some() || hit.flags & MB_NOT_CONVERGED != 0 {
+            break (found, Some(chords));
         }
-        if bound < tt - mb_delta(bound + tt, x + t_hi, 0.0) {
-            let width = t_hi - t_cur;
-            t_cur = t_hi;
-            t_hi = (t_cur + 2.0 * width).min(t_end);
-            continue;
+        t_cur = limit;
+        if t_cur.partial_cmp(&t_end) != Some(Ordering::Less) {
+            break (None, None);
         }
-        t_hi = t_hi.min(t_next);
-        let mut c = [-tt; 7];
-        let mut scale = [0.0f32; 7];
-        let mut gsum = 0.0f32;
-        for ball in walk(balls, list) {
-            let Some((ct, a)) = mb_ball_chord(ball, r) else { continue };
-            if !(ct[0] <= t_cur && ct[1] > t_cur) {
-                continue;
-            }
-            let chord = ct[1] - ct[0];
-            let mut dj = [0.0f32; 7];
-            mb_chord_bernstein(kernel, a, ball.coeffs[0], &mut dj);
-            mb_restrict(
-                &mut dj,
-                ((t_cur - ct[0]) / chord).clamp(0.0, 1.0),
-                ((t_hi - ct[0]) / chord).clamp(0.0, 1.0),
-            );
-            for k in 0..7 {
-                c[k] += dj[k];
-                scale[k] += dj[k].abs();
-            }
-            gsum += ball.coeffs[2];
-        }
-        let s = scale.iter().fold(0.0f32, |m, &v| m.max(v));
-        let delta = mb_delta(s + tt, x + t_hi, gsum);
-        let tol = g.params[1];
-        let alpha_tol = if tol > 0.0 { MB_ALPHA_TOL.max(tol * r.ts / (t_hi - t_cur)) } else { MB_ALPHA_TOL };
-        let floor = MB_FLAT_C * MB_EPS * (s + tt);
-        let mut steps = 0u32;
-        let alpha = mb_first_root(&c, floor, delta, alpha_tol, &mut steps, &mut hit.flags);
-        hit.iterations += steps;
-        if hit.flags & MB_NOT_CONVERGED != 0 {
-            return hit;
-        }
-        if alpha >= 0.0 {
-            if mb_shallow_root(&c, alpha, delta) {
-                hit.flags |= super::MB_TANGENT;
-            }
-            found = Some(t_cur + alpha * (t_hi - t_cur));
-        } else {
-            let width = t_hi - t_cur;
-            t_cur = t_hi;
-            t_hi = (t_cur + 2.0 * width).min(t_end);
-        }
+    };
+    if hit.flags & MB_NOT_CONVERGED != 0 {
+        return hit;
     }
     let Some(t_found) = found else { return hit };
+    // The normal: ∇F over the round's cached balls when the cache found it (every ball containing
+    // the point is there), else over the whole list (the others add nothing).
     let p = r.o + r.d * t_found;
+    let ids: Vec<u32> = match cached {
+        Some(chords) => chords.iter().map(|c| c.id).collect(),
+        None => list.to_vec(),
+    };
     let mut grad = Vec3::ZERO;
-    for ball in walk(balls, list) {
+    for id in ids {
+        let ball = &balls[id as usize];
         let w = p - v3(ball.centre_radius);
         let inv_r2 = 1.0 / (ball.centre_radius[3] * ball.centre_radius[3]);
         grad += w * (2.0 * ball.coeffs[0] * inv_r2 * mb_kernel_deriv(kernel, w.dot(w) * inv_r2));
     }
     super::finish_grad(&mut hit, g, r, dir, grad, t_found);
     hit
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::effects::metaballs_f32::{gpu_balls, PackedGroup};
+    use crate::testing::{crowded_metaballs, crowded_tube, Rng};
+    use glam::DVec3;
+
+    /// The object-space ray from +z through the middle of a crowd (as the tests' rays go).
+    fn ray_through(g: &crate::effects::metaballs::MetaballGroupParams) -> MetaRay {
+        let ray = g.transform.ray_to_object(
+            g.transform.transform_point(DVec3::new(0.0, 0.0, 10.0)),
+            g.transform.transform_point(DVec3::new(0.05, -0.05, -1.35))
+                - g.transform.transform_point(DVec3::new(0.0, 0.0, 10.0)),
+        );
+        MetaRay { o: ray.origin.as_vec3(), d: ray.dir.as_vec3(), ts: ray.t_scale as f32 }
+    }
+
+    /// The crowds the tests cast do take each way through `clip_stream`: a crowd of 150 puts more
+    /// chords than the cache holds on one point (the rest of the ray walks the whole list), a tube
+    /// of 300 fills the cache with chords met one after another (several rounds), a crowd of 48
+    /// fits in one round.
+    #[test]
+    fn the_test_crowds_take_every_path() {
+        let mut rng = Rng(7);
+        let rounds = |g: &crate::effects::metaballs::MetaballGroupParams| {
+            let balls = gpu_balls(g);
+            let list: Vec<u32> = (0..balls.len() as u32).collect();
+            let r = ray_through(g);
+            let (mut t_cur, mut rounds) = (0.1 * r.ts, 0);
+            loop {
+                let (chords, limit) = gather(&balls, &list, &r, t_cur, 100.0 * r.ts);
+                rounds += 1;
+                if limit <= t_cur {
+                    return (rounds, true);
+                }
+                if limit >= 100.0 * r.ts {
+                    return (rounds, false);
+                }
+                assert_eq!(chords.len(), MB_CACHE_BALLS);
+                t_cur = limit;
+            }
+        };
+        assert_eq!(rounds(&crowded_metaballs(&mut rng, 48)), (1, false));
+        assert!(rounds(&crowded_metaballs(&mut rng, 150)).1, "150 on a point: past the cache");
+        let (n, past) = rounds(&crowded_tube(&mut rng, 300));
+        assert!(n >= 2 && !past, "the tube: {n} rounds");
+        // And the twin's whole cast goes through the rounds to the surface behind the tube.
+        let g = crowded_tube(&mut rng, 300);
+        let eye = g.transform.transform_point(DVec3::new(0.0, 0.0, 10.0));
+        let target = g.transform.transform_point(DVec3::new(0.05, -0.05, -1.35));
+        let hit = PackedGroup::new(&g).cast(eye, (target - eye).normalize(), 0.1, 100.0);
+        assert!(hit.hit() && hit.flags & super::super::MB_STREAMED != 0, "{hit:?}");
+    }
 }
