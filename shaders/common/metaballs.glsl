@@ -118,6 +118,13 @@ const float MB_W6_B2 = 0.5925926;    // 16/27
 const float MB_W6_B3 = 0.17777778;   // 8/45
 const float MB_M4_B2 = 1.0666667;    // 16/15
 const float MB_M4_B3 = 1.6;          // 8/5
+// wyvill6 f = (1 − r′)²·(MB_W6_M0 + MB_W6_M1·(1 − r′)) (mb_piece_bernstein), and its weights.
+const float MB_W6_M0 = 0.5555556;    // 5/9
+const float MB_W6_M1 = 0.44444445;   // 4/9
+const float MB_THIRD = 0.33333334;
+const float MB_TWO_THIRDS = 0.6666667;
+const float MB_15TH = 0.06666667;
+const float MB_EIGHT_15THS = 0.53333336;
 
 float mb_kernel(uint kernel, float rp) {
     if (rp >= 1.0) return 0.0;
@@ -623,15 +630,49 @@ void mb_bound_step(uint kernel, bool meets, vec2 ct, float a, float q, float t_c
     }
 }
 
+// q·f over the part [t0, t1] of the chord [ct.x, ct.y] (a = D/R²) that holds it, as 7 Bernstein
+// coefficients: mb_chord_bernstein's polynomial restricted to the part, built from the product
+// form 1 − r′ = 4a·(t − entry)(exit − t)/chord² (both factors ≥ 0 on the chord: no cancellation)
+// and multiplied out in the Bernstein basis: wyvill6 f = (1 − r′)²·(5/9 + 4/9·(1 − r′)),
+// murakami4 f = (1 − r′)². Half the arithmetic of mb_restrict's two de Casteljau passes.
+void mb_piece_bernstein(uint kernel, vec2 ct, float a, float q, float t0, float t1, out float d[7]) {
+    float inv = 1.0 / (ct.y - ct.x);
+    float u0 = (t0 - ct.x) * inv;
+    float u1 = (t1 - ct.x) * inv;
+    float v0 = (ct.y - t0) * inv;
+    float v1 = (ct.y - t1) * inv;
+    float a4 = 4.0 * a;
+    // 1 − r′ (degree 2), its square (degree 4), and q·(5/9 + 4/9·(1 − r′)) or q (degree 2).
+    float p0 = a4 * (u0 * v0);
+    float p1 = a4 * (0.5 * (u0 * v1 + u1 * v0));
+    float p2 = a4 * (u1 * v1);
+    float s0 = p0 * p0;
+    float s1 = p0 * p1;
+    float s2 = (p0 * p2 + 2.0 * (p1 * p1)) * MB_THIRD;
+    float s3 = p1 * p2;
+    float s4 = p2 * p2;
+    bool w6 = kernel == MB_KERNEL_WYVILL6;
+    float m0 = q * (w6 ? MB_W6_M0 + MB_W6_M1 * p0 : 1.0);
+    float m1 = q * (w6 ? MB_W6_M0 + MB_W6_M1 * p1 : 1.0);
+    float m2 = q * (w6 ? MB_W6_M0 + MB_W6_M1 * p2 : 1.0);
+    // The product of degrees 4 and 2: d_k = Σ C(4,i)·C(2,j)/C(6,k)·s_i·m_j over i + j = k.
+    d[0] = s0 * m0;
+    d[1] = (s1 * m0) * MB_TWO_THIRDS + (s0 * m1) * MB_THIRD;
+    d[2] = (s2 * m0) * 0.4 + (s1 * m1) * MB_EIGHT_15THS + (s0 * m2) * MB_15TH;
+    d[3] = (s3 * m0) * 0.2 + (s2 * m1) * 0.6 + (s1 * m2) * 0.2;
+    d[4] = (s4 * m0) * MB_15TH + (s3 * m1) * MB_EIGHT_15THS + (s2 * m2) * 0.4;
+    d[5] = (s4 * m1) * MB_THIRD + (s3 * m2) * MB_TWO_THIRDS;
+    d[6] = s4 * m2;
+}
+
 // Walk 2, one chord (as mb_bound_step; g_term its |q|γ/R): its share of the piece [t_cur, t_hi]
-// (Bernstein coefficients c, their magnitudes `scale`, and G), when the chord contains t_cur.
+// (Bernstein coefficients c, their magnitudes `scale`, and G), when the chord contains t_cur (and
+// so the piece: no chord ends inside one).
 void mb_piece_step(uint kernel, bool meets, vec2 ct, float a, float q, float g_term, float t_cur, float t_hi,
                    inout float c[7], inout float scale[7], inout float G) {
     if (meets && ct.x <= t_cur && ct.y > t_cur) {
-        float chord = ct.y - ct.x;
         float dj[7];
-        mb_chord_bernstein(kernel, a, q, dj);
-        mb_restrict(dj, clamp((t_cur - ct.x) / chord, 0.0, 1.0), clamp((t_hi - ct.x) / chord, 0.0, 1.0));
+        mb_piece_bernstein(kernel, ct, a, q, t_cur, t_hi, dj);
         for (int j = 0; j < 7; ++j) {
             c[j] += dj[j];
             scale[j] += abs(dj[j]);
@@ -733,8 +774,8 @@ bool mb_window_skip(float B, float T, float X, float t_next, float t_end, inout 
 // After walk 2: clips the piece [t_cur, t_hi] (its coefficients c − T, magnitudes, G) exactly as
 // mb_clip_slots clips an interval (same δ, floors, tolerance, and MB_MAX_ITERATIONS per piece;
 // MB_TANGENT from the clipping only). True with t_found at a root; else, without one, the next
-// window is twice the piece.
-bool mb_piece_clip(MetaGroup g, MetaRay r, float c[7], float scale[7], float G, float X, float t_end,
+// window is twice the larger of the piece and an eighth of the window that held it (`window`).
+bool mb_piece_clip(MetaGroup g, MetaRay r, float c[7], float scale[7], float G, float X, float t_end, float window,
                    inout float t_cur, inout float t_hi, inout MetaHit hit, inout float t_found) {
     float T = g.params.x;
     float S = 0.0;
@@ -751,23 +792,27 @@ bool mb_piece_clip(MetaGroup g, MetaRay r, float c[7], float scale[7], float G, 
         t_found = t_cur + alpha * (t_hi - t_cur);
         return true;
     }
-    float width = t_hi - t_cur;
+    float width = max(t_hi - t_cur, 0.125 * window);
     t_cur = t_hi;
     t_hi = min(t_cur + 2.0 * width, t_end);
     return false;
 }
 
 // Bézier clipping by windows: the first crossing of F = T with t′ ∈ [t_cur, t_end] over `count`
-// chords, walked by WALK_BOUND(k, i) and WALK_PIECE(k, i) (chord k + i; false past the last one
-// the walk needs). A first walk finds the next chord end t_next and the field bound (mb_field_bound's,
-// over every chord meeting the window) on the window [t_cur, t_hi]: where it shows no root the
-// window is skipped and the next one is twice as wide; otherwise a second walk sums the
-// coefficients of the window's first piece [t_cur, min(t_hi, t_next)] — no chord end inside, so
-// one polynomial (seed 2.2) — and clips it; the next window is twice that piece. Every window ends
-// at a chord end or doubles, so a cast takes at most one piece per chord end and one walk per
-// doubling across the f32 range between them, hence the guard (MB_STREAM_WALKS); past it,
-// MB_NOT_CONVERGED. Sets `found` and t_found.
-#define MB_CLIP_WINDOWS(count, START, WALK_BOUND, WALK_PIECE)                                     \
+// chords, walked from START by WALK_BOUND(k, i) and WALK_PIECE(k, i) (chord k + i; false past the
+// last one the walk needs), block by block while WALK_ON(k). A first walk finds the next chord
+// end t_next and the field bound (mb_field_bound's, over every chord meeting the window) on the
+// window [t_cur, t_hi]: where it shows no root the window is skipped and the next one is twice as
+// wide; otherwise a second walk sums the coefficients of the window's first piece
+// [t_cur, min(t_hi, t_next)] — no chord end inside, so one polynomial (seed 2.2) — and clips it;
+// the next window is twice the larger of that piece and an eighth of the window: near a root the
+// chord ends crowd, and windows grown again from each short piece would take a walk per piece
+// (lavapipe runs a walk for the whole SIMD group when one lane needs it, so the count of walks is
+// the cost: measured 0.81× the pass time on the dense fluid). Every window ends at a chord end or
+// is skipped, so a cast takes at most one piece per chord end and one walk per doubling across
+// the f32 range between them, hence the guard (MB_STREAM_WALKS); past it, MB_NOT_CONVERGED. Sets
+// `found` and t_found.
+#define MB_CLIP_WINDOWS(count, START, WALK_BOUND, WALK_PIECE, WALK_ON)                            \
     {                                                                                      \
         float t_hi = t_end;                                                                \
         uint walks = 0u;                                                                   \
@@ -786,7 +831,9 @@ bool mb_piece_clip(MetaGroup g, MetaRay r, float c[7], float scale[7], float G, 
             do {                                                                           \
                 MB_STREAM_BLOCK(more = WALK_BOUND(k, uint(i)))                             \
                 k += MB_STREAM_UNROLL;                                                     \
+                more = more && WALK_ON(k);                                                 \
             } while (more);                                                                \
+            float window = t_hi - t_cur;                                                   \
             if (mb_window_skip(B, T, X, t_next, t_end, t_cur, t_hi)) continue;             \
             float c[7];                                                                    \
             float scale[7];                                                                \
@@ -800,8 +847,9 @@ bool mb_piece_clip(MetaGroup g, MetaRay r, float c[7], float scale[7], float G, 
             do {                                                                           \
                 MB_STREAM_BLOCK(more = WALK_PIECE(k, uint(i)))                             \
                 k += MB_STREAM_UNROLL;                                                     \
+                more = more && WALK_ON(k);                                                 \
             } while (more);                                                                \
-            found = mb_piece_clip(g, r, c, scale, G, X, t_end, t_cur, t_hi, hit, t_found); \
+            found = mb_piece_clip(g, r, c, scale, G, X, t_end, window, t_cur, t_hi, hit, t_found); \
             if ((hit.flags & MB_NOT_CONVERGED) != 0u) break;                               \
         }                                                                                  \
     }
@@ -811,29 +859,36 @@ bool mb_piece_clip(MetaGroup g, MetaRay r, float c[7], float scale[7], float G, 
     mb_stream_bound(kernel, r, list_begin + k + i, k + i < list_count, t_cur, t_hi, t_next, B)
 #define MB_RUN_PIECE(k, i) \
     mb_stream_piece(kernel, r, list_begin + k + i, k + i < list_count, t_cur, t_hi, c, scale, G)
-// … and over the cache (its first n chords).
+#define MB_RUN_ON(k) true
+// … and over the cache (its first n chords), block by block while the block's first key (sorted:
+// a lower bound of every later entry) lies before the window's end.
 #define MB_CACHE_BOUND(k, i) mb_cache_bound(kernel, k + i, n, t_cur, t_hi, t_next, B, dead, first)
+#define MB_CACHE_ON(k) mb_cache_on(k, n, t_hi)
 #define MB_CACHE_PIECE(k, i) mb_cache_piece(kernel, k + i, n, t_cur, t_hi, c, scale, G)
 
+// Chord j of the cache (j ≥ n: none) in walk 1; `first` moves past a prefix of chords that end
+// before t_cur (no later window meets them: t_cur only grows).
 bool mb_cache_bound(uint kernel, uint j, uint n, float t_cur, float t_hi, inout float t_next, inout float B,
                     inout bool dead, inout uint first) {
-    uint s = min(j, uint(MB_CACHE_BALLS - 1));
-    vec4 ch = mb_cache_chord[s];
-    bool in_window = j < n && (MB_LIST_SORTED == 0 || mb_cache_key[s] < t_hi);
-    mb_bound_step(kernel, in_window, ch.xy, ch.z, ch.w, t_cur, t_hi, t_next, B);
-    // Chords before `first` end before t_cur: no later window meets them.
+    vec4 ch = mb_cache_chord[min(j, uint(MB_CACHE_BALLS - 1))];
+    mb_bound_step(kernel, j < n, ch.xy, ch.z, ch.w, t_cur, t_hi, t_next, B);
     dead = dead && j < n && !(ch.y > t_cur);
     if (dead) first = j + 1u;
-    return in_window && j + 1u < n;
+    return j + 1u < n;
 }
 
+// Chord j of the cache in walk 2.
 bool mb_cache_piece(uint kernel, uint j, uint n, float t_cur, float t_hi, inout float c[7], inout float scale[7],
                     inout float G) {
     uint s = min(j, uint(MB_CACHE_BALLS - 1));
     vec4 ch = mb_cache_chord[s];
-    bool in_window = j < n && (MB_LIST_SORTED == 0 || mb_cache_key[s] < t_hi);
-    mb_piece_step(kernel, in_window, ch.xy, ch.z, ch.w, mb_cache_meta[s].x, t_cur, t_hi, c, scale, G);
-    return in_window && j + 1u < n;
+    mb_piece_step(kernel, j < n, ch.xy, ch.z, ch.w, mb_cache_meta[s].x, t_cur, t_hi, c, scale, G);
+    return j + 1u < n;
+}
+
+// Whether a walk of the cache goes on at chord k (the next block's first).
+bool mb_cache_on(uint k, uint n, float t_hi) {
+    return k < n && (MB_LIST_SORTED == 0 || mb_cache_key[min(k, uint(MB_CACHE_BALLS - 1))] < t_hi);
 }
 
 // Bézier clipping streamed from the list itself: the first crossing of F = T with t′ ∈ [t0, t_end]
@@ -871,14 +926,14 @@ MetaHit mb_clip_stream(MetaGroup g, MetaRay r, vec3 dir, uint list_begin, uint l
         }
         float t_end = limit;
         uint first = 0u;
-        MB_CLIP_WINDOWS(n, first, MB_CACHE_BOUND, MB_CACHE_PIECE)
+        MB_CLIP_WINDOWS(n, first, MB_CACHE_BOUND, MB_CACHE_PIECE, MB_CACHE_ON)
         if (found || (hit.flags & MB_NOT_CONVERGED) != 0u) break;
         t_cur = limit;
     } while (t_cur < t_end_ray);
     if (!cached) {
         float t_end = t_end_ray;
         uint first = 0u;
-        MB_CLIP_WINDOWS(list_count, 0u, MB_RUN_BOUND, MB_RUN_PIECE)
+        MB_CLIP_WINDOWS(list_count, 0u, MB_RUN_BOUND, MB_RUN_PIECE, MB_RUN_ON)
     }
     if ((hit.flags & MB_NOT_CONVERGED) != 0u || !found) return hit;
     // The normal: ∇F over the balls whose support contains the point (others add nothing); every
