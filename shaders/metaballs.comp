@@ -129,18 +129,23 @@ layout(push_constant) uniform MetaballParams {
 #define STAT_MAX_ITERATIONS 3
 #define STAT_STREAMED 4        // casts streamed from the run (mb_clip_stream): a ball
                                // containing `from` found no slot (more than MB_MAX_RAY_BALLS
-                               // supports there, or the subgroup's other rays filled them)
+                               // supports there, or the subgroup's other rays filled them), or
+                               // a crowded group's long run skipped its rounds (RUN_CROWDED)
 
 // Keep in sync with RUN_LONE_BOUND in crates/hadou/src/passes/metaballs.rs: all q ≥ 0 and F = 0 on the near
 // plane, so F > T at a point well inside one ball's lone isosurface sphere bounds the first hit.
 #define RUN_LONE_BOUND 1u
 // Keep in sync with RUN_TRACE in crates/hadou/src/passes/metaballs.rs: the group is sphere-traced.
 #define RUN_TRACE 2u
+// Keep in sync with RUN_CROWDED in crates/hadou/src/passes/metaballs.rs: the group's supports
+// overlap deeper than the slots hold, so its runs go to the streamed cast without slot rounds.
+#define RUN_CROWDED 4u
 
 const float HALF_MAX = 65504.0;
-// Runs of at least this many balls are cast streamed without slot rounds (main, below; measured
-// 0.9× the pass time on the dense fluid at 256²).
-const uint STREAM_RUN = 1024u;
+// A crowded group's runs of at least this many balls (eight rounds of 32 slots) are cast
+// streamed without slot rounds (main, below; measured on the dense fluid at 256²: 0.85× the pass
+// time of keeping every run's rounds, 0.9× of streaming every run of the group at once).
+const uint STREAM_RUN = 256u;
 // Blinn-Phong: a white highlight of this strength and exponent on every metaball material.
 const float SPECULAR = 0.25;
 const float SHININESS = 48.0;
@@ -353,10 +358,10 @@ void main() {
         bool live = inside && t_max >= t_min;
         bool lone_bound = (run.w & RUN_LONE_BOUND) != 0u;
         bool stuck = false;  // no step forward: stream the rest
-        // A run this long goes to the streamed cast at once, exact either way: its rounds take
-        // MB_CACHE_BALLS chords per walk of the run where these take 32 for the whole subgroup,
-        // and such runs are where supports crowd (the dense fluid's hold 1,520–2,720 balls).
-        if (run.z >= STREAM_RUN && live) {
+        // A crowded group's long runs would end their rounds crowded on most rays: straight to
+        // the streamed cast (exact either way). Its short runs (a silhouette's tiles, rays that
+        // meet few supports) keep their rounds, which finish most of those rays.
+        if ((run.w & RUN_CROWDED) != 0u && run.z >= STREAM_RUN && live) {
             live = false;
             streamed += 1u;
             mark_pending(r, pending_lo, pending_hi, pending_rest);

@@ -31,7 +31,7 @@ use crate::gpu::texel_buffer::{TexelBuffer, Texels};
 use crate::gpu::{vk, GpuContext, GpuError, GpuResult};
 use crate::scene::camera::Camera;
 
-use super::metaballs::{sphere_tiles, TileLists, RUN_TRACE, TILE, TILES_PER_ROW};
+use super::metaballs::{crowded, sphere_tiles, TileLists, RUN_CROWDED, RUN_TRACE, TILE, TILES_PER_ROW};
 
 /// The most balls (all groups together) one frame bins: 17 bits of the sort key (and the fill
 /// stays within lavapipe's loop budget of 65,535 iterations per invocation: ~20 per chunk of 64
@@ -59,7 +59,8 @@ pub struct BinGroup {
     /// xyz: the camera in the group's object space (f64, rounded once); w: the world radius of a
     /// support of radius 1 (the transform's largest singular value, `world_bound`).
     pub origin: [f32; 4],
-    /// x: first ball, y: ball count, z: the run flags the host knows ([`RUN_TRACE`]), w: 0.
+    /// x: first ball, y: ball count, z: the run flags the host knows ([`RUN_TRACE`],
+    /// [`RUN_CROWDED`]), w: 0.
     pub info: [u32; 4],
 }
 
@@ -74,9 +75,10 @@ impl BinGroup {
             None => 0.0,
         };
         let trace = if matches!(group.method, CastMethod::SphereTrace { .. }) { RUN_TRACE } else { 0 };
+        let crowd = if crowded(group) { RUN_CROWDED } else { 0 };
         BinGroup {
             origin: [o.x as f32, o.y as f32, o.z as f32, scale as f32],
-            info: [first, group.balls.len() as u32, trace, 0],
+            info: [first, group.balls.len() as u32, trace | crowd, 0],
         }
     }
 }
