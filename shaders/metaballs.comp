@@ -143,8 +143,9 @@ layout(push_constant) uniform MetaballParams {
 
 const float HALF_MAX = 65504.0;
 // A crowded group's runs of at least this many balls (eight rounds of 32 slots) are cast
-// streamed without slot rounds (main, below; measured on the dense fluid at 256²: 0.85× the pass
-// time of keeping every run's rounds, 0.9× of streaming every run of the group at once).
+// streamed without slot rounds (main, below; measured on the dense fluid at 256²: 0.8× the pass
+// time of keeping every run's rounds; streaming every run of the group was no faster).
+// docs/PERFORMANCE.md, "The dense fluid 5× faster".
 const uint STREAM_RUN = 256u;
 // Blinn-Phong: a white highlight of this strength and exponent on every metaball material.
 const float SPECULAR = 0.25;

@@ -191,7 +191,7 @@ pub const RUN_CROWDED: u32 = 4;
 /// Whether a group crowds its supports: their volumes summed, over the volume of their bounding
 /// box (a ratio no linear transform changes), is at least [`MB_MAX_RAY_BALLS`] = 32 — the mean
 /// number of supports on a point of the box. The slot rounds of such a group end crowded on most
-/// rays, so its long runs skip them (measured: the dense fluid, ~58 deep by this count, 0.85× the
+/// rays, so its long runs skip them (measured: the dense fluid, ~58 deep by this count, 0.8× the
 /// pass time; the 10,000-ball swarm, ~2 deep, keeps its rounds, which streaming would double).
 /// Exact either way: it only picks the faster path. A group whose balls live on the device (a
 /// game's buffer) is never flagged.
