@@ -681,29 +681,41 @@ void mb_piece_step(uint kernel, bool meets, vec2 ct, float a, float q, float g_t
     }
 }
 
-// Walk 1 over the list, one ball. False past the list's end or, sorted, past the window (so are
-// all later balls).
+// Ball `index` of the list and its chord (`meets`: the ray crosses its support). False past the
+// list's end or, sorted, past `walk_end` (so are all later balls).
+bool mb_list_chord(MetaRay r, uint index, bool listed, float walk_end, out MetaBall ball, out bool meets,
+                   out vec2 ct, out float a) {
+    ball = MetaBall(vec4(0.0), vec4(0.0));
+    meets = false;
+    ct = vec2(0.0);
+    a = 0.0;
+    if (!listed) return false;
+    ball = MB_BALL(MB_INDEX(index));
+    if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= walk_end) return false;
+    meets = mb_ball_chord(ball, r, ct, a);
+    return true;
+}
+
+// Walk 1 over the list, one ball. False as mb_list_chord, past the window.
 bool mb_stream_bound(uint kernel, MetaRay r, uint index, bool listed, float t_cur, float t_hi,
                      inout float t_next, inout float B) {
-    if (!listed) return false;
-    MetaBall ball = MB_BALL(MB_INDEX(index));
-    if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) return false;
+    MetaBall ball;
+    bool meets;
     vec2 ct;
     float a;
-    bool meets = mb_ball_chord(ball, r, ct, a);
+    if (!mb_list_chord(r, index, listed, t_hi, ball, meets, ct, a)) return false;
     mb_bound_step(kernel, meets, ct, a, ball.coeffs.x, t_cur, t_hi, t_next, B);
     return true;
 }
 
-// Walk 2 over the list, one ball. False as mb_stream_bound.
+// Walk 2 over the list, one ball. False as mb_list_chord, past the piece.
 bool mb_stream_piece(uint kernel, MetaRay r, uint index, bool listed, float t_cur, float t_hi,
                      inout float c[7], inout float scale[7], inout float G) {
-    if (!listed) return false;
-    MetaBall ball = MB_BALL(MB_INDEX(index));
-    if (MB_LIST_SORTED != 0 && mb_entry_key(ball, r.o) >= t_hi) return false;
+    MetaBall ball;
+    bool meets;
     vec2 ct;
     float a;
-    bool meets = mb_ball_chord(ball, r, ct, a);
+    if (!mb_list_chord(r, index, listed, t_hi, ball, meets, ct, a)) return false;
     mb_piece_step(kernel, meets, ct, a, ball.coeffs.x, ball.coeffs.z, t_cur, t_hi, c, scale, G);
     return true;
 }
@@ -932,7 +944,6 @@ MetaHit mb_clip_stream(MetaGroup g, MetaRay r, vec3 dir, uint list_begin, uint l
     } while (t_cur < t_end_ray);
     if (!cached) {
         float t_end = t_end_ray;
-        uint first = 0u;
         MB_CLIP_WINDOWS(list_count, 0u, MB_RUN_BOUND, MB_RUN_PIECE, MB_RUN_ON)
     }
     if ((hit.flags & MB_NOT_CONVERGED) != 0u || !found) return hit;

@@ -102,10 +102,12 @@ fn gather(balls: &[GpuMetaBall], list: &[u32], r: &MetaRay, t_cur: f32, t_end: f
 }
 
 /// `MB_CLIP_WINDOWS`: Bézier clipping by windows over `chords` from t_cur to t_end; the root's t′,
-/// or None (with `MB_NOT_CONVERGED` in `hit` when the walks ran out).
+/// or None (with `MB_NOT_CONVERGED` in `hit` when the walks ran out). `count`: what the shader's
+/// guard counts (the cache's chords, or the whole list's balls).
 fn clip_windows(
     g: &GpuMetaGroup,
     chords: &[Chord],
+    count: usize,
     r: &MetaRay,
     t_cur: &mut f32,
     t_end: f32,
@@ -116,7 +118,7 @@ fn clip_windows(
     let x = r.o.length();
     let mut t_hi = t_end;
     let mut walks = 0u32;
-    let max_walks = MB_STREAM_WALKS * (2 * (chords.len() as u32).min(1 << 20) + 1);
+    let max_walks = MB_STREAM_WALKS * (2 * (count.min(1 << 20) as u32) + 1);
     while *t_cur < t_end {
         if walks >= max_walks {
             hit.flags |= MB_NOT_CONVERGED;
@@ -208,9 +210,12 @@ pub(super) fn clip_stream(
         let (chords, limit) = gather(balls, list, r, t_cur, t_end);
         // The shader's `!(limit > t_cur)`, NaN included.
         if limit.partial_cmp(&t_cur) != Some(Ordering::Greater) {
-            break (clip_windows(g, &list_chords(balls, list, r), r, &mut t_cur, t_end, &mut hit), None);
+            break (
+                clip_windows(g, &list_chords(balls, list, r), list.len(), r, &mut t_cur, t_end, &mut hit),
+                None,
+            );
         }
-        let found = clip_windows(g, &chords, r, &mut t_cur, limit, &mut hit);
+        let found = clip_windows(g, &chords, chords.len(), r, &mut t_cur, limit, &mut hit);
         if found.is_some() || hit.flags & MB_NOT_CONVERGED != 0 {
             break (found, Some(chords));
         }
