@@ -839,8 +839,9 @@ fn sphere_tracing_matches_its_f64_twin() {
 }
 
 /// The dense fluid of assets/scenes/metaballs_dense.toml at 48×48, its golden size: ~140 supports
-/// on every point inside, tile runs of 1,520–2,720 balls, so most casts stream, walking long runs
-/// many times. Every surface the f64 reference finds (outside the band, capped) is found (its rim
+/// on every point inside, tile runs of 1,520–2,720 balls (a crowded group: its long runs skip the
+/// slot rounds), so most casts stream, gathering their chords from long runs in rounds. Every
+/// surface the f64 reference finds (outside the band, capped) is found (its rim
 /// pixels were missed while lavapipe's loop limit cut the streamed walks short, silently), at its
 /// depth and normal; nothing dropped.
 #[test]
