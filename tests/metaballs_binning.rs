@@ -1,11 +1,11 @@
 //! The metaballs pass's tile lists built on the device (shaders/metaballs_bin.comp) against their
 //! CPU twin (`passes::metaballs::bin_balls` with the device's f32 entry keys), on hard cases:
 //! balls off screen, behind the camera, straddling tile edges, one whose support holds the camera
-//! (the whole screen), none visible, two groups, 10,000 balls, and lists past the capacity (the
-//! shared lists every tile walks). The device's rectangles are computed in f32 and padded wider,
-//! so its lists may hold more balls than the twin's (none a ray of the tile meets); every ball the
-//! twin lists is there, in the twin's order, with the twin's run flags. Validation (with
-//! synchronization validation) must stay silent.
+//! (the whole screen), none visible, two groups, a crowded group's flag, 10,000 balls, and lists
+//! past the capacity (the shared lists every tile walks). The device's rectangles are computed in
+//! f32 and padded wider, so its lists may hold more balls than the twin's (none a ray of the tile
+//! meets); every ball the twin lists is there, in the twin's order, with the twin's run flags.
+//! Validation (with synchronization validation) must stay silent.
 
 mod common;
 
@@ -231,6 +231,22 @@ fn hard_cases_match_the_cpu_twin() {
             "{w}x{h}: {cpu} listed by the twin, {dev} by the device"
         );
     }
+}
+
+/// A crowded group (400 supports of radius 1–1.2 in a unit cube: ~55 deep) beside a sparse one:
+/// the device's runs carry RUN_CROWDED for the first only, as the twin's do.
+#[test]
+fn a_crowded_groups_flag_reaches_the_device_lists() {
+    use hadou::passes::metaballs::RUN_CROWDED;
+    let crowd = "generate = { count = 400, seed = 3, bounds = [[-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]], \
+                 radius = [1, 1.2], q = [0.001, 0.002], speed = 0 }";
+    let sparse = "balls = [{ centre = [2, 0, 0], radius = 0.5 }, { centre = [-2, 1, 0], radius = 0.4 }]";
+    let s = scene(CAMERA, &[crowd, sparse]);
+    let (cpu, _, overflow) = check(&s, 64, 48, 1 << 16);
+    assert!(!overflow && cpu > 400);
+    let (device, _) = device_lists(&s, 64, 48, 1 << 16);
+    assert_eq!(group_flags(&device, 0).map(|f| f & RUN_CROWDED), Some(RUN_CROWDED));
+    assert_eq!(group_flags(&device, 1).map(|f| f & RUN_CROWDED), Some(0));
 }
 
 #[test]

@@ -1,6 +1,8 @@
 //! The metaballs effect with its tile lists built on the device (`Metaballs::with_binning(
 //! Binning::Device)`, the opt-in) renders every byte as the default host binning does: the colour
-//! and the HDR, normal and depth AOVs of scenes with one group, 4,096 balls and a showcase world.
+//! and the HDR, normal and depth AOVs of scenes with one group, 4,096 balls, a showcase world and
+//! the dense fluid (a crowded group, cast streamed; its run flag on the device's lists:
+//! tests/metaballs_binning.rs).
 
 mod common;
 
@@ -29,7 +31,9 @@ fn render(scene: &str, binning: Binning) -> (Vec<u8>, Vec<u32>) {
 
 #[test]
 fn device_binning_renders_every_byte_as_host_binning() {
-    for scene in ["builtin:metaballs", "builtin:metaballs_4096", "builtin:showcase"] {
+    for scene in
+        ["builtin:metaballs", "builtin:metaballs_4096", "builtin:showcase", "builtin:metaballs_dense"]
+    {
         let (host, device) = (render(scene, Binning::Host), render(scene, Binning::Device));
         let colour = host.0.iter().zip(&device.0).filter(|(a, b)| a != b).count();
         let values = host.1.iter().zip(&device.1).filter(|(a, b)| a != b).count();
