@@ -360,8 +360,8 @@ void main() {
         bool lone_bound = (run.w & RUN_LONE_BOUND) != 0u;
         bool stuck = false;  // no step forward: stream the rest
         // A crowded group's long runs would end their rounds crowded on most rays: straight to
-        // the streamed cast (exact either way). Its short runs (a silhouette's tiles, rays that
-        // meet few supports) keep their rounds, which finish most of those rays.
+        // the streamed cast (exact either way). Its short runs (a silhouette's tiles) keep their
+        // rounds: streaming them too measured no faster.
         if ((run.w & RUN_CROWDED) != 0u && run.z >= STREAM_RUN && live) {
             live = false;
             streamed += 1u;

@@ -246,8 +246,7 @@ fn largest_singular_value(m: glam::DMat3) -> f64 {
         }
         v = w / lambda;
     }
-    let fro = (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt();
-    (lambda.sqrt() * (1.0 + 1e-9)).min(fro)
+    (lambda.sqrt() * (1.0 + 1e-9)).min(crate::scene::transform::frobenius(m))
 }
 
 fn mb_kernel(kernel: u32, rp: f32) -> f32 {

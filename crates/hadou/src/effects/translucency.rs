@@ -20,12 +20,12 @@
 //! cosine of the light at the opposite, entry face (whose normal is −n), i.e. Lambert's law for the
 //! light that got in, and it fades to 0 at the light's terminator, where the Lambert term does too.
 
-use glam::{DVec2, DVec3};
+use glam::{DMat3, DVec2, DVec3};
 
 use super::thickness::transmittance;
 use super::thickness_lut::ThicknessLut;
 use super::tonemap::mesh_bounds;
-use crate::scene::transform::Transform;
+use crate::scene::transform::{frobenius, Transform};
 use crate::scene::{MaterialKind, Scene, ThicknessMode};
 
 /// Relative padding of the fitted sphere's radius.
@@ -199,12 +199,8 @@ fn light_map_extent(scene: &Scene, mesh_bounds: &[(DVec3, DVec3)], view: &LightV
             continue;
         };
         let (lo, hi) = mesh_bounds[inst.mesh];
-        let inv = inst.transform.inverse;
-        let frobenius = (inv.x_axis.truncate().length_squared()
-            + inv.y_axis.truncate().length_squared()
-            + inv.z_axis.truncate().length_squared())
-        .sqrt();
-        finest = finest.min((hi - lo).max_element() / voxel_res as f64 / frobenius);
+        let inverse_stretch = frobenius(DMat3::from_mat4(inst.transform.inverse));
+        finest = finest.min((hi - lo).max_element() / voxel_res as f64 / inverse_stretch);
     }
     (2.0 * view.radius, finest)
 }

@@ -16,6 +16,7 @@
 use super::tonemap::mesh_bounds;
 use super::translucency::{light_map_size_at, LightView};
 use crate::budget::QualityLevel;
+use crate::scene::transform::frobenius;
 use crate::scene::{MaterialKind, Scene};
 
 /// One level: the light map's texel target in finest voxel edges, and whether the thickness is
@@ -75,11 +76,7 @@ pub fn budget_levels(scene: &Scene) -> Vec<QualityLevel> {
                 baked = true;
                 // The mesh box's diagonal stretched by at most ‖M‖_F (the linear part).
                 let (lo, hi) = bounds[inst.mesh];
-                let m = inst.transform.matrix;
-                let stretch = (m.x_axis.truncate().length_squared()
-                    + m.y_axis.truncate().length_squared()
-                    + m.z_axis.truncate().length_squared())
-                .sqrt();
+                let stretch = frobenius(glam::DMat3::from_mat4(inst.transform.matrix));
                 diameter = diameter.max((hi - lo).length() * stretch);
             }
         }

@@ -175,15 +175,19 @@ fn check_finite(values: &[f64]) -> Result<(), TransformError> {
     }
 }
 
+/// The Frobenius norm ‖A‖_F of a 3×3 linear part: a bound of its largest singular value, so of
+/// how far it stretches any length.
+pub fn frobenius(a: DMat3) -> f64 {
+    (a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared()).sqrt()
+}
+
 /// Frobenius condition number ‖A‖·‖A⁻¹‖ of a 3×3 linear part; ∞ when singular.
 pub fn condition_number(a: DMat3) -> f64 {
     let det = a.determinant();
     if det == 0.0 || !det.is_finite() {
         return f64::INFINITY;
     }
-    let fro =
-        |m: DMat3| (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt();
-    fro(a) * fro(a.inverse())
+    frobenius(a) * frobenius(a.inverse())
 }
 
 fn check_condition(a: DMat3) -> Result<(), TransformError> {
