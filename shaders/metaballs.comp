@@ -41,24 +41,6 @@ layout(set = 0, binding = 2, rgba16f) uniform image2D normal_image;
 layout(set = 0, binding = 3, rg32ui) uniform uimage2D ids;
 layout(set = 0, binding = 4, std140) uniform FrameBlock { FrameUniforms frame; };
 layout(set = 0, binding = 5, std430) readonly buffer Materials { MaterialData materials[]; };
-// The group headers (MetaGroup, 14 texels each), the balls (MetaBall, 2 texels each), the tile
-// lists and their entries, as texel buffers of uints (floats by uintBitsToFloat): on lavapipe a
-// texel fetch is a branch-free gather, a storage-buffer load a loop over the lanes
-// (crates/hadou-gpu/src/texel_buffer.rs).
-layout(set = 0, binding = 6) uniform usamplerBuffer group_texels;
-layout(set = 0, binding = 7) uniform usamplerBuffer ball_texels;
-// Built on the device by shaders/metaballs_bin.comp (layouts: `TileLists` in
-// crates/hadou/src/passes/metaballs.rs, its CPU twin): the headers of the tiles holding any ball
-// (x: index of the tile's first run in `run_texels`, y: run count, z, w: the tile's column and
-// row), then per tile its runs (x: group, y: first entry in `entries`, z: entry count, w: RUN_*
-// flags), one per group present in the tile; each run's entries sorted by ‖c − o‖ − R (object
-// space, o the camera).
-layout(set = 0, binding = 8) uniform usamplerBuffer tile_texels;
-layout(set = 0, binding = 9) uniform usamplerBuffer entry_texels;
-layout(set = 0, binding = 13) uniform usamplerBuffer run_texels;
-// Keep in sync with BIN_ACTIVE in crates/hadou/src/passes/metaballs_bin.rs: the tiles with headers.
-layout(set = 0, binding = 22, std430) readonly buffer BinState { uint bin_state[]; };
-#define BIN_ACTIVE 6
 // Keep in sync with the STAT_* indices in crates/hadou/src/passes/metaballs.rs.
 layout(set = 0, binding = 10, std430) buffer Stats { uint stats[]; };
 // Keep in sync with `PendingRecord` and `StreamDispatch` in crates/hadou/src/passes/metaballs.rs. Per pixel of
@@ -78,29 +60,11 @@ layout(set = 0, binding = 12, std430) buffer StreamDispatch { uint stream[]; };
 #ifndef MB_WITH_TRACE
 #define MB_WITH_TRACE 1
 #endif
-MetaBall load_ball(uint id) {
-    MetaBall b;
-    b.centre_radius = uintBitsToFloat(texelFetch(ball_texels, int(2u * id)));
-    b.coeffs = uintBitsToFloat(texelFetch(ball_texels, int(2u * id + 1u)));
-    return b;
-}
-
-MetaGroup load_group(uint i) {
-    int base = int(14u * i);
-    MetaGroup g;
-    for (int k = 0; k < 4; ++k) {
-        g.to_object[k] = uintBitsToFloat(texelFetch(group_texels, base + k));
-        g.to_world[k] = uintBitsToFloat(texelFetch(group_texels, base + 4 + k));
-        g.normal_matrix[k] = uintBitsToFloat(texelFetch(group_texels, base + 8 + k));
-    }
-    g.params = uintBitsToFloat(texelFetch(group_texels, base + 12));
-    g.info = texelFetch(group_texels, base + 13);
-    return g;
-}
-
-uvec4 tiles(uint i) { return texelFetch(tile_texels, int(i)); }
-uvec4 run_at(uint i) { return texelFetch(run_texels, int(i)); }
-uint entries(uint k) { return texelFetch(entry_texels, int(k)).x; }
+#include "common/metaballs_tiles.glsl"
+#ifdef MB_MOTION
+// With motion vectors on: each final hit's motion (metaball_motion).
+#include "common/metaballs_motion.glsl"
+#endif
 
 // A lower bound of the distance t′ at which a ray from o enters the support of entry k of the run
 // (or of any later one: the run is sorted by this key).
@@ -184,20 +148,6 @@ void store_hit(uvec2 p, vec3 u, MetaHit best, uint best_group) {
     imageStore(ids, ivec2(p), uvec4(params.counts.y + best_group + 1u, g.info.w, 0u, 0u));
 }
 
-// Lavapipe (Mesa's gallivm) ends every loop of a SIMD group, silently, once all its loops
-// together have iterated 65,535 times in one invocation of the shader; a crowded group's casts
-// may then have stopped short. A loop that must run n + 2 times (n from a buffer: a count the
-// compiler cannot know, so it stays a loop) tells. No such limit on other devices; the streamed
-// walks take 8 balls per iteration and run in their own dispatch to stay far below it.
-bool loops_cut(uint n) {
-    uint loops = 0u;
-    uint wanted = n + 2u;
-    do {
-        ++loops;
-    } while (loops < wanted);
-    return loops != wanted;
-}
-
 // Counters: one atomic per subgroup. `hit`: this pixel's final answer is a hit (`iterations`
 // its steps).
 void count(bool hit, uint iterations, uint dropped, uint streamed) {
@@ -215,15 +165,6 @@ void count(bool hit, uint iterations, uint dropped, uint streamed) {
             atomicMax(stats[STAT_MAX_ITERATIONS], iter_max);
         }
     }
-}
-
-// The pixel of `lane` (an invocation of an 8×8 workgroup) in active tile `header`: each 8
-// consecutive invocations (lavapipe's SIMD group, the subgroup) take a 4×2 block of pixels (a
-// compact block's rays are closer together than a row's, so its cone culls more balls and fewer
-// chords are shared: measured 0.92–0.93× the pass time of 8×1 rows).
-uvec2 tile_pixel(uvec4 header, uint lane) {
-    uvec2 block = uvec2((lane & 3u) | ((lane >> 1u) & 4u), ((lane >> 2u) & 1u) | ((lane >> 3u) & 6u));
-    return header.zw * 8u + block;
 }
 
 #ifdef MB_STREAM_PASS
@@ -295,6 +236,16 @@ void main() {
             } while (subgroupAny(pending));
         }
         if (found) store_hit(p, u, best, best_group);
+#ifdef MB_MOTION
+        // The final hit: this pass's, or the rounds' (its group in `ids`, its distance stored).
+        uint final_group = best_group;
+        float final_t = best.t;
+        if (!found && was_hit) {
+            final_group = imageLoad(ids, ivec2(p)).x - params.counts.y - 1u;
+            final_t = imageLoad(distance_image, ivec2(p)).r;
+        }
+        metaball_motion(p, u, final_t, final_group, header, inside && crowded && (found || was_hit));
+#endif
         if (loops_cut(header.y) && crowded) dropped += 1u;
         count(crowded && (found || was_hit), best.iterations, dropped, 0u);
     }
@@ -532,6 +483,10 @@ void main() {
     }
 
     if (found) store_hit(p, u, best, best_group);
+#ifdef MB_MOTION
+    // A pending pixel's hit is final only after the streamed dispatch, which writes its motion.
+    metaball_motion(p, u, best.t, best_group, header, inside && found && !pending);
+#endif
     if (loops_cut(header.y) && inside) dropped += 1u;
     // A pending pixel's hit is counted by the stream pass, which knows the final answer.
     count(found && !pending, best.iterations, dropped, streamed);

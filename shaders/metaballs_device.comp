@@ -5,16 +5,23 @@
 // solves it in f64: closed form for Murakami4, bisection to adjacent floats for Wyvill6, here in
 // f32) and the slope bound |q|·γ/R. A ball with a value that is not finite or R ≤ 0 becomes a ball
 // of q = 0 (it adds nothing anywhere) and is counted (STAT_INVALID): nothing non-finite reaches
-// the casts. One invocation per ball of one group (a dispatch per group).
+// the casts. With MB_PREVIOUS (motion vectors on) each ball's previous centre, its record's q.yzw
+// when the group's records carry them (range.w = 1), goes into the table of previous centres
+// that shaders/metaballs_motion.comp reads. One invocation per ball of one group (a dispatch per
+// group).
 layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 10, std430) buffer Stats { uint stats[]; };
 // The frame's ball table: two vec4 per ball (centre, R; q, ρ*·R, |q|·γ/R, 0), as GpuMetaBall.
 layout(set = 0, binding = 24, std430) buffer Balls { vec4 balls[]; };
+#ifdef MB_PREVIOUS
+layout(set = 0, binding = 27, std430) writeonly buffer Previous { vec4 previous[]; };
+#endif
 
 // Keep in sync with DeviceBallParams in crates/hadou/src/passes/metaballs_device.rs.
 layout(push_constant) uniform DeviceBallParams {
-    uvec4 range;  // x: the group's first ball in the table, y: its count, z: kernel (MB_KERNEL_*)
+    uvec4 range;  // x: the group's first ball in the table, y: its count, z: kernel (MB_KERNEL_*),
+                  // w: 1 when the records' q.yzw are the balls' previous centres
     vec4 values;  // x: T, y: the kernel's slope bound γ
 } params;
 
@@ -57,7 +64,12 @@ void main() {
     if (k >= params.range.y) return;
     uint i = 2u * (params.range.x + k);
     vec4 centre_radius = balls[i];
-    float q = balls[i + 1u].x;
+    vec4 record_q = balls[i + 1u];
+    float q = record_q.x;
+#ifdef MB_PREVIOUS
+    // A ball with no valid centre then weighs nothing (q = 0, below): any value serves.
+    if (params.range.w != 0u) previous[params.range.x + k] = vec4(record_q.yzw, 0.0);
+#endif
     float R = centre_radius.w;
     // R² and |q|·γ/R must stay finite too.
     bool valid = finite(centre_radius) && !isnan(q) && !isinf(q) && R > 0.0 && !isinf(R * R)

@@ -3,8 +3,8 @@
 // the energy wave (crates/hadou/src/passes/motion.rs). Per pixel, the motion in pixels from this
 // frame to the previous one, both unjittered (common/motion.glsl):
 //   - an instance's pixel keeps what the raster wrote (its vertices' previous positions);
-//   - a metaball's: the hit point moved by its group's transforms and, inside the group, by the
-//     field-weighted motion of the balls whose support holds it (exact for balls moving together);
+//   - an effect's surface (ids above the instances', a metaball's): what its pass wrote
+//     (shaders/metaballs_motion.comp walks the balls of the pixel's tile);
 //   - any other (the sky, the game's depth): a still point at that distance, or the direction at
 //     infinity, seen by the previous camera.
 // The composition mask is 1 on translucent surfaces; the reactive mask is cleared (the energy
@@ -23,42 +23,6 @@ layout(set = 0, binding = 4, rg32f) uniform image2D motion;
 layout(set = 0, binding = 5, r32f) uniform writeonly image2D reactive;
 layout(set = 0, binding = 6, r32f) uniform writeonly image2D composition;
 layout(set = 0, binding = 7, std140) uniform MotionBlock { MotionUniforms m; };
-// Keep in sync with MotionGroup and MotionBall in crates/hadou/src/passes/motion.rs.
-struct MotionGroup {
-    mat4 to_object;      // this frame's world → object
-    mat4 prev_to_world;  // the previous frame's object → world
-    uvec4 info;          // x: first ball, y: balls (0: none known, e.g. the game's), z: kernel
-};
-struct MotionBall {
-    vec4 centre_radius;  // this frame's object-space centre, R
-    vec4 q_prev;         // x: q, yzw: the previous frame's centre (a game's DeviceBall, copied as is)
-};
-layout(set = 0, binding = 8, std430) readonly buffer Groups { MotionGroup groups[]; };
-layout(set = 0, binding = 9, std430) readonly buffer Balls { MotionBall balls[]; };
-
-// f(r′) of effects::metaballs::Kernel::f (0: Wyvill6, 1: Murakami4).
-float kernel_f(uint kernel, float rp) {
-    if (rp >= 1.0) return 0.0;
-    if (kernel == 0u) return ((-4.0 / 9.0 * rp + 17.0 / 9.0) * rp - 22.0 / 9.0) * rp + 1.0;
-    return (1.0 - rp) * (1.0 - rp);
-}
-
-// Where world point `p` on group g's surface was in the previous frame.
-vec3 metaball_previous(uint g, vec3 p) {
-    MotionGroup group = groups[g];
-    vec3 o = (group.to_object * vec4(p, 1.0)).xyz;
-    vec3 moved = vec3(0.0);
-    float weight = 0.0;
-    for (uint i = group.info.x; i < group.info.x + group.info.y; ++i) {
-        MotionBall b = balls[i];
-        vec3 w = o - b.centre_radius.xyz;
-        float f = abs(b.q_prev.x) * kernel_f(group.info.z, dot(w, w) / (b.centre_radius.w * b.centre_radius.w));
-        moved += f * (b.q_prev.yzw - b.centre_radius.xyz);
-        weight += f;
-    }
-    vec3 before = weight > 0.0 ? o + moved / weight : o;
-    return (group.prev_to_world * vec4(before, 1.0)).xyz;
-}
 
 void main() {
     uvec2 p = gl_GlobalInvocationID.xy;
@@ -70,7 +34,8 @@ void main() {
     bool translucent = instance && materials[id.y].kind.x == MATERIAL_TRANSLUCENT;
     imageStore(composition, pix, vec4(translucent ? 1.0 : 0.0, 0.0, 0.0, 0.0));
     imageStore(reactive, pix, vec4(0.0));
-    if (instance) return;  // the raster's
+    // The raster's, or an effect's surface's, written by its pass.
+    if (id.x != 0u) return;
     vec3 u = camera_pixel_ray(p, size, frame.ray_right, frame.ray_up, frame.ray_forward.xyz);
     float t = imageLoad(distance_image, pix).r;
     vec4 now;
@@ -80,10 +45,10 @@ void main() {
         now = m.view_proj * vec4(u, 0.0);
         before = m.prev_view_proj * vec4(u, 0.0);
     } else {
+        // The game's depth: a still point.
         vec3 q = frame.camera_pos.xyz + t * u;
-        vec3 q_before = id.x > m.counts.x ? metaball_previous(id.x - m.counts.x - 1u, q) : q;
         now = m.view_proj * vec4(q, 1.0);
-        before = m.prev_view_proj * vec4(q_before, 1.0);
+        before = m.prev_view_proj * vec4(q, 1.0);
     }
     vec2 fsize = vec2(size);
     vec2 moved = motion_pixel(before, fsize) - motion_pixel(now, fsize);

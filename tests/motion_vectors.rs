@@ -291,6 +291,70 @@ fn motion_vectors_are_off_unless_asked_for() {
     drop(hadou);
 }
 
+/// A crowd of balls each moving its own way, under a rotated, non-uniformly scaled group
+/// transform: ~100 supports hold a point of the surface, the tiles' runs are long and the casts
+/// streamed (`metaballs.streamed`). Each pixel's motion is the field-weighted motion of the balls
+/// whose support holds its point (`effects::metaballs::motion::previous_point`, f64, over every
+/// ball of the group), so a ball the pass's walk over the pixel's tile missed would show. Each
+/// term is rounded in f32 (the weights to a few ε of Σf ≥ T/max q, the centres' differences to
+/// ε·|c|): ~1e-5 of the balls' 0.1 spread of motions, ~1e-4 px here, inside `MOTION_TOL`.
+#[test]
+fn a_crowd_of_balls_each_moving_its_own_way() {
+    use hadou::effects::metaballs::motion::previous_point;
+    use hadou::effects::metaballs::{CastMethod, Kernel, MetaballGroupParams};
+    use hadou::scene::transform::{Transform, TransformOp};
+    let scene =
+        "[camera]\nposition = [0, 1, 8]\nlook_at = [0, 0.3, 0]\nfov_y_deg = 50\nnear = 0.5\nfar = 60\n\
+                 [[light]]\ndirection = [-0.3, -1, -0.5]\n[[material]]\nname = \"slime\"\n[[metaballs]]\n\
+                 material = \"slime\"\nthreshold = 0.4\nkernel = \"wyvill6\"\n\
+                 transform = [{ scale = [1, 1.3, 0.8] }, { rotate = { angle_deg = 25, axis = [0, 0, 1] } }]\n\
+                 balls = [{ centre = [0, 0, 0], radius = 1 }]\n";
+    let ops = [
+        TransformOp::Scale(DVec3::new(1.0, 1.3, 0.8)),
+        TransformOp::Rotate { angle_deg: 25.0, axis: DVec3::Z },
+    ];
+    let transform = Transform::from_ops(&ops).unwrap();
+    let mut rt = common::runtime();
+    rt.load_scene(common::parse(scene)).unwrap();
+    let c = camera(DVec3::new(0.0, 1.0, 8.0));
+    rt.renderer().set_camera(c).unwrap();
+    rt.renderer().set_motion_vectors(true).unwrap();
+    // 360 balls along x, ~100 supports on a point of the axis; ball i moves by its own d(i).
+    let k = 360;
+    let crowd = |moved: bool| -> Vec<Ball> {
+        (0..k)
+            .map(|i| {
+                let f = i as f64;
+                let at = DVec3::new(-2.6 + 5.2 * f / k as f64, 0.3 * (0.9 * f).sin(), 0.3 * (1.7 * f).cos());
+                let d = 0.05 * DVec3::new((1.3 * f).sin(), (0.7 * f).cos(), (2.1 * f).sin());
+                let radius = 1.0 + 0.2 * (0.37 * f).sin().abs();
+                Ball { centre: if moved { at + d } else { at }, radius, q: 0.05 }
+            })
+            .collect()
+    };
+    let group = rt.renderer().metaballs_ids()[0];
+    rt.renderer().set_metaball_group(group, &crowd(false)).unwrap();
+    render(&mut rt, &[Aov::Motion]);
+    rt.renderer().set_metaball_group(group, &crowd(true)).unwrap();
+    let out = render(&mut rt, &[Aov::Motion, Aov::Depth]);
+    let now = MetaballGroupParams {
+        threshold: 0.4,
+        kernel: Kernel::Wyvill6,
+        balls: crowd(true),
+        transform,
+        method: CastMethod::default(),
+    };
+    let before: Vec<DVec3> = crowd(false).iter().map(|b| b.centre).collect();
+    let back = |p: DVec3| previous_point(&now, Some(&before), now.transform.matrix, p);
+    let (motion, depth) = (out.aov(Aov::Motion).unwrap(), out.aov(Aov::Depth).unwrap());
+    let (surface, worst) = check("a crowd", motion, depth, (&c, &c, &c), back);
+    let streamed = out.stats.counter("metaballs.streamed");
+    println!("a crowd: {surface} surface pixels, {streamed} casts streamed, largest error {worst:.1e} px");
+    assert!(surface > 800 && streamed > 0, "{surface} surface pixels, {streamed} streamed");
+    assert_eq!(out.stats.counter("metaballs.dropped"), 0);
+    rt.finish();
+}
+
 /// Balls a game writes on the GPU (`set_metaball_buffer`) with their previous centres in their
 /// records (`DeviceBalls::previous_centres`): the surface's motion follows them as it follows the
 /// host's balls; without them the group moves by its transform only (here: not at all).

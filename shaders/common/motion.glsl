@@ -7,7 +7,7 @@
 struct MotionUniforms {
     mat4 view_proj;       // this frame's, unjittered
     mat4 prev_view_proj;  // the previous frame's, unjittered
-    uvec4 counts;         // x: instances (the first metaball group's id is x + 1), y: groups
+    uvec4 counts;         // x: instances (ids above them are effects' surfaces), y, z, w: 0
 };
 
 // Clip coordinates to framebuffer pixels (x right, y down): the rasterizer's viewport mapping.

@@ -46,6 +46,10 @@
 //! no slot: more than 32 supports there, or the subgroup's other rays filled the slots; or a
 //! [`crowded`] group's run of 256 balls or more, streamed without slot rounds).
 //!
+//! # Motion vectors
+//! With motion vectors on, the casts also write each metaball pixel's motion where its hit is
+//! final, from the balls of its tile's run of that group ([`crate::passes::metaballs_motion`]).
+//!
 //! # Methods
 //! Each group's [`CastMethod`] picks Bézier clipping (with its `tolerance`) or sphere tracing (its
 //! `steps`), carried in the group header and the run flags ([`RUN_TRACE`]). The pipeline is
@@ -69,6 +73,7 @@ use crate::passes::metaballs_bin::{
     check_ball_count, estimate, BinBuffers, BinGroup, BinParams, BinPipelines, BinSizes, Wanted,
 };
 use crate::passes::metaballs_device::{self, DeviceBallParams, DeviceBallPipeline, DeviceCopy};
+use crate::passes::metaballs_motion::{self, MetaballsMotion};
 use crate::scene::camera::Camera;
 use crate::scene::Scene;
 use crate::targets::Target;
@@ -414,6 +419,8 @@ pub struct MetaballsPass {
     tables: Vec<Option<TexelBuffer>>,
     frame_table: vk::Buffer,
     copies: Vec<DeviceCopy>,
+    /// With motion vectors on: the previous frame's groups the casts' motion is measured against.
+    motion: Option<MetaballsMotion>,
 }
 
 /// Where the tile lists are built.
@@ -453,9 +460,11 @@ pub fn has_device_balls(scene: &Scene) -> bool {
 
 /// The pass is compiled with only the casts the scene uses, and with the device's binning and the
 /// game's balls' completion when a group's balls are the game's: a world that changes either
-/// builds it again.
+/// builds it again; so does turning motion vectors on or off (the casts' MB_MOTION variant).
 pub fn variant(scene: &Scene) -> String {
-    format!("{:?}{}", casts(scene), if has_device_balls(scene) { " device balls" } else { "" })
+    let device = if has_device_balls(scene) { " device balls" } else { "" };
+    let motion = if scene.render.motion_vectors { " motion" } else { "" };
+    format!("{:?}{device}{motion}", casts(scene))
 }
 
 impl MetaballsPass {
@@ -467,16 +476,26 @@ impl MetaballsPass {
     ) -> GpuResult<Self> {
         // Only the casts the scene's groups use are compiled in.
         let (clip, trace) = casts(scene);
+        let motion = scene.render.motion_vectors;
         let with = |b: bool| if b { "1" } else { "0" };
-        let defines = [("MB_WITH_CLIP", with(clip)), ("MB_WITH_TRACE", with(trace))];
+        let mut defines = vec![("MB_WITH_CLIP", with(clip)), ("MB_WITH_TRACE", with(trace))];
+        // With motion vectors on the casts write the metaballs' pixels' motion too.
+        if motion {
+            defines.push(("MB_MOTION", "1"));
+        }
         let spirv = compiler.compile("metaballs.comp", &defines)?;
         let push = std::mem::size_of::<MetaballParams>() as u32;
         let pipeline = create_compute_pipeline(ctx, "metaballs", &spirv, push)?;
-        let spirv = compiler.compile("metaballs.comp", &[defines[0], defines[1], ("MB_STREAM_PASS", "1")])?;
+        defines.push(("MB_STREAM_PASS", "1"));
+        let spirv = compiler.compile("metaballs.comp", &defines)?;
         let stream = create_compute_pipeline(ctx, "metaballs streamed", &spirv, push)?;
         // The game's balls have no host copy to bin from.
-        let device =
-            if has_device_balls(scene) { Some(DeviceBallPipeline::new(ctx, compiler)?) } else { None };
+        let device = if has_device_balls(scene) {
+            Some(DeviceBallPipeline::new(ctx, compiler, motion)?)
+        } else {
+            None
+        };
+        let motion = motion.then(MetaballsMotion::default);
         let binning = if device.is_some() { Binning::Device } else { binning };
         let bin = match binning {
             Binning::Device => Some(BinPipelines::new(ctx, compiler)?),
@@ -484,6 +503,7 @@ impl MetaballsPass {
         };
         Ok(MetaballsPass {
             device,
+            motion,
             tables: Vec::new(),
             frame_table: vk::Buffer::null(),
             copies: Vec::new(),
@@ -547,10 +567,11 @@ impl Pass for MetaballsPass {
                     (gpu.info[2], bin.info[1]) = (source.count, source.count);
                     balls.resize(balls.len() + source.count as usize, bytemuck::Zeroable::zeroed());
                     let kernel = params.kernel;
+                    let previous = u32::from(source.previous_centres && self.motion.is_some());
                     self.copies.push(DeviceCopy {
                         source,
                         params: DeviceBallParams {
-                            range: [first, source.count, kernel.gpu_id(), 0],
+                            range: [first, source.count, kernel.gpu_id(), previous],
                             values: [params.threshold as f32, kernel.max_slope() as f32, 0.0, 0.0],
                         },
                     });
@@ -699,8 +720,18 @@ impl Pass for MetaballsPass {
         bindings.extend(lists.iter().map(|&b| Binding::Written(b, Reader::Compute)));
         bindings.push(Binding::Written(rest[0], Reader::Host));
         bindings.push(Binding::Written(rest[1], Reader::Compute));
-        if self.device.is_some() {
-            bindings.push(Binding::Written(BufferRange::whole(self.frame_table), Reader::Compute));
+        // Binding 24: the game's balls' table (bound for the completing pipeline only).
+        let table = BufferRange::whole(self.frame_table);
+        bindings.push(if self.device.is_some() {
+            Binding::Written(table, Reader::Compute)
+        } else {
+            Binding::Bound(Bound::Storage(BufferRange::whole(vk::Buffer::null())))
+        });
+        if let Some(motion) = &mut self.motion {
+            debug_assert_eq!(bindings.len(), metaballs_motion::FIRST_BINDING);
+            let device: Vec<_> =
+                scene.metaballs().iter().map(|g| g.device.map(|d| (d.count, d.previous_centres))).collect();
+            bindings.extend(motion.prepare(frame, &groups, &device)?);
         }
         Ok(bindings)
     }

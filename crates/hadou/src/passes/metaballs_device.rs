@@ -18,7 +18,9 @@ use crate::gpu::{vk, GpuContext, GpuResult};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct DeviceBallParams {
-    /// x: the group's first ball in the table, y: its count, z: the kernel (`Kernel::gpu_id`), w: 0.
+    /// x: the group's first ball in the table, y: its count, z: the kernel (`Kernel::gpu_id`), w: 1
+    /// when the records carry the balls' previous centres and the pass keeps them (motion vectors
+    /// on: the pipeline is made with MB_PREVIOUS).
     pub range: [u32; 4],
     /// x: T, y: the kernel's slope bound γ (`Kernel::max_slope`), z, w: 0.
     pub values: [f32; 4],
@@ -39,8 +41,10 @@ pub struct DeviceBallPipeline {
 }
 
 impl DeviceBallPipeline {
-    pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler) -> GpuResult<Self> {
-        let spirv = compiler.compile("metaballs_device.comp", &[])?;
+    /// `previous`: also copies the balls' previous centres (motion vectors on).
+    pub fn new(ctx: &GpuContext, compiler: &mut ShaderCompiler, previous: bool) -> GpuResult<Self> {
+        let defines: &[(&str, &str)] = if previous { &[("MB_PREVIOUS", "1")] } else { &[] };
+        let spirv = compiler.compile("metaballs_device.comp", defines)?;
         let push = std::mem::size_of::<DeviceBallParams>() as u32;
         Ok(DeviceBallPipeline {
             pipeline: create_compute_pipeline(ctx, "metaballs device balls", &spirv, push)?,

@@ -16,6 +16,7 @@ pub mod light_id;
 pub mod metaballs;
 pub mod metaballs_bin;
 pub mod metaballs_device;
+pub mod metaballs_motion;
 pub mod motion;
 pub mod peel;
 pub mod pipeline_memo;

@@ -77,22 +77,17 @@ fn table() -> Vec<Row> {
     for (stage, groups) in [("1", false), ("3", true), ("4", true), ("5", false)] {
         rows.push(("metaballs_bin.comp", vec![("MB_BIN_STAGE", stage)], bin(groups)));
     }
-    rows.push(("metaballs_device.comp", vec![], vec![super::metaballs_device::DeviceBallParams::layout()]));
+    let device = || vec![super::metaballs_device::DeviceBallParams::layout()];
+    rows.push(("metaballs_device.comp", vec![], device()));
+    rows.push(("metaballs_device.comp", vec![("MB_PREVIOUS", "1")], device()));
     let motion = || vec![super::motion::MotionUniforms::layout()];
-    rows.push((
-        "motion.comp",
-        vec![],
-        [
-            frame(),
-            motion(),
-            vec![
-                MaterialData::layout(),
-                super::motion::MotionGroup::layout(),
-                super::motion::MotionBall::layout(),
-            ],
-        ]
-        .concat(),
-    ));
+    rows.push(("motion.comp", vec![], [frame(), motion(), vec![MaterialData::layout()]].concat()));
+    for stream in [vec![], vec![("MB_STREAM_PASS", "1")]] {
+        let defines =
+            [vec![("MB_WITH_CLIP", "1"), ("MB_WITH_TRACE", "1"), ("MB_MOTION", "1")], stream].concat();
+        let uses = [frame(), motion(), vec![MaterialData::layout(), MetaballParams::layout()]].concat();
+        rows.push(("metaballs.comp", defines, uses));
+    }
     rows.push((
         "raster.vert",
         vec![("MOTION", "1")],

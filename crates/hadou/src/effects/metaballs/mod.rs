@@ -70,6 +70,7 @@
 pub mod device;
 mod effect;
 pub mod file;
+pub mod motion;
 
 pub use effect::{MetaballGroups, Metaballs};
 

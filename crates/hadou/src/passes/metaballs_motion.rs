@@ -1,0 +1,111 @@
+//! The metaballs' part of a temporal upscaler's motion (with motion vectors on,
+//! `Renderer::set_motion_vectors`): the casts (shaders/metaballs.comp built with MB_MOTION,
+//! shaders/common/metaballs_motion.glsl) give each pixel whose nearest surface is a metaball the
+//! motion of its point where its hit is final, walking only its tile's run of that group (the
+//! balls that can reach the pixel). In the casts' own dispatches: on lavapipe a dispatch of its
+//! own over the active tiles cost ~1.3 ms at 256² before doing anything (docs/PERFORMANCE.md).
+//! This keeps what the motion needs of the previous frame: per view, each group's transform and
+//! its balls' centres. A game's balls (`DeviceBalls`) carry their previous
+//! centres in their records (`previous_centres`): shaders/metaballs_device.comp copies them into
+//! the table of previous centres as it completes the balls; without them the group moves by its
+//! transforms only. The upscaler's own `motion` pass leaves these pixels as they are.
+
+use glam::{DMat4, DVec3};
+
+use super::gpu_structs::mat4_f32;
+use super::motion::MotionUniforms;
+use super::{Binding, FrameContext};
+use crate::effects::metaballs::MetaballGroupParams;
+use crate::gpu::pipeline::Bound;
+use crate::gpu::texel_buffer::Texels;
+use crate::gpu::GpuResult;
+use crate::targets::Target;
+
+/// Keep in sync with `motion_group_texels` in shaders/common/metaballs_motion.glsl (5 texels of 4 u32).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct MotionGroup {
+    /// The previous frame's object → world.
+    pub prev_to_world: [[f32; 4]; 4],
+    /// x: 1 when the balls' previous centres are known; y, z, w: 0.
+    pub info: [u32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<MotionGroup>() == 80);
+
+/// The first binding of the motion's own (the bindings before it are the casts').
+pub const FIRST_BINDING: usize = 25;
+
+/// A group as a frame left it: object → world, and its balls' centres (none for a game's).
+type GroupState = (DMat4, Vec<DVec3>);
+
+#[derive(Default)]
+pub struct MetaballsMotion {
+    /// Per view (`FrameContext::view`), its groups in its previous frame.
+    previous: Vec<Vec<GroupState>>,
+}
+
+impl MetaballsMotion {
+    /// This frame's bindings from [`FIRST_BINDING`] on: the `motion` image, the frame's motion
+    /// uniforms, each ball's previous centre (in the ball table's order: a group of the game's
+    /// takes `device_counts[i]` balls, written on the device when its records carry them) and each
+    /// group's previous transform. `groups` are the world's groups at this frame's time.
+    pub fn prepare(
+        &mut self,
+        frame: &mut FrameContext,
+        groups: &[MetaballGroupParams],
+        device_counts: &[Option<(u32, bool)>],
+    ) -> GpuResult<Vec<Binding>> {
+        if self.previous.len() <= frame.view {
+            self.previous.resize(frame.view + 1, Vec::new());
+        }
+        let before = &self.previous[frame.view];
+        let mut centres: Vec<[f32; 4]> = Vec::new();
+        let mut motion_groups = Vec::with_capacity(groups.len());
+        for (i, (params, device)) in groups.iter().zip(device_counts).enumerate() {
+            // The previous frame's state of this group, when it had as many balls.
+            let prev = before.get(i).filter(|(_, c)| c.len() == params.balls.len());
+            let known = match device {
+                // Written by shaders/metaballs_device.comp when the records carry them.
+                Some((count, carried)) => {
+                    centres.resize(centres.len() + *count as usize, [0.0; 4]);
+                    *carried
+                }
+                None => {
+                    centres.extend(params.balls.iter().enumerate().map(|(k, b)| {
+                        let was = prev.map_or(b.centre, |(_, c)| c[k]);
+                        [was.x as f32, was.y as f32, was.z as f32, 0.0]
+                    }));
+                    true
+                }
+            };
+            motion_groups.push(MotionGroup {
+                prev_to_world: mat4_f32(prev.map_or(params.transform.matrix, |(m, _)| *m)),
+                info: [u32::from(known), 0, 0, 0],
+            });
+        }
+        self.previous[frame.view] = groups
+            .iter()
+            .zip(device_counts)
+            .map(|(p, d)| {
+                let centres =
+                    if d.is_some() { Vec::new() } else { p.balls.iter().map(|b| b.centre).collect() };
+                (p.transform.matrix, centres)
+            })
+            .collect();
+        // A storage buffer holds at least one element.
+        if centres.is_empty() {
+            centres.push([0.0; 4]);
+        }
+        if motion_groups.is_empty() {
+            motion_groups.push(MotionGroup::default());
+        }
+        let uniforms = MotionUniforms::of(frame);
+        Ok(vec![
+            Binding::read_write(Target::Motion),
+            Binding::Bound(Bound::Uniform(frame.upload(&[uniforms])?)),
+            Binding::Bound(Bound::Storage(frame.upload(&centres)?)),
+            Binding::Bound(frame.texels("metaballs motion groups", &motion_groups, Texels::U32x4)?),
+        ])
+    }
+}
