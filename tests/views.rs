@@ -49,19 +49,24 @@ fn eye_matrices() -> (DMat4, DMat4) {
 /// What one view gave in each frame: its colour and AOVs.
 type Frames = Vec<(Vec<u8>, Vec<hadou::AovImage>)>;
 
-fn read(readbacks: &[(AovReadback, AovReadback)]) -> Frames {
+fn read(readbacks: &[(AovReadback, AovReadback)], wanted: &[Aov]) -> Frames {
     readbacks
         .iter()
         .map(|(color, aovs)| {
-            let images = AOVS.iter().map(|&a| aovs.aov(a).expect("read back")).collect();
+            let images = wanted.iter().map(|&a| aovs.aov(a).expect("read back")).collect();
             (color.color().expect("colour read back").to_vec(), images)
         })
         .collect()
 }
 
 /// Runs `FRAMES` frames, two in flight, of `views` through one renderer set up by `setup`; per
-/// view, per frame, what it gave.
+/// view, per frame, what it gave (its colour and the `AOVS`).
 fn render(views: &[View], setup: impl Fn(&mut Renderer)) -> Vec<Frames> {
+    render_aovs(views, &AOVS, setup)
+}
+
+/// As `render`, reading back the `wanted` AOVs.
+fn render_aovs(views: &[View], wanted: &[Aov], setup: impl Fn(&mut Renderer)) -> Vec<Frames> {
     let (_leaks, ctx) = common::context();
     let log = ctx.validation_log();
     let mut host = Host::new(&ctx, IN_FLIGHT);
@@ -77,13 +82,13 @@ fn render(views: &[View], setup: impl Fn(&mut Renderer)) -> Vec<Frames> {
         assert!(frame.recorded);
         for (v, out) in per_view.iter_mut().enumerate() {
             let color = hadou.record_view_color_readback(cmd, v).unwrap();
-            out.push((color, hadou.record_view_aov_readback(cmd, v, &AOVS).unwrap()));
+            out.push((color, hadou.record_view_aov_readback(cmd, v, wanted).unwrap()));
         }
         host.submit(slot);
     }
     host.wait_all();
     hadou.frame_finished(FRAMES as u64 - 1).unwrap();
-    let frames = per_view.iter().map(|r| read(r)).collect();
+    let frames = per_view.iter().map(|r| read(r, wanted)).collect();
     drop(per_view);
     host.destroy();
     drop(hadou);
@@ -92,9 +97,13 @@ fn render(views: &[View], setup: impl Fn(&mut Renderer)) -> Vec<Frames> {
 }
 
 fn assert_same(what: &str, got: &Frames, alone: &Frames) {
+    assert_same_aovs(what, got, alone, &AOVS);
+}
+
+fn assert_same_aovs(what: &str, got: &Frames, alone: &Frames, wanted: &[Aov]) {
     for (i, ((color, aovs), (color_alone, aovs_alone))) in got.iter().zip(alone).enumerate() {
         assert!(color == color_alone, "{what}, frame {i}: the colour differs from the view rendered alone");
-        for ((aov, a), b) in AOVS.iter().zip(aovs).zip(aovs_alone) {
+        for ((aov, a), b) in wanted.iter().zip(aovs).zip(aovs_alone) {
             assert!(
                 common::same_bits(a, b),
                 "{what}, frame {i}: {} differs from the view rendered alone",
@@ -124,6 +133,31 @@ fn three_views_give_the_pixels_of_three_renderers() {
     assert_same("the matrices' view", &together[2], &third[0]);
     // The frames differ (the showcase moves; the exposure adapts), so each frame is its own check.
     assert!(together[0][0].0 != together[0][FRAMES - 1].0, "the showcase moves: frames differ");
+}
+
+/// With motion vectors on, each view's motion is measured against its own previous frame: the
+/// showcase's keyframed metaballs (whose motion the metaballs pass keeps per view) and moving
+/// instances seen by two cameras together give each view's motion as a renderer of that view
+/// alone gives it, bit for bit.
+#[test]
+fn two_views_with_motion_vectors_give_the_pixels_of_two_renderers() {
+    let wanted = [Aov::Depth, Aov::Motion, Aov::Reactive, Aov::Composition];
+    let views = [
+        View::headless(ViewCamera::Renderer, 80, 48),
+        View::headless(ViewCamera::Camera(side_camera()), 56, 56),
+    ];
+    let motion = |r: &mut Renderer| r.set_motion_vectors(true).unwrap();
+    let together = render_aovs(&views, &wanted, motion);
+    let first = render_aovs(&[View::headless(ViewCamera::Renderer, 80, 48)], &wanted, motion);
+    let second = render_aovs(&[View::headless(ViewCamera::Renderer, 56, 56)], &wanted, |r| {
+        motion(r);
+        r.set_camera(side_camera()).unwrap()
+    });
+    assert_same_aovs("the first view", &together[0], &first[0], &wanted);
+    assert_same_aovs("the side view", &together[1], &second[0], &wanted);
+    // Something moves on screen in the later frames (the metaballs' keyframes).
+    let moving = |f: &Frames| f[1..].iter().any(|(_, aovs)| aovs[1].data.iter().any(|&m| m != 0.0));
+    assert!(moving(&together[0]) && moving(&together[1]), "no motion in the frames");
 }
 
 #[test]
