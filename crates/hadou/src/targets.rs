@@ -33,7 +33,10 @@ pub enum Target {
     Hdr,
     /// World normal facing the camera (xyz), w = 1 where a surface was hit; RGBA16F.
     Normal,
-    /// (instance id + 1, material id); 0 where nothing was hit; RG32UI.
+    /// (instance id + 1, material id); 0 where nothing was hit; RG32UI. Ids above the instances'
+    /// are effects' surfaces (a metaball group's: instances + 1 + group); a pass that writes one
+    /// writes that pixel's `Motion` too when motion vectors are on (the upscaler's `motion` pass
+    /// fills only the pixels with no id).
     Ids,
     /// Distance along the view ray from the camera to the first surface, +inf where none; R32F.
     /// Compute passes that add surfaces update this one (D32 is no storage image on lavapipe).
@@ -60,7 +63,8 @@ pub enum Target {
     /// translucency: world thickness of material the light crossed to reach the pixel's
     /// translucent surface, +inf elsewhere; R32F.
     Thickness,
-    /// Motion in pixels to the previous frame (`Aov::Motion`); RG32F. With motion vectors on.
+    /// Motion in pixels to the previous frame (`Aov::Motion`); RG32F. With motion vectors on:
+    /// written by each pass that draws a surface for its pixels, by the `motion` pass elsewhere.
     Motion,
     /// The reactive mask (`Aov::Reactive`); R32F. With motion vectors on.
     Reactive,
