@@ -18,6 +18,8 @@
 // second pass over the balls and no sorting. A pixel whose cast of a group is crowded (a point
 // inside more supports than the slots hold) leaves that group to the second dispatch
 // (MB_STREAM_PASS, indirect, over the tiles listed here), which casts it streamed from the run.
+// With MB_MOTION (motion vectors on) the dispatch where a pixel's hit is final also writes its
+// motion (common/metaballs_motion.glsl).
 //
 // Lavapipe (Mesa 22.3) runs both sides of every branch for the whole 8-lane SIMD group, every
 // loop body at least once, and a `for`/`while` body once more (masked) to find the loop done;
