@@ -295,7 +295,8 @@ fn motion_vectors_are_off_unless_asked_for() {
 /// transform: ~100 supports hold a point of the surface, the tiles' runs are long and the casts
 /// streamed (`metaballs.streamed`). Each pixel's motion is the field-weighted motion of the balls
 /// whose support holds its point (`effects::metaballs::motion::previous_point`, f64, over every
-/// ball of the group), so a ball the pass's walk over the pixel's tile missed would show. Each
+/// ball of the group), so a ball the pass's walk over the pixel's tile missed would show; then
+/// again from inside the crowd, where every hit is an exit. Each
 /// term is rounded in f32 (the weights to a few ε of Σf ≥ T/max q, the centres' differences to
 /// ε·|c|): ~1e-5 of the balls' 0.1 spread of motions, ~1e-4 px here, inside `MOTION_TOL`.
 #[test]
@@ -351,6 +352,19 @@ fn a_crowd_of_balls_each_moving_its_own_way() {
     let streamed = out.stats.counter("metaballs.streamed");
     println!("a crowd: {surface} surface pixels, {streamed} casts streamed, largest error {worst:.1e} px");
     assert!(surface > 800 && streamed > 0, "{surface} surface pixels, {streamed} streamed");
+    assert_eq!(out.stats.counter("metaballs.dropped"), 0);
+    // From inside the crowd, looking along it: every hit is where a ray leaves the surface.
+    let inside =
+        Camera { look_at: transform.transform_point(DVec3::new(2.0, 0.0, 0.0)), ..camera(DVec3::ZERO) };
+    rt.renderer().set_camera(inside).unwrap();
+    rt.renderer().set_metaball_group(group, &crowd(false)).unwrap();
+    render(&mut rt, &[Aov::Motion]);
+    rt.renderer().set_metaball_group(group, &crowd(true)).unwrap();
+    let out = render(&mut rt, &[Aov::Motion, Aov::Depth]);
+    let (motion, depth) = (out.aov(Aov::Motion).unwrap(), out.aov(Aov::Depth).unwrap());
+    let (surface, worst) = check("inside the crowd", motion, depth, (&inside, &inside, &inside), back);
+    println!("inside the crowd: {surface} surface pixels, largest error {worst:.1e} px");
+    assert!(surface > 3000, "{surface} surface pixels seen from inside");
     assert_eq!(out.stats.counter("metaballs.dropped"), 0);
     rt.finish();
 }
