@@ -36,7 +36,7 @@ const _: () = assert!(std::mem::size_of::<MotionGroup>() == 80);
 /// The first binding of the motion's own (the bindings before it are the casts').
 pub const FIRST_BINDING: usize = 25;
 
-/// A group as a frame left it: object → world, and its balls' centres (none for a game's).
+/// A group as a frame left it: object → world, and its balls' centres.
 type GroupState = (DMat4, Vec<DVec3>);
 
 #[derive(Default)]
@@ -84,15 +84,10 @@ impl MetaballsMotion {
                 info: [u32::from(known), 0, 0, 0],
             });
         }
-        self.previous[frame.view] = groups
-            .iter()
-            .zip(device_counts)
-            .map(|(p, d)| {
-                let centres =
-                    if d.is_some() { Vec::new() } else { p.balls.iter().map(|b| b.centre).collect() };
-                (p.transform.matrix, centres)
-            })
-            .collect();
+        // A game's group keeps its own balls' centres too: they tell the same group apart next
+        // frame (its previous transform applies), though its drawn balls are the game's.
+        self.previous[frame.view] =
+            groups.iter().map(|p| (p.transform.matrix, p.balls.iter().map(|b| b.centre).collect())).collect();
         // A storage buffer holds at least one element.
         if centres.is_empty() {
             centres.push([0.0; 4]);
