@@ -82,11 +82,13 @@ fn table() -> Vec<Row> {
     rows.push(("metaballs_device.comp", vec![("MB_PREVIOUS", "1")], device()));
     let motion = || vec![super::motion::MotionUniforms::layout()];
     rows.push(("motion.comp", vec![], [frame(), motion(), vec![MaterialData::layout()]].concat()));
-    for stream in [vec![], vec![("MB_STREAM_PASS", "1")]] {
-        let defines =
-            [vec![("MB_WITH_CLIP", "1"), ("MB_WITH_TRACE", "1"), ("MB_MOTION", "1")], stream].concat();
-        let uses = [frame(), motion(), vec![MaterialData::layout(), MetaballParams::layout()]].concat();
-        rows.push(("metaballs.comp", defines, uses));
+    // Every cast combination with motion vectors on (the pass compiles the one the scene needs).
+    for (clip, trace) in [("1", "0"), ("0", "1"), ("1", "1")] {
+        for stream in [vec![], vec![("MB_STREAM_PASS", "1")]] {
+            let casts = vec![("MB_WITH_CLIP", clip), ("MB_WITH_TRACE", trace), ("MB_MOTION", "1")];
+            let uses = [frame(), motion(), vec![MaterialData::layout(), MetaballParams::layout()]].concat();
+            rows.push(("metaballs.comp", [casts, stream].concat(), uses));
+        }
     }
     rows.push((
         "raster.vert",
