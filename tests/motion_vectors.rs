@@ -14,6 +14,7 @@
 mod common;
 
 use glam::{DMat4, DVec2, DVec3, DVec4, Vec3};
+use hadou::effect::{Binning, Effects, Metaballs, UpscalerInputs};
 use hadou::scene::camera::{Camera, Lens};
 use hadou::scene::Scene;
 use hadou::{Aov, AovImage, Ball, FrameRequest};
@@ -301,6 +302,17 @@ fn motion_vectors_are_off_unless_asked_for() {
 /// ε·|c|): ~1e-5 of the balls' 0.1 spread of motions, ~1e-4 px here, inside `MOTION_TOL`.
 #[test]
 fn a_crowd_of_balls_each_moving_its_own_way() {
+    crowd_moving(Binning::Host);
+}
+
+/// The same with the tile lists built on the device (sorted by the device's f32 entry keys,
+/// which the walk's early end reads).
+#[test]
+fn a_crowd_of_balls_each_moving_its_own_way_binned_on_the_device() {
+    crowd_moving(Binning::Device);
+}
+
+fn crowd_moving(binning: Binning) {
     use hadou::effects::metaballs::motion::previous_point;
     use hadou::effects::metaballs::{CastMethod, Kernel, MetaballGroupParams};
     use hadou::scene::transform::{Transform, TransformOp};
@@ -315,7 +327,9 @@ fn a_crowd_of_balls_each_moving_its_own_way() {
         TransformOp::Rotate { angle_deg: 25.0, axis: DVec3::Z },
     ];
     let transform = Transform::from_ops(&ops).unwrap();
-    let mut rt = common::runtime();
+    let effects =
+        Effects::none().with(Metaballs::with_binning(binning)).and_then(|e| e.with(UpscalerInputs)).unwrap();
+    let mut rt = common::runtime_with_effects(effects);
     rt.load_scene(common::parse(scene)).unwrap();
     let c = camera(DVec3::new(0.0, 1.0, 8.0));
     rt.renderer().set_camera(c).unwrap();
