@@ -7,7 +7,7 @@
 // of q = 0 (it adds nothing anywhere) and is counted (STAT_INVALID): nothing non-finite reaches
 // the casts. With MB_PREVIOUS (motion vectors on) each ball's previous centre, its record's q.yzw
 // when the group's records carry them (range.w = 1), goes into the table of previous centres
-// that shaders/metaballs_motion.comp reads. One invocation per ball of one group (a dispatch per
+// that shaders/common/metaballs_motion.glsl reads. One invocation per ball of one group (a dispatch per
 // group).
 layout(local_size_x = 64) in;
 

@@ -4,7 +4,7 @@
 // frame to the previous one, both unjittered (common/motion.glsl):
 //   - an instance's pixel keeps what the raster wrote (its vertices' previous positions);
 //   - an effect's surface (ids above the instances', a metaball's): what its pass wrote
-//     (shaders/metaballs_motion.comp walks the balls of the pixel's tile);
+//     (shaders/common/metaballs_motion.glsl walks the balls of the pixel's tile);
 //   - any other (the sky, the game's depth): a still point at that distance, or the direction at
 //     infinity, seen by the previous camera.
 // The composition mask is 1 on translucent surfaces; the reactive mask is cleared (the energy

@@ -1,7 +1,7 @@
-// The metaballs pass's tables as its dispatches read them (shaders/metaballs.comp, the casts;
-// shaders/metaballs_motion.comp, a temporal upscaler's motion): the group headers, the balls and
-// the tile lists, and the pixel each invocation of a tile's workgroup takes. Include it after the
-// first `#include "common/metaballs.glsl"` (the structs). Layouts: crates/hadou/src/passes/metaballs.rs.
+// The metaballs pass's tables as its dispatches read them (shaders/metaballs.comp, the casts, and
+// common/metaballs_motion.glsl, their motion vectors): the group headers, the balls and the tile
+// lists, and the pixel each invocation of a tile's workgroup takes. Include it after the first
+// `#include "common/metaballs.glsl"` (the structs). Layouts: crates/hadou/src/passes/metaballs.rs.
 #ifndef HADOU_METABALLS_TILES_GLSL
 #define HADOU_METABALLS_TILES_GLSL
 

@@ -1,5 +1,5 @@
 //! Where a point of a metaball surface was in the previous frame (a temporal upscaler's motion):
-//! the f64 twin of shaders/metaballs_motion.comp.
+//! the f64 twin of shaders/common/metaballs_motion.glsl.
 
 use glam::{DMat4, DVec3};
 
