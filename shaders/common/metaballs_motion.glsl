@@ -6,16 +6,16 @@
 // motion of the balls whose support holds it, Σ |q|·f(r′)·(c_before − c) / Σ |q|·f(r′) (exact for
 // balls moving together), then to the world by the group's previous transform; the motion is in
 // pixels from the point now to the point before, both unjittered, as shaders/motion.comp gives
-// every pixel with no surface of an effect. Only the balls of the tile's run of that group can
-// hold the point (a run lists every ball whose support reaches the tile's rays), so a pixel walks
-// what can reach it, not its whole group. CPU twin (f64): crates/hadou/src/effects/metaballs/motion.rs.
+// every pixel with no id. Only the balls of the tile's run of that group can hold the point (a
+// run lists every ball whose support reaches the tile's rays), so a pixel walks what can reach
+// it, not its whole group. CPU twin (f64): crates/hadou/src/effects/metaballs/motion.rs.
 // Include after common/metaballs_tiles.glsl, common/camera.glsl and common/frame.glsl.
 #ifndef HADOU_METABALLS_MOTION_GLSL
 #define HADOU_METABALLS_MOTION_GLSL
 #include "common/motion.glsl"
 
 // Written where a metaball is the pixel's surface; the raster wrote its instances', and the
-// upscaler's `motion` pass writes every pixel with no surface of an effect.
+// upscaler's `motion` pass writes every pixel with no id.
 layout(set = 0, binding = 25, rg32f) uniform image2D motion;
 layout(set = 0, binding = 26, std140) uniform MotionBlock { MotionUniforms m; };
 // Per ball of the table, its object-space centre in the previous frame (xyz).
