@@ -2,8 +2,8 @@
 //! eyes. Two views recorded together must give, frame after frame, exactly the pixels of two
 //! renderers each recording one of them alone — colour, every AOV, bit for bit — so no per-frame
 //! or per-slot state of a pass (history images, an adapted exposure, the wave's tile path, the
-//! metaballs' lists, the light maps) leaks from one view into the other. Lavapipe, validation +
-//! synchronization validation, zero messages.
+//! metaballs' lists, the light maps, the previous frames motion is measured against) leaks from
+//! one view into the other. Lavapipe, validation + synchronization validation, zero messages.
 
 mod common;
 
