@@ -63,10 +63,6 @@ layout(set = 0, binding = 12, std430) buffer StreamDispatch { uint stream[]; };
 #define MB_WITH_TRACE 1
 #endif
 #include "common/metaballs_tiles.glsl"
-#ifdef MB_MOTION
-// With motion vectors on: each final hit's motion (metaball_motion).
-#include "common/metaballs_motion.glsl"
-#endif
 
 // A lower bound of the distance t′ at which a ray from o enters the support of entry k of the run
 // (or of any later one: the run is sorted by this key).
@@ -77,6 +73,10 @@ float chunk_key(uvec4 run, uint k, vec3 o) { return mb_entry_key(load_ball(entri
 #define MB_LIST_SORTED 1
 #define MB_TANGENT_FLAGS 0  // this pass never reads MB_TANGENT
 #include "common/metaballs.glsl"
+#ifdef MB_MOTION
+// With motion vectors on: each final hit's motion (metaball_motion).
+#include "common/metaballs_motion.glsl"
+#endif
 
 // Keep in sync with MetaballParams in crates/hadou/src/passes/metaballs.rs. The camera's ray frame, the far
 // distance (ray_forward.w) and the frame's size (counts.yz) are the frame's uniforms.

@@ -9,7 +9,8 @@
 // every pixel with no id. Only the balls of the tile's run of that group can hold the point (a
 // run lists every ball whose support reaches the tile's rays), so a pixel walks what can reach
 // it, not its whole group. CPU twin (f64): crates/hadou/src/effects/metaballs/motion.rs.
-// Include after common/metaballs_tiles.glsl, common/camera.glsl and common/frame.glsl.
+// Include after common/camera.glsl, common/frame.glsl, common/metaballs_tiles.glsl and the cast's
+// half of common/metaballs.glsl (mb_kernel, f(r′) of effects::metaballs::Kernel::f).
 #ifndef HADOU_METABALLS_MOTION_GLSL
 #define HADOU_METABALLS_MOTION_GLSL
 #include "common/motion.glsl"
@@ -25,13 +26,6 @@ layout(set = 0, binding = 27, std430) readonly buffer Previous { vec4 previous[]
 // the group moves by its transforms only). A texel buffer: on lavapipe a gather, where a
 // storage-buffer load at a per-lane index is a loop over the lanes.
 layout(set = 0, binding = 28) uniform usamplerBuffer motion_group_texels;
-
-// f(r′) of effects::metaballs::Kernel::f (MB_KERNEL_*).
-float mb_motion_kernel(uint kernel, float rp) {
-    if (rp >= 1.0) return 0.0;
-    if (kernel == MB_KERNEL_WYVILL6) return ((-4.0 / 9.0 * rp + 17.0 / 9.0) * rp - 22.0 / 9.0) * rp + 1.0;
-    return (1.0 - rp) * (1.0 - rp);
-}
 
 // Writes the motion of pixel p (ray u) where `mine`: its surface is group g's at distance t, in
 // the tile of `header`. Every lane runs it (the loops are uniform); the others only walk nothing.
@@ -72,7 +66,7 @@ void metaball_motion(uvec2 p, vec3 u, float t, uint g, uvec4 header, bool mine) 
             MetaBall b = load_ball(ball_id);
             vec3 w = o - b.centre_radius.xyz;
             float R = b.centre_radius.w;
-            float f = abs(b.coeffs.x) * mb_motion_kernel(kernel, dot(w, w) / (R * R));
+            float f = abs(b.coeffs.x) * mb_kernel(kernel, dot(w, w) / (R * R));
             if (k < count && f > 0.0) {
                 moved += f * (previous[ball_id].xyz - b.centre_radius.xyz);
                 weight += f;
