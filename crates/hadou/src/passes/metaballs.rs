@@ -729,9 +729,7 @@ impl Pass for MetaballsPass {
         });
         if let Some(motion) = &mut self.motion {
             debug_assert_eq!(bindings.len(), metaballs_motion::FIRST_BINDING);
-            let device: Vec<_> =
-                scene.metaballs().iter().map(|g| g.device.map(|d| (d.count, d.previous_centres))).collect();
-            bindings.extend(motion.prepare(frame, &groups, &device)?);
+            bindings.extend(motion.prepare(frame, &groups)?);
         }
         Ok(bindings)
     }

@@ -47,14 +47,13 @@ pub struct MetaballsMotion {
 
 impl MetaballsMotion {
     /// This frame's bindings from [`FIRST_BINDING`] on: the `motion` image, the frame's motion
-    /// uniforms, each ball's previous centre (in the ball table's order: a group of the game's
-    /// takes `device_counts[i]` balls, written on the device when its records carry them) and each
-    /// group's previous transform. `groups` are the world's groups at this frame's time.
+    /// uniforms, each ball's previous centre (in the ball table's order: a group drawn from the
+    /// game's buffer takes its records' count, written on the device when they carry them) and
+    /// each group's previous transform. `groups` are the world's groups at this frame's time.
     pub fn prepare(
         &mut self,
         frame: &mut FrameContext,
         groups: &[MetaballGroupParams],
-        device_counts: &[Option<(u32, bool)>],
     ) -> GpuResult<Vec<Binding>> {
         if self.previous.len() <= frame.view {
             self.previous.resize(frame.view + 1, Vec::new());
@@ -62,14 +61,14 @@ impl MetaballsMotion {
         let before = &self.previous[frame.view];
         let mut centres: Vec<[f32; 4]> = Vec::new();
         let mut motion_groups = Vec::with_capacity(groups.len());
-        for (i, (params, device)) in groups.iter().zip(device_counts).enumerate() {
+        for (i, (params, group)) in groups.iter().zip(frame.scene.metaballs()).enumerate() {
             // The previous frame's state of this group, when it had as many balls.
             let prev = before.get(i).filter(|(_, c)| c.len() == params.balls.len());
-            let known = match device {
+            let known = match group.device {
                 // Written by shaders/metaballs_device.comp when the records carry them.
-                Some((count, carried)) => {
-                    centres.resize(centres.len() + *count as usize, [0.0; 4]);
-                    *carried
+                Some(source) => {
+                    centres.resize(centres.len() + source.count as usize, [0.0; 4]);
+                    source.previous_centres
                 }
                 None => {
                     centres.extend(params.balls.iter().enumerate().map(|(k, b)| {
