@@ -262,14 +262,7 @@ void main() {
 shared uint masks[128];
 shared uint chunk_index[64];  // the chunk's ball indices
 
-bool loops_cut(uint n) {
-    uint loops = 0u;
-    uint wanted = n + 2u;
-    do {
-        ++loops;
-    } while (loops < wanted);
-    return loops != wanted;
-}
+#include "common/loop_budget.glsl"
 
 void main() {
     if (state[BIN_OVERFLOW] != 0u) return;

@@ -57,18 +57,8 @@ uvec2 tile_pixel(uvec4 header, uint lane) {
     return header.zw * 8u + block;
 }
 
-// Lavapipe (Mesa's gallivm) ends every loop of a SIMD group, silently, once all its loops
-// together have iterated 65,535 times in one invocation of the shader; a crowded group's casts
-// may then have stopped short. A loop that must run n + 2 times (n from a buffer: a count the
-// compiler cannot know, so it stays a loop) tells. No such limit on other devices; the streamed
-// walks take 8 balls per iteration and run in their own dispatch to stay far below it.
-bool loops_cut(uint n) {
-    uint loops = 0u;
-    uint wanted = n + 2u;
-    do {
-        ++loops;
-    } while (loops < wanted);
-    return loops != wanted;
-}
+// loops_cut: the casts' streamed walks take 8 balls per iteration and run in their own dispatch to
+// stay far below lavapipe's loop budget, and tell when they did not.
+#include "common/loop_budget.glsl"
 
 #endif
