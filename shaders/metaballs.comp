@@ -190,7 +190,7 @@ void main() {
         bool pending = pending_lo != 0u || pending_hi != 0u || pending_rest < header.y;
         bool crowded = pending;  // this pixel's hit is counted here, not by the rounds
         vec3 u = camera_pixel_ray(p, frame.counts.yz, frame.ray_right, frame.ray_up, frame.ray_forward.xyz);
-        vec3 origin = frame.camera_pos.xyz;
+        vec3 origin = vec3(0.0);  // the camera: the groups' world is relative to it
         float t_min = params.near.x / dot(u, frame.ray_forward.xyz);
         float t_max = -1.0;
         if (pending) t_max = min(imageLoad(distance_image, ivec2(p)).r, frame.ray_forward.w);
@@ -288,7 +288,7 @@ void main() {
     uint best_group = 0u;
     // The ray through the pixel centre, as Camera::pixel_ray and energy_wave.comp build it.
     vec3 u = camera_pixel_ray(p, frame.counts.yz, frame.ray_right, frame.ray_up, frame.ray_forward.xyz);
-    vec3 origin = frame.camera_pos.xyz;
+    vec3 origin = vec3(0.0);  // the camera: the groups' world is relative to it
     // t_max: the raster's distance (+inf where nothing was hit), at most the far distance;
     // t_min: the near plane, measured along this ray.
     float t_max = -1.0;

@@ -98,9 +98,10 @@ uint group_of(uint ball) {
 }
 
 #if MB_BIN_STAGE == 0
-// The tiles (x0, y0, x1, y1) a world sphere may cover, or false: Camera::sphere_tiles's argument
-// (crates/hadou/src/passes/metaballs.rs) in f32, padded so that it is never narrower than the f64
-// rectangle (a wider one only lists balls no ray of the tile meets: they fill no slot).
+// The tiles (x0, y0, x1, y1) a sphere (its centre relative to the camera) may cover, or false:
+// Camera::sphere_tiles's argument (crates/hadou/src/passes/metaballs.rs) in f32, padded so that
+// it is never narrower than the f64 rectangle (a wider one only lists balls no ray of the tile
+// meets: they fill no slot).
 bool sphere_tiles(vec3 centre, float radius, out uvec4 rect) {
     uvec2 size = frame.counts.yz;
     uvec2 tiles = (size + TILE - 1u) / TILE;
@@ -112,7 +113,7 @@ bool sphere_tiles(vec3 centre, float radius, out uvec4 rect) {
     vec3 right = frame.ray_right.xyz / sx;
     vec3 up = frame.ray_up.xyz / sy;
     vec3 forward = frame.ray_forward.xyz;
-    vec3 v = centre - frame.camera_pos.xyz;
+    vec3 v = centre;  // the groups' world is relative to the camera (MetaGroup)
     float dist = length(v);
     float r = radius * (1.0 + 1e-4) + 1e-5 * (dist + radius);
     float z = dot(v, forward);
@@ -158,12 +159,12 @@ void main() {
     int base = int(14u * g);
     mat4 to_world;
     for (int k = 0; k < 4; ++k) to_world[k] = uintBitsToFloat(texelFetch(group_texels, base + 4 + k));
-    vec3 centre = (to_world * vec4(ball.xyz, 1.0)).xyz;
+    vec3 centre = (to_world * vec4(ball.xyz, 1.0)).xyz;  // relative to the camera (MetaGroup)
     float radius = ball.w * bg.origin.w;
     uvec4 rect;
     bool visible = sphere_tiles(centre, radius, rect);
     // RUN_LONE_BOUND (GroupBins::new): every q ≥ 0 and every support clear of the near plane.
-    if (q < 0.0 || !(length(centre - frame.camera_pos.xyz) - radius > params.camera.y)) {
+    if (q < 0.0 || !(length(centre) - radius > params.camera.y)) {
         atomicOr(state[BIN_GROUPS + 2u * g], 1u);
     }
     if (visible) {

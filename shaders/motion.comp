@@ -45,8 +45,8 @@ void main() {
         now = m.view_proj * vec4(u, 0.0);
         before = m.prev_view_proj * vec4(u, 0.0);
     } else {
-        // The game's depth: a still point.
-        vec3 q = frame.camera_pos.xyz + t * u;
+        // The game's depth: a still point (relative to the camera, as m's matrices take it).
+        vec3 q = t * u;
         now = m.view_proj * vec4(q, 1.0);
         before = m.prev_view_proj * vec4(q, 1.0);
     }

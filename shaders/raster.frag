@@ -19,6 +19,7 @@ layout(set = 0, binding = 0, std140) uniform FrameBlock { FrameUniforms frame; }
 const float HALF_MAX = 65504.0;
 
 layout(location = 0) in vec3 v_world;
+layout(location = 9) in vec3 v_relative;  // relative to the camera (raster.vert)
 layout(location = 1) in vec3 v_normal;
 layout(location = 2) flat in uvec2 v_ids;
 layout(location = 3) flat in vec4 v_albedo;
@@ -73,7 +74,7 @@ void main() {
     if (textures.flags.y != 0u) emission *= emissive_texel.rgb;
 #endif
     if (base.a < v_emission.a) discard;
-    vec3 to_camera = frame.camera_pos.xyz - v_world;
+    vec3 to_camera = -v_relative;
     vec3 n = normalize(v_normal);
     // Shade the side the camera sees (open meshes, mirrored instances): no culling, no winding assumption.
     if (dot(n, to_camera) < 0.0) n = -n;

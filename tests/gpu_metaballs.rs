@@ -890,3 +890,52 @@ fn a_surface_lost_past_the_loop_limit_is_counted_as_dropped() {
     contract.assert_within(1e-2, 0);
     assert!(sampled_hits > 50, "the pile must cover the frame: {sampled_hits} surface pixels");
 }
+
+/// A group far from the origin, seen from nearby: its transform carries it 10⁴ and 10⁵ units
+/// out and the camera sits a few units from it, so every world coordinate is large while the
+/// object space the cast works in is not. The f32 error model (`f32_bound`) knows only object
+/// space: it holds because the group's matrices are composed with the camera's position in f64
+/// (`gpu_group`); composed in f32 on the device, the camera's object-space position lost ~ε·10⁴
+/// and the depth broke its bound 33-fold at 10⁴. The device's tile lists (`Binning::Device`,
+/// sphere bounds in f32) give every byte the host's do.
+#[test]
+fn far_from_the_origin_a_group_keeps_its_bound() {
+    use hadou::effect::{Binning, Effects, Metaballs};
+    for x in [1.0e4, 1.0e5] {
+        let scene = common::parse(&format!(
+            r#"
+            [camera]
+            position = [{cx}, 1.5, {cz}]
+            look_at = [{x}, 0.2, {z}]
+            fov_y_deg = 45
+            near = 0.1
+            far = 100
+            [[light]]
+            direction = [-1, -2, -1]
+            [[metaballs]]
+            transform = [{{ rotate = {{ angle_deg = 35, axis = [0.2, 1, 0.3] }} }}, {{ translate = [{x}, 0, {z}] }}]
+            balls = [{{ centre = [0, 0, 0], radius = 1.6 }}, {{ centre = [1.1, 0.4, 0.2], radius = 1.2 }}, {{ centre = [-0.9, -0.3, 0.5], radius = 1.1 }}]
+            "#,
+            cx = x + 1.0,
+            cz = -x + 6.0,
+            z = -x,
+        ));
+        let label = format!("group at {x}");
+        let (c, frame, _) = compare(&label, &scene, 48, 48, 0.0);
+        // 379 reference hits of the 2,304 pixels when written.
+        c.assert(300, BAND_SHARE);
+        assert_eq!(frame.stats.counter(DROPPED), 0);
+        let effects = Effects::none().with(Metaballs::with_binning(Binning::Device)).unwrap();
+        let mut rt = common::runtime_with_effects(effects);
+        rt.load_scene(scene.clone()).unwrap();
+        let mut req = FrameRequest::new(48, 48);
+        req.aovs = vec![Aov::Depth, Aov::Normal];
+        let device = rt.render(&req).unwrap();
+        common::assert_clean(&rt);
+        for aov in [Aov::Depth, Aov::Normal] {
+            let bits =
+                |f: &FrameOutput| f.aov(aov).unwrap().data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&frame), bits(&device), "{label}: {aov:?} with the device's tile lists");
+        }
+    }
+}

@@ -101,7 +101,10 @@ fn depth_error(gpu: f64, cpu: Option<Hit>) -> f64 {
 
 /// `min_surface`: how many settled pixels must show a surface (so misses alone cannot pass).
 fn check_depth(scene_rel: &str, w: u32, h: u32, min_surface: usize) {
-    let mut scene = common::load(scene_rel);
+    check_scene_depth(scene_rel, common::load(scene_rel), w, h, min_surface);
+}
+
+fn check_scene_depth(scene_rel: &str, mut scene: Scene, w: u32, h: u32, min_surface: usize) {
     // The raster's depth alone: metaballs (a compute pass) would add surfaces the mesh ray cast
     // does not know; they have their own test.
     scene.metaballs_mut().clear();
@@ -150,6 +153,24 @@ fn showcase_depth_matches_f64_raycast() {
 fn instances_depth_matches_f64_raycast() {
     // 50 small cubes cover ≈ 12 % of the view.
     check_depth("assets/scenes/instances.toml", 128, 128, 128 * 128 / 10);
+}
+
+/// The 50 instances and their camera carried 10⁴ and 10⁵ units from the world's origin: the
+/// depth keeps its bound, which knows nothing of where the scene is.
+#[test]
+fn far_from_the_origin_the_depth_keeps_its_bound() {
+    use hadou::scene::transform::{Transform, TransformOp};
+    for far in [1.0e4, 1.0e5] {
+        let mut scene = common::load("assets/scenes/instances.toml");
+        let at = DVec3::new(far, -0.3 * far, far);
+        scene.camera.position += at;
+        scene.camera.look_at += at;
+        for inst in &mut scene.instances {
+            inst.ops.push(TransformOp::Translate(at));
+            inst.transform = Transform::from_ops(&inst.ops).unwrap();
+        }
+        check_scene_depth(&format!("instances at {far}"), scene, 128, 128, 128 * 128 / 10);
+    }
 }
 
 /// Normals under rotation and non-uniform scale, on flat-shaded cubes (the vertex normals equal

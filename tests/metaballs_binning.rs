@@ -38,7 +38,7 @@ fn device_lists(scene: &Scene, width: u32, height: u32, capacity: u64) -> (TileL
     let mut bin_groups = Vec::new();
     for g in &groups {
         let first = balls.len() as u32;
-        gpu_groups.push(gpu_group(g, first, 0));
+        gpu_groups.push(gpu_group(g, first, 0, scene.camera.position));
         balls.extend(gpu_balls(g));
         bin_groups.push(BinGroup::new(g, first, &scene.camera));
     }

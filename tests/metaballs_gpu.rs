@@ -209,7 +209,7 @@ fn glsl_matches_the_f32_twin_and_f64() {
     for gi in 0..64u32 {
         let g = random_group(&mut rng);
         let first = balls.len() as u32;
-        groups.push(gpu_group(&g, first, gi));
+        groups.push(gpu_group(&g, first, gi, DVec3::ZERO));
         balls.extend(gpu_balls(&g));
         // The list holds the group's balls in a shuffled order, as a binning pass might.
         let begin = lists.len() as u32;
@@ -331,7 +331,7 @@ fn glsl_variants_match_the_f32_twin() {
             CastMethod::SphereTrace { steps: 4096 }
         };
         let first = balls.len() as u32;
-        groups.push(gpu_group(&g, first, gi));
+        groups.push(gpu_group(&g, first, gi, DVec3::ZERO));
         balls.extend(gpu_balls(&g));
         let begin = lists.len() as u32;
         lists.extend(first..first + g.balls.len() as u32);
@@ -457,7 +457,7 @@ fn glsl_streamed_casts_match_the_f32_twin() {
             g.method = CastMethod::SphereTrace { steps: 256 };
         }
         let first = balls.len() as u32;
-        groups.push(gpu_group(&g, first, gi));
+        groups.push(gpu_group(&g, first, gi, DVec3::ZERO));
         balls.extend(gpu_balls(&g));
         let begin = lists.len() as u32;
         lists.extend(first..first + g.balls.len() as u32);

@@ -13,8 +13,8 @@ struct Light {
 };
 
 struct FrameUniforms {
-    mat4 view_proj;
-    vec4 camera_pos;  // xyz
+    mat4 view_proj;   // takes positions relative to the camera (world − camera; composed in f64)
+    vec4 camera_pos;  // xyz: the camera's position in f32 (camera_low: what f32 rounded off)
     vec4 ambient;     // rgb
     vec4 background;  // rgb
     uvec4 counts;     // x: lights, y: width, z: height, w: instances
@@ -24,6 +24,7 @@ struct FrameUniforms {
     vec4 ray_right;
     vec4 ray_up;
     vec4 ray_forward;
+    vec4 camera_low;  // xyz: the camera's position − camera_pos.xyz
 };
 
 // Twin: Light and LOCAL_LIGHT_* in crates/hadou/src/scene/model.rs, effects::shading::LocalLight.
@@ -52,7 +53,7 @@ vec3 light_arriving(Light light, vec3 world, out vec3 l) {
 
 struct InstanceData {
     mat4 model;
-    mat4 normal_matrix;  // M^-T in the upper 3x3
+    mat4 normal_matrix;  // M^-T in the upper 3x3; [3].xyz: the translation − model[3].xyz
     uvec4 ids;           // x: instance id (scene order), y: material id
 };
 

@@ -25,6 +25,8 @@
 
 // Keep in sync with GpuMetaGroup in crates/hadou/src/effects/metaballs_f32.rs (224 bytes, std430; asserted there).
 struct MetaGroup {
+    // World coordinates here are relative to the camera (world − camera position, composed on the
+    // host in f64: no f32 product cancels far from the origin), so a pixel's ray starts at 0.
     mat4 to_object;      // M⁻¹: world → the group's object space
     mat4 to_world;       // M: object → world (not needed by the cast; for culling and binning)
     mat4 normal_matrix;  // M⁻ᵀ in the upper 3×3: object normal → world normal

@@ -22,9 +22,9 @@ layout(set = 0, binding = 26, std140) uniform MotionBlock { MotionUniforms m; };
 // Per ball of the table, its object-space centre in the previous frame (xyz).
 layout(set = 0, binding = 27, std430) readonly buffer Previous { vec4 previous[]; };
 // Per group, 5 texels (MotionGroup in crates/hadou/src/passes/metaballs_motion.rs): the previous
-// frame's object → world (4 columns), then x: 1 when the balls' previous centres are known (else
-// the group moves by its transforms only). A texel buffer: on lavapipe a gather, where a
-// storage-buffer load at a per-lane index is a loop over the lanes.
+// frame's object → world relative to this frame's camera (4 columns), then x: 1 when the balls'
+// previous centres are known (else the group moves by its transforms only). A texel buffer: on
+// lavapipe a gather, where a storage-buffer load at a per-lane index is a loop over the lanes.
 layout(set = 0, binding = 28) uniform usamplerBuffer motion_group_texels;
 
 // Writes the motion of pixel p (ray u) where `mine`: its surface is group g's at distance t, in
@@ -43,7 +43,8 @@ void metaball_motion(uvec2 p, vec3 u, float t, uint g, uvec4 header, bool mine) 
     mat4 prev_to_world;
     for (int c = 0; c < 4; ++c) prev_to_world[c] = uintBitsToFloat(texelFetch(motion_group_texels, int(5u * g) + c));
     bool known = texelFetch(motion_group_texels, int(5u * g) + 4).x != 0u;
-    vec3 q = frame.camera_pos.xyz + t * u;
+    // Relative to the camera, as the group's matrices and the motion's take positions.
+    vec3 q = t * u;
     vec3 o = (group.to_object * vec4(q, 1.0)).xyz;
     uint kernel = group.info.x;
     uint count = mine && known ? run.z : 0u;
@@ -51,7 +52,7 @@ void metaball_motion(uvec2 p, vec3 u, float t, uint g, uvec4 header, bool mine) 
     // camera enters a support: a ball whose support holds the point has a key below the point's
     // distance from the camera (object space; padded by the f32 rounding of that length), so
     // the walk ends at the first ball past it.
-    vec3 eye = (group.to_object * vec4(frame.camera_pos.xyz, 1.0)).xyz;
+    vec3 eye = group.to_object[3].xyz;
     float reach = length(o - eye) * (1.0 + 1e-5);
     vec3 moved = vec3(0.0);
     float weight = 0.0;

@@ -5,6 +5,8 @@
 
 // Keep in sync with MotionUniforms in crates/hadou/src/passes/motion.rs.
 struct MotionUniforms {
+    // Both take positions relative to the camera (world − camera position; composed on the host
+    // in f64, so that no f32 product cancels far from the origin) and directions as they are.
     mat4 view_proj;       // this frame's, unjittered
     mat4 prev_view_proj;  // the previous frame's, unjittered
     uvec4 counts;         // x: instances (ids above them are effects' surfaces), y, z, w: 0

@@ -70,9 +70,10 @@ use super::metaballs::{
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMetaGroup {
-    /// M⁻¹ (world → object), column-major.
+    /// M⁻¹ (world → object; world relative to `gpu_group`'s origin: the camera's position in the
+    /// passes), column-major.
     pub to_object: [[f32; 4]; 4],
-    /// M (object → world).
+    /// M (object → world, relative to the same origin).
     pub to_world: [[f32; 4]; 4],
     /// M⁻ᵀ in the upper 3×3 (object normal → world normal).
     pub normal_matrix: [[f32; 4]; 4],
@@ -164,8 +165,11 @@ fn mat(m: DMat4) -> [[f32; 4]; 4] {
 }
 
 /// The group header for the GPU: its balls are `first_ball .. first_ball + balls.len()` of the
-/// ball buffer.
-pub fn gpu_group(group: &MetaballGroupParams, first_ball: u32, material: u32) -> GpuMetaGroup {
+/// ball buffer. Its matrices map object space to and from world coordinates relative to `origin`
+/// (world − origin; the passes give the camera's position, so a ray starts at 0): composed here
+/// in f64, so that no f32 product cancels coordinates far from the world's origin (a camera and a
+/// group 10⁵ units out would lose ~10⁻² of a unit to it). `DVec3::ZERO`: world coordinates.
+pub fn gpu_group(group: &MetaballGroupParams, first_ball: u32, material: u32, origin: DVec3) -> GpuMetaGroup {
     let t = &group.transform;
     // Steps ≤ CastMethod::MAX_STEPS are exact in f32.
     let (tolerance, steps) = match group.method {
@@ -173,8 +177,8 @@ pub fn gpu_group(group: &MetaballGroupParams, first_ball: u32, material: u32) ->
         CastMethod::SphereTrace { steps } => (0.0, steps),
     };
     GpuMetaGroup {
-        to_object: mat(t.inverse),
-        to_world: mat(t.matrix),
+        to_object: mat(t.inverse * DMat4::from_translation(origin)),
+        to_world: mat(DMat4::from_translation(-origin) * t.matrix),
         normal_matrix: mat(DMat4::from_mat3(t.normal_matrix())),
         params: [group.threshold as f32, tolerance as f32, steps as f32, 0.0],
         info: [group.kernel.gpu_id(), first_ball, group.balls.len() as u32, material],
@@ -878,7 +882,7 @@ impl PackedGroup {
         let balls = gpu_balls(group);
         let list = (0..balls.len() as u32).collect();
         let trace = matches!(group.method, CastMethod::SphereTrace { .. });
-        PackedGroup { header: gpu_group(group, 0, 0), balls, list, trace }
+        PackedGroup { header: gpu_group(group, 0, 0, DVec3::ZERO), balls, list, trace }
     }
 
     /// [`cast_f32`] with every ball of the group listed, by the group's method; the ray rounded

@@ -55,7 +55,11 @@ impl GpuLight {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct FrameUniforms {
+    /// The camera's view-projection composed with T(camera position) in f64: it takes positions
+    /// relative to the camera (world − camera), so that no f32 product cancels coordinates far
+    /// from the world's origin (shaders/raster.vert).
     pub view_proj: [[f32; 4]; 4],
+    /// xyz: the camera's position in f32 (its high part; `camera_low` holds the rest).
     pub camera_pos: [f32; 4],
     pub ambient: [f32; 4],
     pub background: [f32; 4],
@@ -69,16 +73,21 @@ pub struct FrameUniforms {
     pub ray_up: [f32; 4],
     /// xyz the unit view direction, w the camera's far distance.
     pub ray_forward: [f32; 4],
+    /// xyz: the camera's position − `camera_pos` (what f32 rounded off it), w: 0.
+    pub camera_low: [f32; 4],
 }
 
 crate::gpu::layout::gpu_layout!(FrameUniforms as "FrameUniforms" {
-    view_proj, camera_pos, ambient, background, counts, lights, ray_right, ray_up, ray_forward
+    view_proj, camera_pos, ambient, background, counts, lights, ray_right, ray_up, ray_forward, camera_low
 });
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct InstanceData {
     pub model: [[f32; 4]; 4],
+    /// M⁻ᵀ in the upper 3×3; column 3, xyz: the model's translation − `model`'s (what f32
+    /// rounded off it: shaders/raster.vert adds it to the vertex's position relative to the
+    /// camera), w: 1.
     pub normal_matrix: [[f32; 4]; 4],
     /// x: instance id (scene order), y: material id.
     pub ids: [u32; 4],
@@ -115,7 +124,7 @@ pub const THICKNESS_PAIRS: u32 = 3;
 
 const _: () = {
     assert!(std::mem::size_of::<GpuLight>() == 64);
-    assert!(std::mem::size_of::<FrameUniforms>() == 128 + 64 * MAX_LIGHTS + 48);
+    assert!(std::mem::size_of::<FrameUniforms>() == 128 + 64 * MAX_LIGHTS + 64);
     assert!(std::mem::offset_of!(FrameUniforms, camera_pos) == 64);
     assert!(std::mem::offset_of!(FrameUniforms, counts) == 112);
     assert!(std::mem::offset_of!(FrameUniforms, lights) == 128);
@@ -138,6 +147,12 @@ fn mat3_as_mat4(m: DMat3) -> [[f32; 4]; 4] {
     mat4_f32(DMat4::from_mat3(m))
 }
 
+/// What rounding `v` to f32 leaves off it, in f32: `v` = f32(v) + low_part(v) to ~2⁻⁴⁸ of |v|.
+fn low_part(v: DVec3, w: f32) -> [f32; 4] {
+    let high = v.as_vec3().as_dvec3();
+    vec4_f32(v - high, w)
+}
+
 impl FrameUniforms {
     /// The radiances (lights, ambient, background) are pre-exposed: multiplied by `p`, the frame's
     /// `effects::tonemap::pre_exposure` (1 for every scene with a linear exposure that fits).
@@ -149,8 +164,11 @@ impl FrameUniforms {
         let [ray_right, ray_up, mut ray_forward] = scene.camera.ray_frame(width, height).to_f32();
         ray_forward[3] = scene.camera.far as f32;
         FrameUniforms {
-            view_proj: mat4_f32(scene.camera.view_projection(width, height)),
+            view_proj: mat4_f32(
+                scene.camera.view_projection(width, height) * DMat4::from_translation(scene.camera.position),
+            ),
             camera_pos: vec4_f32(scene.camera.position, 1.0),
+            camera_low: low_part(scene.camera.position, 0.0),
             ambient: vec4_f32(scene.render.ambient * p, 0.0),
             background: vec4_f32(scene.render.background * p, 1.0),
             counts: [scene.lights.len().min(MAX_LIGHTS) as u32, width, height, scene.instances.len() as u32],
@@ -179,9 +197,11 @@ pub fn instance_records(scene: &Scene) -> (Vec<InstanceData>, Vec<(u32, u32)>) {
     let mut next: Vec<u32> = ranges.iter().map(|&(first, _)| first).collect();
     let mut records = vec![InstanceData::zeroed(); scene.instances.len()];
     for (id, inst) in scene.instances.iter().enumerate() {
+        let mut normal_matrix = mat3_as_mat4(inst.transform.normal_matrix());
+        normal_matrix[3] = low_part(inst.transform.matrix.w_axis.truncate(), 1.0);
         records[next[inst.mesh] as usize] = InstanceData {
             model: mat4_f32(inst.transform.matrix),
-            normal_matrix: mat3_as_mat4(inst.transform.normal_matrix()),
+            normal_matrix,
             ids: [id as u32, inst.material as u32, 0, 0],
         };
         next[inst.mesh] += 1;

@@ -559,7 +559,7 @@ impl Pass for MetaballsPass {
         self.copies.clear();
         for ((group, params), iso) in scene.metaballs().iter().zip(&groups).zip(&mut self.iso) {
             let first = balls.len() as u32;
-            let mut gpu = gpu_group(params, first, group.material as u32);
+            let mut gpu = gpu_group(params, first, group.material as u32, scene.camera.position);
             let mut bin = BinGroup::new(params, first, &scene.camera);
             match group.device {
                 // Room in the table for the game's records, copied and completed on the device.

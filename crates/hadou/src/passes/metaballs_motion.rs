@@ -25,7 +25,7 @@ use crate::targets::Target;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct MotionGroup {
-    /// The previous frame's object → world.
+    /// The previous frame's object → world, relative to this frame's camera (T(−camera)·M in f64).
     pub prev_to_world: [[f32; 4]; 4],
     /// x: 1 when the balls' previous centres are known; y, z, w: 0.
     pub info: [u32; 4],
@@ -59,6 +59,8 @@ impl MetaballsMotion {
             self.previous.resize(frame.view + 1, Vec::new());
         }
         let before = &self.previous[frame.view];
+        // Positions relative to the camera, as the motion's matrices take them (MotionFrame).
+        let shift = DMat4::from_translation(-frame.motion.map_or(frame.scene.camera.position, |m| m.origin));
         let mut centres: Vec<[f32; 4]> = Vec::new();
         let mut motion_groups = Vec::with_capacity(groups.len());
         for (i, (params, group)) in groups.iter().zip(frame.scene.metaballs()).enumerate() {
@@ -79,7 +81,7 @@ impl MetaballsMotion {
                 }
             };
             motion_groups.push(MotionGroup {
-                prev_to_world: mat4_f32(prev.map_or(params.transform.matrix, |(m, _)| *m)),
+                prev_to_world: mat4_f32(shift * prev.map_or(params.transform.matrix, |(m, _)| *m)),
                 info: [u32::from(known), 0, 0, 0],
             });
         }

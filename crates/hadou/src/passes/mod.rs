@@ -181,9 +181,14 @@ pub struct MotionFrame {
     /// (`Renderer::set_jitter`): the motion is measured between unjittered positions.
     pub view_proj: glam::DMat4,
     pub prev_view_proj: glam::DMat4,
-    /// Each instance's model matrix in the previous frame (its current one when it is new), as
-    /// f32 `mat4`s in the order of `FrameContext::instances`.
-    pub prev_models: BufferRange,
+    /// Where the motion's positions are measured from: the view's camera position. The motion
+    /// passes work with world − origin (`MotionUniforms` takes its matrices relative to it, in
+    /// f64), so that no f32 product cancels coordinates far from the world's origin.
+    pub origin: glam::DVec3,
+    /// Per instance of `FrameContext::instances`, in its order, two f32 `mat4`s relative to
+    /// `origin` (T(−origin)·M, composed in f64): its model matrix this frame, then in the previous
+    /// frame (its current one when it is new).
+    pub models: BufferRange,
 }
 
 /// What every pass sees while recording.

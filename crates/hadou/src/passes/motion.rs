@@ -19,7 +19,10 @@ use crate::targets::Target;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct MotionUniforms {
-    /// This frame's view-projection and the previous frame's, both without the jitter.
+    /// This frame's view-projection and the previous frame's, both without the jitter, each
+    /// composed in f64 with T(origin) (`MotionFrame::origin`, the camera's position): they map
+    /// positions relative to the camera, so that far from the world's origin no f32 product
+    /// cancels (a direction, w = 0, maps as before).
     pub view_proj: [[f32; 4]; 4],
     pub prev_view_proj: [[f32; 4]; 4],
     /// x: the scene's instances (ids above them are effects' surfaces), y, z, w: 0.
@@ -31,8 +34,10 @@ crate::gpu::layout::gpu_layout!(MotionUniforms as "MotionUniforms" { view_proj, 
 impl MotionUniforms {
     /// The frame's (identity matrices without motion inputs: a frame recorded on its own).
     pub fn of(frame: &FrameContext) -> MotionUniforms {
-        let (now, before) =
-            frame.motion.map_or((DMat4::IDENTITY, DMat4::IDENTITY), |m| (m.view_proj, m.prev_view_proj));
+        let (now, before) = frame.motion.map_or((DMat4::IDENTITY, DMat4::IDENTITY), |m| {
+            let origin = DMat4::from_translation(m.origin);
+            (m.view_proj * origin, m.prev_view_proj * origin)
+        });
         MotionUniforms {
             view_proj: mat4_f32(now),
             prev_view_proj: mat4_f32(before),

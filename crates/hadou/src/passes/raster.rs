@@ -175,18 +175,18 @@ impl Pass for RasterPass {
                 });
             }
             self.prev_vertices = prev;
-            let prev_models = match frame.motion {
-                Some(m) => m.prev_models,
-                // A frame without a previous one: its own models (no motion).
+            let models = match frame.motion {
+                Some(m) => m.models,
+                // A frame without a previous one: its own models twice (no motion).
                 None => {
                     let models: Vec<[[f32; 4]; 4]> =
-                        frame.scene_gpu.instance_table().iter().map(|i| i.model).collect();
+                        frame.scene_gpu.instance_table().iter().flat_map(|i| [i.model, i.model]).collect();
                     frame.upload(&models)?
                 }
             };
             let uniforms = MotionUniforms::of(frame);
             bindings.push(Binding::Bound(Bound::Uniform(frame.upload(&[uniforms])?)));
-            bindings.push(Binding::Bound(Bound::Storage(prev_models)));
+            bindings.push(Binding::Bound(Bound::Storage(models)));
         }
         Ok(bindings)
     }

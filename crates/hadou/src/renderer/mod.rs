@@ -121,9 +121,9 @@ struct Loaded {
     /// The projection the game gave with `set_view_projection` (None after `set_camera` or a
     /// load): what `DepthConvention::Camera` means.
     game_projection: Option<glam::DMat4>,
-    /// With motion vectors on: each instance's model matrix (f32) in the frame recorded last, by
+    /// With motion vectors on: each instance's model matrix (f64) in the frame recorded last, by
     /// id, and each view's unjittered camera then.
-    prev_models: std::collections::HashMap<u64, [[f32; 4]; 4]>,
+    prev_models: std::collections::HashMap<u64, glam::DMat4>,
     prev_cameras: Vec<Option<crate::scene::camera::Camera>>,
 }
 

@@ -3,11 +3,12 @@
 //! each view's unjittered camera and each instance's model matrix, by id (an instance spawned or
 //! despawned in between moves nothing else's).
 
-use glam::DVec2;
+use glam::{DMat4, DVec2, DVec3};
 
 use super::Renderer;
 use crate::gpu::pipeline::BufferRange;
 use crate::gpu::vk;
+use crate::passes::gpu_structs::mat4_f32;
 use crate::passes::MotionFrame;
 use crate::scene::camera::{Camera, Lens};
 use crate::Error;
@@ -39,31 +40,48 @@ impl Renderer {
     }
 }
 
-/// With motion vectors on, each instance's model matrix in the previous frame in the instance
-/// table's order (its current one when it is new), and the current ones kept for the next; the
-/// table is this frame's (refreshed first).
-pub(super) fn prev_model_table(loaded: &mut super::Loaded) -> Option<Vec<[[f32; 4]; 4]>> {
+/// With motion vectors on, each instance's model matrix this frame and in the previous frame (its
+/// current one when it is new), in f64 and in the instance table's order; the current ones are
+/// kept for the next. The table is this frame's (refreshed first).
+pub(super) fn model_pairs(loaded: &mut super::Loaded) -> Option<Vec<(DMat4, DMat4)>> {
     if !loaded.scene.render.motion_vectors {
         return None;
     }
     let table = loaded.gpu.instance_table();
-    let id_of = |record: usize| loaded.instance_ids.get(table[record].ids[0] as usize).copied();
-    let prev = (0..table.len())
-        .map(|r| id_of(r).and_then(|id| loaded.prev_models.get(&id).copied()).unwrap_or(table[r].model))
+    let instances = &loaded.scene.instances;
+    // The scene's f64 matrix of each record (the table is built from it; its f32 copy otherwise).
+    let f64_of = |m: &[[f32; 4]; 4]| DMat4::from_cols_array_2d(&m.map(|c| c.map(f64::from)));
+    let now: Vec<DMat4> = table
+        .iter()
+        .map(|r| instances.get(r.ids[0] as usize).map_or_else(|| f64_of(&r.model), |i| i.transform.matrix))
         .collect();
-    loaded.prev_models = (0..table.len()).filter_map(|r| Some((id_of(r)?, table[r].model))).collect();
-    Some(prev)
+    let id_of = |record: usize| loaded.instance_ids.get(table[record].ids[0] as usize).copied();
+    let pairs = (0..table.len())
+        .map(|r| (now[r], id_of(r).and_then(|id| loaded.prev_models.get(&id).copied()).unwrap_or(now[r])))
+        .collect();
+    loaded.prev_models = (0..table.len()).filter_map(|r| Some((id_of(r)?, now[r]))).collect();
+    Some(pairs)
+}
+
+/// The model matrices of `pairs` (this frame's, the previous frame's) relative to `origin` (the
+/// view's camera): T(−origin)·M composed in f64, then rounded to f32, two per instance. Far from
+/// the world's origin the f32 world position of a vertex would be rounded to ~ε·|x| (10⁻² of a
+/// unit at 10⁵), and the motion with it; relative to the camera only to ε of its distance.
+pub(super) fn relative_models(pairs: &[(DMat4, DMat4)], origin: DVec3) -> Vec<[[f32; 4]; 4]> {
+    let shift = DMat4::from_translation(-origin);
+    pairs.iter().flat_map(|(now, before)| [mat4_f32(shift * *now), mat4_f32(shift * *before)]).collect()
 }
 
 impl Renderer {
-    /// The motion inputs of view `view` seen by `camera` (unjittered) at `extent`; `camera` is then
-    /// the view's previous one.
+    /// The motion inputs of view `view` seen by `camera` (unjittered) at `extent`, with its
+    /// instances' relative model matrices `models` (`relative_models` of `camera.position`);
+    /// `camera` is then the view's previous one.
     pub(super) fn motion_frame(
         &mut self,
         view: usize,
         camera: Camera,
         extent: vk::Extent2D,
-        prev_models: BufferRange,
+        models: BufferRange,
     ) -> Option<MotionFrame> {
         let loaded = self.loaded.as_mut()?;
         if loaded.prev_cameras.len() <= view {
@@ -74,7 +92,8 @@ impl Renderer {
         Some(MotionFrame {
             view_proj: camera.view_projection(w, h),
             prev_view_proj: prev.view_projection(w, h),
-            prev_models,
+            origin: camera.position,
+            models,
         })
     }
 }

@@ -282,7 +282,7 @@ impl Renderer {
             loaded.gpu.refresh_instances(&loaded.scene);
         }
         loaded.gpu.refresh_materials(&loaded.scene, pre_exposure, changed);
-        let prev_models = super::motion::prev_model_table(loaded);
+        let motion_models = super::motion::model_pairs(loaded);
         let instances: BufferRange = s
             .ring
             .push(ctx, memory, bytemuck::cast_slice(loaded.gpu.instance_table()))?
@@ -293,13 +293,7 @@ impl Renderer {
             .push(ctx, memory, bytemuck::cast_slice(loaded.gpu.material_table()))?
             .range()
             .of::<crate::passes::gpu_structs::MaterialData>();
-        let prev_models = match prev_models {
-            Some(table) => {
-                Some(s.ring.push(ctx, memory, bytemuck::cast_slice(&table))?.range().of::<[[f32; 4]; 4]>())
-            }
-            None => None,
-        };
-        Ok(WorldFrame { pre_exposure, instances, materials, prev_models })
+        Ok(WorldFrame { pre_exposure, instances, materials, motion_models })
     }
 
     /// Records view `view` of the frame in frame slot `slot`: its camera is the scene's while it
@@ -314,7 +308,20 @@ impl Renderer {
     ) -> Result<(), Error> {
         let extent = inputs.extent;
         // With motion vectors on: measured against the view's previous frame (`camera`, unjittered).
-        let motion = world.prev_models.and_then(|m| self.motion_frame(view, camera, extent, m));
+        // The instances' model matrices relative to this view's camera, in its slot's ring.
+        let models = match &world.motion_models {
+            Some(pairs) => {
+                let table = super::motion::relative_models(pairs, camera.position);
+                let ring = &mut self.slots[slot][view].ring;
+                Some(
+                    ring.push(&self.ctx, &self.memory, bytemuck::cast_slice(&table))?
+                        .range()
+                        .of::<[[f32; 4]; 4]>(),
+                )
+            }
+            None => None,
+        };
+        let motion = models.and_then(|m| self.motion_frame(view, camera, extent, m));
         let convention = self.frame_convention(inputs)?;
         let index = slot_index(slot, view, self.slots.len());
         let (ctx, memory) = (&self.ctx, &self.memory);
@@ -453,8 +460,9 @@ struct WorldFrame {
     /// The instance and material tables, in the first view's slot ring.
     instances: BufferRange,
     materials: BufferRange,
-    /// With motion vectors on: the instances' previous model matrices (`MotionFrame`).
-    prev_models: Option<BufferRange>,
+    /// With motion vectors on: the instances' model matrices, this frame's and the previous
+    /// frame's, in f64 (each view uploads them relative to its camera: `MotionFrame::models`).
+    motion_models: Option<Vec<(glam::DMat4, glam::DMat4)>>,
 }
 
 /// Width over height of a frame (1 for an empty one: nothing is recorded for it).
