@@ -897,11 +897,28 @@ fn a_surface_lost_past_the_loop_limit_is_counted_as_dropped() {
 /// space: it holds because the group's matrices are composed with the camera's position in f64
 /// (`gpu_group`); composed in f32 on the device, the camera's object-space position lost ~ε·10⁴
 /// and the depth broke its bound 33-fold at 10⁴. The device's tile lists (`Binning::Device`,
-/// sphere bounds in f32) give every byte the host's do.
+/// sphere bounds in f32) give every byte the host's do. A group whose balls are given in world
+/// coordinates 10⁴ units out is rounded there (its f32 centres): the bound's ε·X term holds it.
 #[test]
 fn far_from_the_origin_a_group_keeps_its_bound() {
     use hadou::effect::{Binning, Effects, Metaballs};
-    for x in [1.0e4, 1.0e5] {
+    // (x, the group placed by its transform, else its balls' own centres are world coordinates).
+    for (x, by_transform) in [(1.0e4, true), (1.0e5, true), (1.0e4, false), (1.0e5, false)] {
+        let (transform, balls) = if by_transform {
+            (
+                format!("transform = [{{ rotate = {{ angle_deg = 35, axis = [0.2, 1, 0.3] }} }}, {{ translate = [{x}, 0, {z}] }}]", z = -x),
+                "{ centre = [0, 0, 0], radius = 1.6 }, { centre = [1.1, 0.4, 0.2], radius = 1.2 }, { centre = [-0.9, -0.3, 0.5], radius = 1.1 }".to_string(),
+            )
+        } else {
+            let ball = |c: [f64; 3], r: f64| {
+                format!("{{ centre = [{}, {}, {}], radius = {r} }}", x + c[0], c[1], c[2] - x)
+            };
+            (
+                String::new(),
+                [ball([0.0, 0.0, 0.0], 1.6), ball([1.1, 0.4, 0.2], 1.2), ball([-0.9, -0.3, 0.5], 1.1)]
+                    .join(", "),
+            )
+        };
         let scene = common::parse(&format!(
             r#"
             [camera]
@@ -913,14 +930,14 @@ fn far_from_the_origin_a_group_keeps_its_bound() {
             [[light]]
             direction = [-1, -2, -1]
             [[metaballs]]
-            transform = [{{ rotate = {{ angle_deg = 35, axis = [0.2, 1, 0.3] }} }}, {{ translate = [{x}, 0, {z}] }}]
-            balls = [{{ centre = [0, 0, 0], radius = 1.6 }}, {{ centre = [1.1, 0.4, 0.2], radius = 1.2 }}, {{ centre = [-0.9, -0.3, 0.5], radius = 1.1 }}]
+            {transform}
+            balls = [{balls}]
             "#,
             cx = x + 1.0,
             cz = -x + 6.0,
             z = -x,
         ));
-        let label = format!("group at {x}");
+        let label = format!("group at {x}{}", if by_transform { "" } else { ", world-space balls" });
         let (c, frame, _) = compare(&label, &scene, 48, 48, 0.0);
         // 379 reference hits of the 2,304 pixels when written.
         c.assert(300, BAND_SHARE);

@@ -38,9 +38,9 @@ fn device_lists(scene: &Scene, width: u32, height: u32, capacity: u64) -> (TileL
     let mut bin_groups = Vec::new();
     for g in &groups {
         let first = balls.len() as u32;
-        gpu_groups.push(gpu_group(g, first, 0, scene.camera.position));
+        gpu_groups.push(gpu_group(g, first, 0, (scene.camera.position, DVec3::ZERO)));
         balls.extend(gpu_balls(g));
-        bin_groups.push(BinGroup::new(g, first, &scene.camera));
+        bin_groups.push(BinGroup::new(g, first, &scene.camera, DVec3::ZERO));
     }
     let out = {
         let memory = Memory::new(&ctx).unwrap();
@@ -113,7 +113,7 @@ fn twin(scene: &Scene, width: u32, height: u32) -> (TileLists, Vec<Vec<(DVec3, f
     let mut bounds = Vec::new();
     for g in scene.metaballs().iter().map(|g| g.at(0.0)) {
         let mut b = GroupBins::new(&g, &scene.camera, extent);
-        let origin = BinGroup::new(&g, 0, &scene.camera).origin;
+        let origin = BinGroup::new(&g, 0, &scene.camera, DVec3::ZERO).origin;
         b.keys = gpu_balls(&g).iter().map(|ball| f64::from(bin_key(ball, origin))).collect();
         bounds.push(b.bounds.clone());
         bins.push(b);

@@ -13,8 +13,8 @@ use common::metaball_bound::{angle, f32_bound};
 use glam::DVec3;
 use hadou::effects::metaballs::{cast, Ball, Kernel, MetaballGroupParams};
 use hadou::effects::metaballs_f32::{
-    cast_f32, gpu_balls, gpu_group, tangency, GpuMetaBall, GpuMetaGroup, BAND_C, MB_HIT, MB_NOT_CONVERGED,
-    MB_STREAMED,
+    anchor, cast_f32, gpu_balls_cached, gpu_group, tangency, GpuMetaBall, GpuMetaGroup, IsoCache, BAND_C,
+    MB_HIT, MB_NOT_CONVERGED, MB_STREAMED,
 };
 use hadou::gpu::barriers::{cmd_barriers, memory_barrier};
 use hadou::gpu::commands::FrameCommands;
@@ -209,8 +209,9 @@ fn glsl_matches_the_f32_twin_and_f64() {
     for gi in 0..64u32 {
         let g = random_group(&mut rng);
         let first = balls.len() as u32;
-        groups.push(gpu_group(&g, first, gi, DVec3::ZERO));
-        balls.extend(gpu_balls(&g));
+        // Placed from its anchor, as the pass places them (the error model's X is measured from it).
+        groups.push(gpu_group(&g, first, gi, (DVec3::ZERO, anchor(&g))));
+        balls.extend(gpu_balls_cached(&g, &mut IsoCache::default(), anchor(&g)));
         // The list holds the group's balls in a shuffled order, as a binning pass might.
         let begin = lists.len() as u32;
         let mut ids: Vec<u32> = (first..first + g.balls.len() as u32).collect();
@@ -331,8 +332,9 @@ fn glsl_variants_match_the_f32_twin() {
             CastMethod::SphereTrace { steps: 4096 }
         };
         let first = balls.len() as u32;
-        groups.push(gpu_group(&g, first, gi, DVec3::ZERO));
-        balls.extend(gpu_balls(&g));
+        // Placed from its anchor, as the pass places them (the error model's X is measured from it).
+        groups.push(gpu_group(&g, first, gi, (DVec3::ZERO, anchor(&g))));
+        balls.extend(gpu_balls_cached(&g, &mut IsoCache::default(), anchor(&g)));
         let begin = lists.len() as u32;
         lists.extend(first..first + g.balls.len() as u32);
         let centre = g.transform.transform_point(DVec3::ZERO);
@@ -457,8 +459,9 @@ fn glsl_streamed_casts_match_the_f32_twin() {
             g.method = CastMethod::SphereTrace { steps: 256 };
         }
         let first = balls.len() as u32;
-        groups.push(gpu_group(&g, first, gi, DVec3::ZERO));
-        balls.extend(gpu_balls(&g));
+        // Placed from its anchor, as the pass places them (the error model's X is measured from it).
+        groups.push(gpu_group(&g, first, gi, (DVec3::ZERO, anchor(&g))));
+        balls.extend(gpu_balls_cached(&g, &mut IsoCache::default(), anchor(&g)));
         let begin = lists.len() as u32;
         lists.extend(first..first + g.balls.len() as u32);
         let eye = g.transform.transform_point(DVec3::new(0.0, 0.0, 10.0));

@@ -4,7 +4,7 @@
 
 use glam::{DMat3, DVec3};
 use hadou::effects::metaballs::{gradient, Kernel, MetaballGroupParams};
-use hadou::effects::metaballs_f32::BAND_C;
+use hadou::effects::metaballs_f32::{anchor, BAND_C};
 
 /// How far an f32 cast may lie from the exact hit of `g` at world distance `t` on a ray outside
 /// the tangency band: (relative depth, normal angle in radians), from the f32 error model of the
@@ -12,7 +12,8 @@ use hadou::effects::metaballs_f32::BAND_C;
 /// balls whose support holds the hit (R_max the largest radius):
 /// - g = F − T is evaluated to within δ = BAND_C·ε·(S + X·G), with S ≤ T + Σ|q|·B (B the largest
 ///   chord Bernstein coefficient: 104/45 for wyvill6, 8/5 for murakami4; restricting a chord only
-///   averages them), X ≤ ‖o′‖ + t′ + 2R_max and G = Σ|q|γ/R. Outside the band the root is simple
+///   averages them), X ≤ ‖o′ − a‖ + t′ + 2R_max (a: the group's anchor, where the GPU's
+///   positions are measured from) and G = Σ|q|γ/R. Outside the band the root is simple
 ///   and no extremum comes within δ of zero, so δ moves it by at most δ/|g′(t′)|;
 /// - the clipping answers the middle of a bracket ≤ 2⁻²² of an interval that lies in one support
 ///   chord (≤ 2R_max): 2⁻²²·R_max more; `extra` (object units) is a method's own term;
@@ -52,7 +53,8 @@ pub fn f32_bound(g: &MetaballGroupParams, o: DVec3, d: DVec3, t: f64, extra: f64
             + outer * (4.0 * b.q * f2 / (r2 * r2));
     }
     let h = 2.0 * frobenius(hessian);
-    let x = ray.origin.length() + tp + 2.0 * r_max;
+    // Positions as the f32 cast holds them: from the group's anchor (`gpu_group`).
+    let x = (ray.origin - anchor(g)).length() + tp + 2.0 * r_max;
     let grad = gradient(g, p);
     let dt = BAND_C * eps * (s + x * gs) / grad.dot(ray.dir).abs() + 2f64.powi(-22) * r_max + extra;
     let normal = h * dt + BAND_C * eps * gs + 2.0 * eps * x * h;

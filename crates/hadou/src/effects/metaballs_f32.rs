@@ -8,8 +8,8 @@
 //! evaluates g with an error of a few ε_f32 times two scales:
 //! - S = max_k Σᵢ|qᵢ d_k| + T, the coefficient scale of the interval (rounding of the summed
 //!   Bernstein coefficients; the sum of magnitudes, since with negative q the terms cancel);
-//! - X·G, with X = ‖o′‖ + t′ (the object-space coordinate scale: the camera and the point reached)
-//!   and G = Σᵢ|qᵢ|γ/Rᵢ ≥ ‖∇F‖ (γ the kernel's max slope): rounding positions by ε·X moves g by up
+//! - X·G, with X = ‖o′ − a‖ + t′ (the object-space coordinate scale as the f32 cast holds it,
+//!   from the group's anchor a ([`anchor`]): the camera and the point reached) and G = Σᵢ|qᵢ|γ/Rᵢ ≥ ‖∇F‖ (γ the kernel's max slope): rounding positions by ε·X moves g by up
 //!   to ε·X·G. (On the camera's scale this term dominates: X/R ≈ 10–100 in typical scenes.)
 //!
 //! With δ = [`BAND_C`]·ε_f32·(S + X·G) evaluated on the interval at hand, a ray is **in the band**
@@ -164,12 +164,27 @@ fn mat(m: DMat4) -> [[f32; 4]; 4] {
     m.as_mat4().to_cols_array_2d()
 }
 
+/// Where a group's balls are placed from on the GPU (`gpu_balls_cached`, `gpu_group`): its first
+/// ball's centre (object space; 0 without balls). Balls given in world coordinates far from the
+/// origin (a game's particles, 10⁴ units out) would otherwise be rounded there in f32, 10⁻³ of a
+/// unit at 10⁴; relative to a ball of their own they keep ε of the group's size.
+pub fn anchor(group: &MetaballGroupParams) -> DVec3 {
+    group.balls.first().map_or(DVec3::ZERO, |b| b.centre)
+}
+
 /// The group header for the GPU: its balls are `first_ball .. first_ball + balls.len()` of the
-/// ball buffer. Its matrices map object space to and from world coordinates relative to `origin`
-/// (world − origin; the passes give the camera's position, so a ray starts at 0): composed here
-/// in f64, so that no f32 product cancels coordinates far from the world's origin (a camera and a
-/// group 10⁵ units out would lose ~10⁻² of a unit to it). `DVec3::ZERO`: world coordinates.
-pub fn gpu_group(group: &MetaballGroupParams, first_ball: u32, material: u32, origin: DVec3) -> GpuMetaGroup {
+/// ball buffer, their centres relative to `anchor` (object space; [`anchor`], or 0 for balls as
+/// given). Its matrices map that space to and from world coordinates relative to `origin` (world −
+/// origin; the passes give the camera's position, so a ray starts at 0): composed here in f64, so
+/// that no f32 product cancels coordinates far from the world's origin (a camera and a group 10⁵
+/// units out would lose ~10⁻² of a unit to it). `DVec3::ZERO` for both: object and world space as
+/// they are.
+pub fn gpu_group(
+    group: &MetaballGroupParams,
+    first_ball: u32,
+    material: u32,
+    (origin, anchor): (DVec3, DVec3),
+) -> GpuMetaGroup {
     let t = &group.transform;
     // Steps ≤ CastMethod::MAX_STEPS are exact in f32.
     let (tolerance, steps) = match group.method {
@@ -177,17 +192,18 @@ pub fn gpu_group(group: &MetaballGroupParams, first_ball: u32, material: u32, or
         CastMethod::SphereTrace { steps } => (0.0, steps),
     };
     GpuMetaGroup {
-        to_object: mat(t.inverse * DMat4::from_translation(origin)),
-        to_world: mat(DMat4::from_translation(-origin) * t.matrix),
+        to_object: mat(DMat4::from_translation(-anchor) * t.inverse * DMat4::from_translation(origin)),
+        to_world: mat(DMat4::from_translation(-origin) * t.matrix * DMat4::from_translation(anchor)),
         normal_matrix: mat(DMat4::from_mat3(t.normal_matrix())),
         params: [group.threshold as f32, tolerance as f32, steps as f32, 0.0],
         info: [group.kernel.gpu_id(), first_ball, group.balls.len() as u32, material],
     }
 }
 
-/// The group's balls for the GPU, in order; the lone-ball radius ρ*·R is solved here in f64.
+/// The group's balls for the GPU, in order, centres as given (anchor 0); the lone-ball radius
+/// ρ*·R is solved here in f64.
 pub fn gpu_balls(group: &MetaballGroupParams) -> Vec<GpuMetaBall> {
-    gpu_balls_cached(group, &mut IsoCache::default())
+    gpu_balls_cached(group, &mut IsoCache::default(), DVec3::ZERO)
 }
 
 /// The lone-ball radii ρ* of a group's balls by kernel and T/q, kept from frame to frame: solving
@@ -209,8 +225,13 @@ impl IsoCache {
     }
 }
 
-/// [`gpu_balls`], with ρ* from `cache` where the ball's kernel and T/q are as before.
-pub fn gpu_balls_cached(group: &MetaballGroupParams, cache: &mut IsoCache) -> Vec<GpuMetaBall> {
+/// [`gpu_balls`], with ρ* from `cache` where the ball's kernel and T/q are as before, and the
+/// centres relative to `anchor` (subtracted in f64; [`gpu_group`]'s).
+pub fn gpu_balls_cached(
+    group: &MetaballGroupParams,
+    cache: &mut IsoCache,
+    anchor: DVec3,
+) -> Vec<GpuMetaBall> {
     let gamma = group.kernel.max_slope();
     group
         .balls
@@ -219,8 +240,9 @@ pub fn gpu_balls_cached(group: &MetaballGroupParams, cache: &mut IsoCache) -> Ve
         .map(|(i, b)| {
             let rho = cache.rho(i, group.kernel, b.q, group.threshold);
             let iso = rho.map_or(0.0, |rho| rho * b.radius);
+            let c = b.centre - anchor;
             GpuMetaBall {
-                centre_radius: [b.centre.x as f32, b.centre.y as f32, b.centre.z as f32, b.radius as f32],
+                centre_radius: [c.x as f32, c.y as f32, c.z as f32, b.radius as f32],
                 coeffs: [b.q as f32, iso as f32, (b.q.abs() * gamma / b.radius) as f32, 0.0],
             }
         })
@@ -879,10 +901,12 @@ pub struct PackedGroup {
 
 impl PackedGroup {
     pub fn new(group: &MetaballGroupParams) -> PackedGroup {
-        let balls = gpu_balls(group);
+        // Placed from its anchor, as the pass places them.
+        let from = anchor(group);
+        let balls = gpu_balls_cached(group, &mut IsoCache::default(), from);
         let list = (0..balls.len() as u32).collect();
         let trace = matches!(group.method, CastMethod::SphereTrace { .. });
-        PackedGroup { header: gpu_group(group, 0, 0, DVec3::ZERO), balls, list, trace }
+        PackedGroup { header: gpu_group(group, 0, 0, (DVec3::ZERO, from)), balls, list, trace }
     }
 
     /// [`cast_f32`] with every ball of the group listed, by the group's method; the ray rounded
@@ -927,7 +951,8 @@ pub fn tangency(group: &MetaballGroupParams, origin: DVec3, dir: DVec3, t_min: f
     let pieces = field_pieces(group, &ray, t0, t1);
     let t_hit = pieces.iter().find_map(|p| roots_in_unit(&p.poly).first().map(|&u| p.t0 + u * (p.t1 - p.t0)));
     let rb = ray_balls(group, &ray, t0, t1);
-    let x0 = ray.origin.length();
+    // Positions as the f32 cast holds them: from the group's anchor (`gpu_group`).
+    let x0 = (ray.origin - anchor(group)).length();
     let gamma = group.kernel.max_slope();
     for p in &pieces {
         let mut parts = Vec::with_capacity(p.balls.len());

@@ -61,7 +61,7 @@ use glam::DVec3;
 use super::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::effects::metaballs::{CastMethod, MetaballGroupParams};
 use crate::effects::metaballs_f32::{
-    gpu_balls_cached, gpu_group, world_bound, GpuMetaBall, GpuMetaGroup, IsoCache, MB_MAX_RAY_BALLS,
+    anchor, gpu_balls_cached, gpu_group, world_bound, GpuMetaBall, GpuMetaGroup, IsoCache, MB_MAX_RAY_BALLS,
 };
 use crate::frame::FrameStats;
 use crate::gpu::memory::Buffer;
@@ -559,8 +559,12 @@ impl Pass for MetaballsPass {
         self.copies.clear();
         for ((group, params), iso) in scene.metaballs().iter().zip(&groups).zip(&mut self.iso) {
             let first = balls.len() as u32;
-            let mut gpu = gpu_group(params, first, group.material as u32, scene.camera.position);
-            let mut bin = BinGroup::new(params, first, &scene.camera);
+            // A game's records are in its object space as given; the host's balls are placed from
+            // a ball of their own (`anchor`).
+            let placed_from = if group.device.is_some() { DVec3::ZERO } else { anchor(params) };
+            let mut gpu =
+                gpu_group(params, first, group.material as u32, (scene.camera.position, placed_from));
+            let mut bin = BinGroup::new(params, first, &scene.camera, placed_from);
             match group.device {
                 // Room in the table for the game's records, copied and completed on the device.
                 Some(source) => {
@@ -576,7 +580,7 @@ impl Pass for MetaballsPass {
                         },
                     });
                 }
-                None => balls.extend(gpu_balls_cached(params, iso)),
+                None => balls.extend(gpu_balls_cached(params, iso, placed_from)),
             }
             gpu_groups.push(gpu);
             bin_groups.push(bin);

@@ -20,6 +20,8 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use glam::DVec3;
+
 use crate::effects::metaballs::{CastMethod, MetaballGroupParams};
 use crate::effects::metaballs_f32::{world_bound, GpuMetaBall};
 use crate::gpu::memory::Memory;
@@ -67,9 +69,10 @@ pub struct BinGroup {
 crate::gpu::layout::gpu_layout!(BinGroup as "BinGroup" { origin, info });
 
 impl BinGroup {
-    /// The group `group` (its balls from `first` on) seen from `camera`.
-    pub fn new(group: &MetaballGroupParams, first: u32, camera: &Camera) -> BinGroup {
-        let o = group.transform.inverse.transform_point3(camera.position);
+    /// The group `group` (its balls from `first` on, their centres relative to `anchor`:
+    /// `metaballs_f32::gpu_group`) seen from `camera`.
+    pub fn new(group: &MetaballGroupParams, first: u32, camera: &Camera, anchor: DVec3) -> BinGroup {
+        let o = group.transform.inverse.transform_point3(camera.position) - anchor;
         let scale = match group.balls.first() {
             Some(b) => world_bound(group, 0).1 / b.radius,
             None => 0.0,

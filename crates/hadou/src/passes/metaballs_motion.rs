@@ -16,6 +16,7 @@ use super::gpu_structs::mat4_f32;
 use super::motion::MotionUniforms;
 use super::{Binding, FrameContext};
 use crate::effects::metaballs::MetaballGroupParams;
+use crate::effects::metaballs_f32::anchor;
 use crate::gpu::pipeline::Bound;
 use crate::gpu::texel_buffer::Texels;
 use crate::gpu::GpuResult;
@@ -25,7 +26,9 @@ use crate::targets::Target;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct MotionGroup {
-    /// The previous frame's object → world, relative to this frame's camera (T(−camera)·M in f64).
+    /// The previous frame's object → world, from the ball table's space (centres relative to the
+    /// group's anchor, `metaballs_f32::anchor`) to world coordinates relative to this frame's
+    /// camera: T(−camera)·M·T(anchor) in f64.
     pub prev_to_world: [[f32; 4]; 4],
     /// x: 1 when the balls' previous centres are known; y, z, w: 0.
     pub info: [u32; 4],
@@ -73,15 +76,19 @@ impl MetaballsMotion {
                     source.previous_centres
                 }
                 None => {
+                    // Relative to the group's anchor, as the ball table's centres (gpu_balls_cached).
+                    let from = anchor(params);
                     centres.extend(params.balls.iter().enumerate().map(|(k, b)| {
-                        let was = prev.map_or(b.centre, |(_, c)| c[k]);
+                        let was = prev.map_or(b.centre, |(_, c)| c[k]) - from;
                         [was.x as f32, was.y as f32, was.z as f32, 0.0]
                     }));
                     true
                 }
             };
+            let placed_from = if group.device.is_some() { DVec3::ZERO } else { anchor(params) };
+            let before = prev.map_or(params.transform.matrix, |(m, _)| *m);
             motion_groups.push(MotionGroup {
-                prev_to_world: mat4_f32(shift * prev.map_or(params.transform.matrix, |(m, _)| *m)),
+                prev_to_world: mat4_f32(shift * before * DMat4::from_translation(placed_from)),
                 info: [u32::from(known), 0, 0, 0],
             });
         }
