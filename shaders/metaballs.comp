@@ -130,11 +130,11 @@ void store_hit(uvec2 p, vec3 u, MetaHit best, uint best_group) {
     vec3 v = -u;
     vec3 diffuse = frame.ambient.rgb;
     vec3 specular = vec3(0.0);
-    vec3 world = frame.camera_pos.xyz + best.t * u;
+    vec3 at = best.t * u;  // relative to the camera, as the lights' positions are
     uint i = 0u;
     do {  // a do-while: see shaders/common/metaballs.glsl on loops
         vec3 l;
-        vec3 arriving = light_arriving(frame.lights[i], world, l);
+        vec3 arriving = light_arriving(frame.lights[i], at, l);
         float nl = dot(n, l);
         if (i < frame.counts.x && nl > 0.0) {
             diffuse += nl * arriving;

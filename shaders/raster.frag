@@ -18,8 +18,7 @@ layout(set = 0, binding = 0, std140) uniform FrameBlock { FrameUniforms frame; }
 
 const float HALF_MAX = 65504.0;
 
-layout(location = 0) in vec3 v_world;
-layout(location = 9) in vec3 v_relative;  // relative to the camera (raster.vert)
+layout(location = 0) in vec3 v_relative;  // relative to the camera (raster.vert)
 layout(location = 1) in vec3 v_normal;
 layout(location = 2) flat in uvec2 v_ids;
 layout(location = 3) flat in vec4 v_albedo;
@@ -83,7 +82,7 @@ void main() {
     uint i = 0u;
     do {
         vec3 l;
-        vec3 arriving = light_arriving(frame.lights[i], v_world, l);
+        vec3 arriving = light_arriving(frame.lights[i], v_relative, l);
         vec3 add = max(dot(n, l), 0.0) * arriving;
         light += i < frame.counts.x ? add : vec3(0.0);
         ++i;

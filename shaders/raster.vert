@@ -21,8 +21,9 @@ layout(set = 0, binding = 0, std140) uniform FrameBlock { FrameUniforms frame; }
 layout(set = 0, binding = 1, std430) readonly buffer Instances { InstanceData instances[]; };
 layout(set = 0, binding = 2, std430) readonly buffer Materials { MaterialData materials[]; };
 
-layout(location = 0) out vec3 v_world;     // for the lights (world space)
-layout(location = 9) out vec3 v_relative;  // the position relative to the camera
+// The position relative to the camera, as the lights' positions are (one varying: on lavapipe a
+// varying costs per fragment; docs/PERFORMANCE.md, "Positions relative to the camera").
+layout(location = 0) out vec3 v_relative;
 layout(location = 1) out vec3 v_normal;
 layout(location = 2) flat out uvec2 v_ids;   // the G-buffer ids: instance id + 1, material id
 layout(location = 3) flat out vec4 v_albedo; // a: the base colour's alpha
@@ -46,8 +47,6 @@ layout(location = 8) out vec4 v_prev_clip;
 
 void main() {
     InstanceData inst = instances[gl_InstanceIndex];
-    vec4 world = inst.model * vec4(in_position, 1.0);
-    v_world = world.xyz;
     // Relative to the camera, what frame.view_proj takes: the f32 translation and camera position
     // are each within half an ulp of their f64 values, so near each other their difference is
     // exact in f32 (Sterbenz), and what f32 rounded off both is added after. Far from the origin a

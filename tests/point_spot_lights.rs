@@ -6,12 +6,14 @@
 //! # Tolerance of the per-pixel comparison (GPU HDR AOV vs the f64 twin × pre-exposure)
 //!
 //! The twin is evaluated at the f64 intersection of the pixel-centre ray with the plane (y = 0,
-//! normal +y). The GPU shades the fragment at its interpolated world position, which differs by
-//! the rasterizer's sub-pixel snapping of the vertices (lavapipe: 8 sub-pixel bits, 1/256 pixel)
-//! and the f32 perspective-correct interpolation (a few ulps of the plane's ±5 corners, ~1e-5):
-//! together well below 1/32 of the pixel's footprint on the plane, the distance δ used. So the
-//! GPU value is within V = max |twin(p ± δ·x̂), twin(p ± δ·ẑ)) − twin(p)| of the twin's at a
-//! point the GPU may have shaded; V is computed per pixel, which makes the band wide exactly
+//! normal +y). The GPU shades the fragment at its interpolated position relative to the camera
+//! (as the lights' positions are), which differs by the rasterizer's sub-pixel snapping of the
+//! vertices (lavapipe: 8 sub-pixel bits, 1/256 pixel) and the f32 perspective-correct
+//! interpolation (a few ulps of the corners' coordinates relative to the camera, ≤ 13 here: under
+//! δₙ = 2⁻²⁰·|p − camera| in any direction, off the plane too): along the plane well below 1/32 of
+//! the pixel's footprint, the distance δ used. So the GPU value is within
+//! V = max |twin(p ± δ·x̂), twin(p ± δ·ẑ), twin(p ± δₙ·ŷ) − twin(p)| of the twin's at a point the
+//! GPU may have shaded (off the plane it matters only where n·l ≈ 0: a light lying in the plane); V is computed per pixel, which makes the band wide exactly
 //! where the shading is steep (the spot cone's edge: clamp(cos θ·scale + offset)² with scale up to
 //! 1/(cos 15° − cos 25°) ≈ 17, and the range window's rim) and narrow elsewhere. On top: the f32
 //! arithmetic of `light_arriving` (d² as a dot product, inversesqrt (2 ulp), the division (2.5
@@ -133,7 +135,7 @@ fn twin_inverse_square_window_cone_and_hard_cases() {
     }
     // A directional light's GPU record is what it was before point lights (bit for bit).
     let sun = Light::directional(DVec3::new(1.0, -2.0, -1.0), DVec3::new(1.0, 0.9, 0.8), 3.0);
-    let g = GpuLight::new(&sun, 0.25);
+    let g = GpuLight::new(&sun, 0.25, DVec3::new(3.0, 1.0, 2.0));
     let want = sun.color * sun.intensity * 0.25;
     assert_eq!(g.radiance, [want.x as f32, want.y as f32, want.z as f32, 0.0]);
     assert_eq!(g.position, [0.0; 4]);
@@ -323,6 +325,11 @@ fn compare_face(name: &str, scene: &Scene, shot: &Shot, f: &Face, min: usize) ->
             let mut v = DVec3::ZERO;
             for off in [DVec3::X, DVec3::NEG_X, DVec3::Z, DVec3::NEG_Z] {
                 v = v.max((twin(q + off * delta) - t).abs());
+            }
+            // Off the plane: the f32 position relative to the camera (module docs).
+            let off_plane = 2f64.powi(-20) * dist;
+            for off in [DVec3::Y, DVec3::NEG_Y] {
+                v = v.max((twin(q + off * off_plane) - t).abs());
             }
             let bound = t * (2f64.powi(-10) + 2f64.powi(-19)) + v + DVec3::splat(2f64.powi(-24));
             for k in 0..3 {

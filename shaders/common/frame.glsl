@@ -8,7 +8,8 @@
 struct Light {
     vec4 direction;   // xyz: unit direction a directional light travels, a spot light's axis
     vec4 radiance;    // rgb: colour × intensity (point, spot: × candela / pi); w: 1 / range^2 (0: none)
-    vec4 position;    // xyz: a point or spot light's position; w: 1 for them, 0 directional
+    vec4 position;    // xyz: a point or spot light's position relative to the camera; w: 1 for
+                      // them, 0 directional
     vec4 cone;        // x, y: the spot cone's scale and offset of cos(theta); point: 0, 1
 };
 
@@ -37,12 +38,14 @@ struct FrameUniforms {
 // d^2 floored at LOCAL_LIGHT_D2_MIN (at the light itself l = 0: no light, no NaN), glTF's range
 // window clamp(1 - (d/range)^4, 0, 1) and its spot attenuation clamp(cos(theta)*scale + offset,
 // 0, 1)^2, the product capped at LOCAL_LIGHT_MAX (finite in any sum and times any albedo).
-vec3 light_arriving(Light light, vec3 world, out vec3 l) {
+// `at`: the surface point relative to the camera, as the lights' positions are (world − camera:
+// far from the origin both keep ε of their distance from the camera).
+vec3 light_arriving(Light light, vec3 at, out vec3 l) {
     if (light.position.w == 0.0) {
         l = -light.direction.xyz;
         return light.radiance.rgb;
     }
-    vec3 v = light.position.xyz - world;
+    vec3 v = light.position.xyz - at;
     float d2 = max(dot(v, v), LOCAL_LIGHT_D2_MIN);
     l = v * inversesqrt(d2);
     float t = d2 * light.radiance.w;

@@ -18,7 +18,8 @@ pub struct GpuLight {
     pub direction: [f32; 4],
     /// rgb: `Light::radiance()` pre-exposed; w: 1 / range² (0: no range) of a point or spot light.
     pub radiance: [f32; 4],
-    /// xyz: a point or spot light's position; w: 1 for them, 0 for a directional light.
+    /// xyz: a point or spot light's position relative to the camera; w: 1 for them, 0 for a
+    /// directional light.
     pub position: [f32; 4],
     /// x, y: the spot cone's scale and offset of cos θ (`Light::cone_scale_offset`; a point or
     /// directional light: 0, 1).
@@ -28,9 +29,11 @@ pub struct GpuLight {
 crate::gpu::layout::gpu_layout!(GpuLight as "Light" { direction, radiance, position, cone });
 
 impl GpuLight {
-    /// `light` with its radiance pre-exposed by `p`. A directional light's record holds exactly
-    /// what it did before point and spot lights existed (direction, colour × intensity × p).
-    pub fn new(light: &crate::scene::Light, p: f64) -> Self {
+    /// `light` with its radiance pre-exposed by `p`, a point or spot light's position relative to
+    /// `origin` (the camera's position: the shaders light positions relative to the camera,
+    /// subtracted here in f64). A directional light's record holds exactly what it did before
+    /// point and spot lights existed (direction, colour × intensity × p).
+    pub fn new(light: &crate::scene::Light, p: f64, origin: DVec3) -> Self {
         let (scale, offset) = light.cone_scale_offset();
         let cone = [scale as f32, offset as f32, 0.0, 0.0];
         if !light.is_local() {
@@ -46,7 +49,7 @@ impl GpuLight {
         GpuLight {
             direction: vec4_f32(light.direction, 0.0),
             radiance: vec4_f32(light.radiance() * p, inv_range2),
-            position: vec4_f32(light.position, 1.0),
+            position: vec4_f32(light.position - origin, 1.0),
             cone,
         }
     }
@@ -159,7 +162,7 @@ impl FrameUniforms {
     pub fn new(scene: &Scene, width: u32, height: u32, p: f64) -> Self {
         let mut lights = [GpuLight::default(); MAX_LIGHTS];
         for (slot, light) in lights.iter_mut().zip(&scene.lights) {
-            *slot = GpuLight::new(light, p);
+            *slot = GpuLight::new(light, p, scene.camera.position);
         }
         let [ray_right, ray_up, mut ray_forward] = scene.camera.ray_frame(width, height).to_f32();
         ray_forward[3] = scene.camera.far as f32;

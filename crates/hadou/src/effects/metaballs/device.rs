@@ -10,7 +10,11 @@ use crate::gpu::vk;
 /// R > 0, and the density coefficient q in `q.x`; `q.yzw`: the ball's centre in the previous
 /// frame (object space) when `DeviceBalls::previous_centres` says so (a temporal upscaler's motion
 /// vectors follow it), else ignored. A ball with a value that is not finite, or R ≤ 0, is drawn as
-/// no ball and counted (`metaballs.invalid_balls`).
+/// no ball and counted (`metaballs.invalid_balls`). The records are f32 as written and used as
+/// they are: a simulation far from the world's origin keeps them near its group's object origin
+/// and places the group with its transform (composed in f64), or its centres are rounded to ε of
+/// their distance from that origin (10⁻³ of a unit at 10⁴), where the host's own balls are held
+/// relative to their group's first ball (`metaballs_f32::anchor`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct DeviceBall {
