@@ -898,7 +898,9 @@ fn a_surface_lost_past_the_loop_limit_is_counted_as_dropped() {
 /// (`gpu_group`); composed in f32 on the device, the camera's object-space position lost ~ε·10⁴
 /// and the depth broke its bound 33-fold at 10⁴. The device's tile lists (`Binning::Device`,
 /// sphere bounds in f32) give every byte the host's do. A group whose balls are given in world
-/// coordinates 10⁴ units out is rounded there (its f32 centres): the bound's ε·X term holds it.
+/// coordinates that far out holds the same bound: the ball table keeps them relative to the
+/// group's first ball (`metaballs_f32::anchor`), where held as they were the tangency band took
+/// 2.7 % of the pixels at 10⁴, over `BAND_SHARE`.
 #[test]
 fn far_from_the_origin_a_group_keeps_its_bound() {
     use hadou::effect::{Binning, Effects, Metaballs};
