@@ -25,6 +25,16 @@ pub struct UploadRing {
     align: u64,
 }
 
+/// One piece of an [`UploadRing::push_parts`] upload.
+#[derive(Clone, Copy, Debug)]
+pub enum RingPart<'a> {
+    /// Bytes written now.
+    Bytes(&'a [u8]),
+    /// Room left as it is (whatever the ring held there): for data the device writes before
+    /// anything reads it, so the host neither builds nor copies it.
+    Room(usize),
+}
+
 /// Where one push landed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RingSlice {
@@ -78,7 +88,25 @@ impl UploadRing {
 
     /// Appends `bytes` (at least 16 bytes are reserved, so an empty table still binds).
     pub fn push(&mut self, ctx: &GpuContext, memory: &Memory, bytes: &[u8]) -> GpuResult<RingSlice> {
-        let size = (bytes.len() as u64).max(16).next_multiple_of(16);
+        self.push_parts(ctx, memory, &[RingPart::Bytes(bytes)])
+    }
+
+    /// Appends `parts` one after the other, as one slice: their bytes are written, their room is
+    /// not (at least 16 bytes are reserved in all).
+    pub fn push_parts(
+        &mut self,
+        ctx: &GpuContext,
+        memory: &Memory,
+        parts: &[RingPart],
+    ) -> GpuResult<RingSlice> {
+        let length: usize = parts
+            .iter()
+            .map(|p| match p {
+                RingPart::Bytes(b) => b.len(),
+                RingPart::Room(n) => *n,
+            })
+            .sum();
+        let size = (length as u64).max(16).next_multiple_of(16);
         let offset = self.used.next_multiple_of(self.align);
         let fits = self.buffer.as_ref().is_some_and(|b| offset + size <= b.size);
         let offset = if fits {
@@ -98,7 +126,16 @@ impl UploadRing {
             0
         };
         let buffer = self.buffer.as_mut().expect("made above");
-        buffer.write(offset as usize, bytes)?;
+        let mut at = offset as usize;
+        for part in parts {
+            match part {
+                RingPart::Bytes(b) => {
+                    buffer.write(at, b)?;
+                    at += b.len();
+                }
+                RingPart::Room(n) => at += n,
+            }
+        }
         self.used = offset + size;
         Ok(RingSlice { buffer: buffer.raw, offset, size })
     }

@@ -155,9 +155,14 @@ impl TexelBuffer {
 
     /// Copies `data` to the start of the buffer.
     pub fn write(&mut self, data: &[u8]) -> GpuResult<()> {
+        self.write_at(0, data)
+    }
+
+    /// Copies `data` to byte `offset` of the buffer.
+    pub fn write_at(&mut self, offset: usize, data: &[u8]) -> GpuResult<()> {
         if data.is_empty() {
             return Ok(());
         }
-        self.buffer.write(0, data)
+        self.buffer.write(offset, data)
     }
 }

@@ -552,13 +552,18 @@ impl Pass for MetaballsPass {
         let scene = frame.scene;
         let extent = frame.extent;
         let mut gpu_groups: Vec<GpuMetaGroup> = Vec::with_capacity(scene.metaballs().len());
+        // The host's balls; `table_len` counts the game's groups' too (their room in the table,
+        // filled on the device), and `host_runs` says where in the table each run of the host's
+        // goes (first ball in the table, range in `balls`).
         let mut balls: Vec<GpuMetaBall> = Vec::new();
+        let mut table_len = 0usize;
+        let mut host_runs: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
         let mut bin_groups = Vec::with_capacity(scene.metaballs().len());
         let groups: Vec<MetaballGroupParams> = scene.metaballs().iter().map(|g| g.at(frame.time)).collect();
         self.iso.resize_with(groups.len(), IsoCache::default);
         self.copies.clear();
         for ((group, params), iso) in scene.metaballs().iter().zip(&groups).zip(&mut self.iso) {
-            let first = balls.len() as u32;
+            let first = table_len as u32;
             // A game's records are in its object space as given; the host's balls are placed from
             // a ball of their own (`anchor`).
             let placed_from = if group.device.is_some() { DVec3::ZERO } else { anchor(params) };
@@ -569,7 +574,7 @@ impl Pass for MetaballsPass {
                 // Room in the table for the game's records, copied and completed on the device.
                 Some(source) => {
                     (gpu.info[2], bin.info[1]) = (source.count, source.count);
-                    balls.resize(balls.len() + source.count as usize, bytemuck::Zeroable::zeroed());
+                    table_len += source.count as usize;
                     let kernel = params.kernel;
                     let previous = u32::from(source.previous_centres && self.motion.is_some());
                     self.copies.push(DeviceCopy {
@@ -580,12 +585,17 @@ impl Pass for MetaballsPass {
                         },
                     });
                 }
-                None => balls.extend(gpu_balls_cached(params, iso, placed_from)),
+                None => {
+                    let start = balls.len();
+                    balls.extend(gpu_balls_cached(params, iso, placed_from));
+                    host_runs.push((table_len, start..balls.len()));
+                    table_len += balls.len() - start;
+                }
             }
             gpu_groups.push(gpu);
             bin_groups.push(bin);
         }
-        let sizes = BinSizes::new(balls.len() as u32, gpu_groups.len() as u32, extent);
+        let sizes = BinSizes::new(table_len as u32, gpu_groups.len() as u32, extent);
         let host_lists = match self.binning {
             Binning::Host => {
                 let bins: Vec<GroupBins> =
@@ -593,7 +603,7 @@ impl Pass for MetaballsPass {
                 Some(bin_balls(&scene.camera, extent, &bins))
             }
             Binning::Device => {
-                check_ball_count(balls.len(), gpu_groups.len())?;
+                check_ball_count(table_len, gpu_groups.len())?;
                 None
             }
         };
@@ -689,14 +699,13 @@ impl Pass for MetaballsPass {
             while self.tables.len() <= frame.slot {
                 self.tables.push(None);
             }
-            let host: &[u8] = bytemuck::cast_slice(&balls);
-            let table = metaballs_device::table(
-                &mut self.tables[frame.slot],
-                frame.ctx,
-                frame.memory,
-                host,
-                host.len() as u64,
-            )?;
+            const BALL: usize = std::mem::size_of::<GpuMetaBall>();
+            let host: Vec<(usize, &[u8])> = (host_runs.iter())
+                .map(|(first, run)| (first * BALL, bytemuck::cast_slice(&balls[run.clone()])))
+                .collect();
+            let bytes = (table_len * BALL) as u64;
+            let table =
+                metaballs_device::table(&mut self.tables[frame.slot], frame.ctx, frame.memory, &host, bytes)?;
             self.frame_table = table.buffer.raw;
             Bound::UniformTexel(table.view)
         } else {

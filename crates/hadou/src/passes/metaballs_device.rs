@@ -53,12 +53,13 @@ impl DeviceBallPipeline {
 }
 
 /// The slot's table, grown to hold `bytes` (the slot's previous frame has finished), with the
-/// host's balls written at its start.
+/// host's balls written where they go (`host`: byte offset, bytes). The game's groups' ranges are
+/// not written here: their copies fill them on the device.
 pub fn table<'a>(
     slot: &'a mut Option<TexelBuffer>,
     ctx: &GpuContext,
     memory: &Memory,
-    host_bytes: &[u8],
+    host: &[(usize, &[u8])],
     bytes: u64,
 ) -> GpuResult<&'a TexelBuffer> {
     if slot.as_ref().is_none_or(|t| t.buffer.size < bytes) {
@@ -66,7 +67,9 @@ pub fn table<'a>(
         *slot = Some(TexelBuffer::device_table(ctx, memory, "metaballs ball table", grown, Texels::U32x4)?);
     }
     let Some(table) = slot.as_mut() else { unreachable!("made above") };
-    table.write(host_bytes)?;
+    for (offset, data) in host {
+        table.write_at(*offset, data)?;
+    }
     Ok(table)
 }
 

@@ -18,6 +18,7 @@ use super::{Binding, FrameContext};
 use crate::effects::metaballs::MetaballGroupParams;
 use crate::effects::metaballs_f32::anchor;
 use crate::gpu::pipeline::Bound;
+use crate::gpu::ring::RingPart;
 use crate::gpu::texel_buffer::Texels;
 use crate::gpu::GpuResult;
 use crate::targets::Target;
@@ -64,24 +65,30 @@ impl MetaballsMotion {
         let before = &self.previous[frame.view];
         // Positions relative to the camera, as the motion's matrices take them (MotionFrame).
         let shift = DMat4::from_translation(-frame.motion.map_or(frame.scene.camera.position, |m| m.origin));
+        // The host's balls' previous centres, and per group where its part of the table is:
+        // written from `centres`, or the room a game's group leaves for the device to fill.
         let mut centres: Vec<[f32; 4]> = Vec::new();
+        let mut pieces: Vec<Result<std::ops::Range<usize>, usize>> = Vec::with_capacity(groups.len());
         let mut motion_groups = Vec::with_capacity(groups.len());
         for (i, (params, group)) in groups.iter().zip(frame.scene.metaballs()).enumerate() {
             // The previous frame's state of this group, when it had as many balls.
             let prev = before.get(i).filter(|(_, c)| c.len() == params.balls.len());
             let known = match group.device {
                 // Written by shaders/metaballs_device.comp when the records carry them.
+                // Without them nothing reads the room (the group moves by its transforms only).
                 Some(source) => {
-                    centres.resize(centres.len() + source.count as usize, [0.0; 4]);
+                    pieces.push(Err(source.count as usize));
                     source.previous_centres
                 }
                 None => {
                     // Relative to the group's anchor, as the ball table's centres (gpu_balls_cached).
                     let from = anchor(params);
+                    let start = centres.len();
                     centres.extend(params.balls.iter().enumerate().map(|(k, b)| {
                         let was = prev.map_or(b.centre, |(_, c)| c[k]) - from;
                         [was.x as f32, was.y as f32, was.z as f32, 0.0]
                     }));
+                    pieces.push(Ok(start..centres.len()));
                     true
                 }
             };
@@ -96,10 +103,16 @@ impl MetaballsMotion {
         // frame (its previous transform applies), though its drawn balls are the game's.
         self.previous[frame.view] =
             groups.iter().map(|p| (p.transform.matrix, p.balls.iter().map(|b| b.centre).collect())).collect();
-        // A storage buffer holds at least one element.
-        if centres.is_empty() {
-            centres.push([0.0; 4]);
-        }
+        // The table in the ball table's order; the ring reserves at least one element.
+        const CENTRE: usize = std::mem::size_of::<[f32; 4]>();
+        let bytes: &[u8] = bytemuck::cast_slice(&centres);
+        let parts: Vec<RingPart> = (pieces.iter())
+            .map(|piece| match piece {
+                Ok(host) => RingPart::Bytes(&bytes[host.start * CENTRE..host.end * CENTRE]),
+                Err(count) => RingPart::Room(count * CENTRE),
+            })
+            .collect();
+        let previous = frame.upload_parts::<[f32; 4]>(&parts)?;
         if motion_groups.is_empty() {
             motion_groups.push(MotionGroup::default());
         }
@@ -107,7 +120,7 @@ impl MetaballsMotion {
         Ok(vec![
             Binding::read_write(Target::Motion),
             Binding::Bound(Bound::Uniform(frame.upload(&[uniforms])?)),
-            Binding::Bound(Bound::Storage(frame.upload(&centres)?)),
+            Binding::Bound(Bound::Storage(previous)),
             Binding::Bound(frame.texels("metaballs motion groups", &motion_groups, Texels::U32x4)?),
         ])
     }

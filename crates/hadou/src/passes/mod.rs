@@ -33,7 +33,7 @@ use crate::gpu::barriers::ImageAccess;
 use crate::gpu::memory::Memory;
 use crate::gpu::pipeline::{Bound, BufferRange, Pipeline};
 use crate::gpu::recorder::Recorder;
-use crate::gpu::ring::{TexelView, UploadRing};
+use crate::gpu::ring::{RingPart, TexelView, UploadRing};
 use crate::gpu::texel_buffer::Texels;
 use crate::gpu::{vk, GpuContext, GpuResult};
 use crate::scene::Scene;
@@ -163,6 +163,12 @@ impl FrameContext<'_> {
     /// size is checked against the shader's when bound).
     pub fn upload<T: Pod>(&mut self, data: &[T]) -> GpuResult<BufferRange> {
         Ok(self.ring.push(self.ctx, self.memory, bytemuck::cast_slice(data))?.range().of::<T>())
+    }
+
+    /// Copies `parts` into the slot's ring as one range of `T`s: their bytes written, their room
+    /// left for the device to write before anything reads it (`RingPart`).
+    pub fn upload_parts<T: Pod>(&mut self, parts: &[RingPart]) -> GpuResult<BufferRange> {
+        Ok(self.ring.push_parts(self.ctx, self.memory, parts)?.range().of::<T>())
     }
 
     /// Copies `data` into the slot's ring and binds it as a uniform texel buffer of `texels`.
