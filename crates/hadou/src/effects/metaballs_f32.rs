@@ -172,6 +172,16 @@ pub fn anchor(group: &MetaballGroupParams) -> DVec3 {
     group.balls.first().map_or(DVec3::ZERO, |b| b.centre)
 }
 
+/// Where the frame's ball table places a group's balls from: [`anchor`] for the host's balls,
+/// 0 for a game's records (`from_game`: copied on the device as written).
+pub fn table_anchor(group: &MetaballGroupParams, from_game: bool) -> DVec3 {
+    if from_game {
+        DVec3::ZERO
+    } else {
+        anchor(group)
+    }
+}
+
 /// The group header for the GPU: its balls are `first_ball .. first_ball + balls.len()` of the
 /// ball buffer, their centres relative to `anchor` (object space; [`anchor`], or 0 for balls as
 /// given). Its matrices map that space to and from world coordinates relative to `origin` (world −

@@ -61,7 +61,8 @@ use glam::DVec3;
 use super::{Binding, FrameContext, Pass, PassRecording, Reader};
 use crate::effects::metaballs::{CastMethod, MetaballGroupParams};
 use crate::effects::metaballs_f32::{
-    anchor, gpu_balls_cached, gpu_group, world_bound, GpuMetaBall, GpuMetaGroup, IsoCache, MB_MAX_RAY_BALLS,
+    gpu_balls_cached, gpu_group, table_anchor, world_bound, GpuMetaBall, GpuMetaGroup, IsoCache,
+    MB_MAX_RAY_BALLS,
 };
 use crate::frame::FrameStats;
 use crate::gpu::memory::Buffer;
@@ -566,7 +567,7 @@ impl Pass for MetaballsPass {
             let first = table_len as u32;
             // A game's records are in its object space as given; the host's balls are placed from
             // a ball of their own (`anchor`).
-            let placed_from = if group.device.is_some() { DVec3::ZERO } else { anchor(params) };
+            let placed_from = table_anchor(params, group.device.is_some());
             let mut gpu =
                 gpu_group(params, first, group.material as u32, (scene.camera.position, placed_from));
             let mut bin = BinGroup::new(params, first, &scene.camera, placed_from);

@@ -16,7 +16,7 @@ use super::gpu_structs::mat4_f32;
 use super::motion::MotionUniforms;
 use super::{Binding, FrameContext};
 use crate::effects::metaballs::MetaballGroupParams;
-use crate::effects::metaballs_f32::anchor;
+use crate::effects::metaballs_f32::table_anchor;
 use crate::gpu::pipeline::Bound;
 use crate::gpu::ring::RingPart;
 use crate::gpu::texel_buffer::Texels;
@@ -82,7 +82,7 @@ impl MetaballsMotion {
                 }
                 None => {
                     // Relative to the group's anchor, as the ball table's centres (gpu_balls_cached).
-                    let from = anchor(params);
+                    let from = table_anchor(params, false);
                     let start = centres.len();
                     centres.extend(params.balls.iter().enumerate().map(|(k, b)| {
                         let was = prev.map_or(b.centre, |(_, c)| c[k]) - from;
@@ -92,10 +92,10 @@ impl MetaballsMotion {
                     true
                 }
             };
-            let placed_from = if group.device.is_some() { DVec3::ZERO } else { anchor(params) };
-            let before = prev.map_or(params.transform.matrix, |(m, _)| *m);
+            let placed_from = table_anchor(params, group.device.is_some());
+            let prev_transform = prev.map_or(params.transform.matrix, |(m, _)| *m);
             motion_groups.push(MotionGroup {
-                prev_to_world: mat4_f32(shift * before * DMat4::from_translation(placed_from)),
+                prev_to_world: mat4_f32(shift * prev_transform * DMat4::from_translation(placed_from)),
                 info: [u32::from(known), 0, 0, 0],
             });
         }
